@@ -1,0 +1,298 @@
+"""ServoLoop: the batched closed loop of DESIGN.md, one servo tick at a time.
+
+It packs a stage, a path, per-axis PIDs, the CCC and the interpolator into arrays with a
+leading batch dimension ``B`` and runs the compiled kernel of :mod:`contour_gym._loopkernel`.
+Parameters that optimisers and agents search (CCC gains, axis gains, feedrate) may differ per
+batch member. Random numbers come only from one ``numpy.random.Generator`` per member, spawned
+from the seed given to :meth:`ServoLoop.reset`, so a member's result depends only on its own
+seed and parameters, never on ``B``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from contour_gym import _loopkernel as LK
+from contour_gym import motion
+from contour_gym._validate import as_finite_array
+from contour_gym.ccc import ccc_params
+from contour_gym.metrics import ErrorSums, metrics_from_sums
+from contour_gym.paths import Path
+from contour_gym.plant import _kernel as PK
+from contour_gym.plant.params import MAX_HARMONICS
+from contour_gym.plant.stage import Stage, axis_row, disturbance_row, zoh_matrices
+from contour_gym.servo import PIDGains, pid_params
+from contour_gym.servo import _kernel as SK
+
+Array = NDArray[np.float64]
+NOISE_CHUNK = 256  # ticks of normals drawn per member at a time
+
+
+@dataclass
+class Trace:
+    """Per-tick record of a run, batch-first.
+
+    Attributes:
+        t: (T,) time of each tick, s.
+        s: (B, T) reference arc length, m.
+        v: (B, T) reference path speed, m/s.
+        r: (B, T, A) reference per axis, m.
+        x: (B, T, A) true axis positions, m.
+        u: (B, T, A) saturated control.
+        eps: (B, T, C) true contour error (signed in 2-D), m.
+        eps_est: (B, T, C) contour error seen by the CCC, m.
+    """
+
+    t: Array
+    s: Array
+    v: Array
+    r: Array
+    x: Array
+    u: Array
+    eps: Array
+    eps_est: Array
+
+
+class _NoiseSource:
+    """Per-member standard normals, drawn in chunks so a member's stream does not depend on B."""
+
+    def __init__(self, gens: list[np.random.Generator] | None, width: int) -> None:
+        self.gens, self.width = gens, width
+        self.buf = np.zeros((len(gens) if gens else 0, 0, width))
+        self.pos = 0
+
+    def take(self, n: int, batch: int) -> Array:
+        if not self.gens:
+            return np.zeros((batch, 0, 0))
+        if self.pos + n > self.buf.shape[1]:
+            fresh = max(n, NOISE_CHUNK)
+            drawn = np.stack([g.standard_normal((fresh, self.width)) for g in self.gens])
+            self.buf = np.concatenate([self.buf[:, self.pos :], drawn], axis=1)
+            self.pos = 0
+        out = np.ascontiguousarray(self.buf[:, self.pos : self.pos + n])
+        self.pos += n
+        return out
+
+
+class ServoLoop:
+    """Batched closed loop over one stage and one path.
+
+    Args:
+        stage: The machine.
+        path: The contour; its dimension must match the stage's contours.
+        axis_gains: One :class:`PIDGains` per axis.
+        interpolator: Feedrate settings (the initial commanded feedrate for every member).
+        batch_size: Number of members B.
+        ccc_gains: Initial CCC gains, anything :func:`contour_gym.ccc.ccc_params` accepts.
+        ccc_weights: Per-coordinate weights of the CCC output, broadcastable to (B, C, 3).
+        record: Keep a per-tick :class:`Trace`.
+    """
+
+    def __init__(
+        self,
+        stage: Stage,
+        path: Path,
+        axis_gains: Sequence[PIDGains],
+        interpolator: motion.Interpolator,
+        *,
+        batch_size: int = 1,
+        ccc_gains: ArrayLike | None = None,
+        ccc_weights: ArrayLike = 1.0,
+        record: bool = False,
+    ) -> None:
+        if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
+            raise ValueError(f"batch_size must be a positive int, got {batch_size!r}")
+        if path.dim != stage.dim:
+            raise ValueError(f"path {path.name!r} is {path.dim}-D but stage {stage.name!r} draws {stage.dim}-D contours")
+        if len(axis_gains) != stage.n_axes:
+            raise ValueError(f"need {stage.n_axes} axis gains, got {len(axis_gains)}")
+        self.stage, self.path, self.batch_size, self.record = stage, path, int(batch_size), record
+        self.interpolator = interpolator
+        b, c = self.batch_size, len(stage.contours)
+        self._c_axes = np.full((c, 3), -1, dtype=np.int64)
+        self._c_off = np.zeros((c, 3))
+        for i, con in enumerate(stage.contours):
+            self._c_axes[i, : con.dim] = con.axes
+            if con.offset:
+                self._c_off[i, : con.dim] = con.offset
+        self.ax_p = np.repeat(np.stack([axis_row(a) for a in stage.axes])[None], b, axis=0)
+        self.rip = np.zeros((b, stage.n_axes, MAX_HARMONICS, 3))
+        for i, a in enumerate(stage.axes):
+            if a.ripple is not None:
+                self.rip[:, i] = a.ripple.as_array()
+        self.dist = np.repeat(
+            np.stack([disturbance_row(a, stage.ts) for a in stage.axes])[None], b, axis=0
+        )
+        self.ad, self.bd = zoh_matrices(self.ax_p, stage.ts / stage.substeps)
+        self.ctrl_p = pid_params(tuple(axis_gains), b)
+        self.ccc_p = ccc_params(ccc_gains, b, c)
+        self.ccc_w = np.ascontiguousarray(
+            np.broadcast_to(as_finite_array(ccc_weights, "ccc_weights"), (b, c, 3)), dtype=float
+        )
+        self.ip_p = interpolator.params(b)
+        self._meas_exact = not any(a.encoder_resolution > 0 or a.noise_std > 0 for a in stage.axes)
+        self.reset(0)
+
+    # ----------------------------------------------------------------- state
+    def reset(self, seed: int | Sequence[int] | None = None) -> None:
+        """Put every member at rest at the start of the path.
+
+        Args:
+            seed: An int (member ``i`` uses child ``i`` of ``SeedSequence(seed)``), one seed
+                per member, or None for fresh entropy.
+        """
+        b, c, a = self.batch_size, len(self.stage.contours), self.stage.n_axes
+        self.ax_s = np.zeros((b, a, PK.N_ST))
+        start = self.path.point(0.0)
+        for i in range(c):
+            for j in range(self.stage.dim):
+                self.ax_s[:, self._c_axes[i, j], PK.ST_X] = start[j] + self._c_off[i, j]
+        self.ctrl_s = np.zeros((b, a, SK.N_CS))
+        self.ccc_s = np.zeros((b, c, SK.N_CS))
+        self.ip_s = motion.initial_state(b)
+        self.foot = np.zeros((b, c))
+        self.last = np.zeros((b, c, 2))
+        self.status = np.zeros(b, dtype=np.int64)
+        self.u_last = np.zeros((b, a))
+        self.tick = 0
+        self.sums = ErrorSums.zeros(b, c, a)
+        self._records: list[Array] = []
+        self._noise = _NoiseSource(self._generators(seed) if self.stage.is_random else None, 2 * a)
+        self._work = np.zeros((LK.N_W, a))
+        self._xbuf = np.zeros(a)
+
+    def _generators(self, seed: int | Sequence[int] | None) -> list[np.random.Generator]:
+        if seed is None or isinstance(seed, (int, np.integer)):
+            children = np.random.SeedSequence(seed).spawn(self.batch_size)
+            return [np.random.default_rng(s) for s in children]
+        seeds = list(seed)
+        if len(seeds) != self.batch_size:
+            raise ValueError(f"need {self.batch_size} seeds, got {len(seeds)}")
+        return [np.random.default_rng(np.random.SeedSequence(int(s)).spawn(1)[0]) for s in seeds]
+
+    # ------------------------------------------------------------ parameters
+    def set_ccc_gains(self, gains: ArrayLike | None) -> None:
+        """Set the CCC PID gains, broadcastable to (B, C, 3); None switches the CCC off."""
+        self.ccc_p = ccc_params(gains, self.batch_size, len(self.stage.contours))
+
+    def set_feedrate(self, feedrate: ArrayLike) -> None:
+        """Command a feedrate (m/s), scalar or (B,); the interpolator ramps to it."""
+        f = as_finite_array(feedrate, "feedrate")
+        if np.any(f < 0):
+            raise ValueError(f"feedrate must be >= 0, got {f.min()}")
+        self.ip_p[:, motion.IP_F] = np.broadcast_to(f, (self.batch_size,))
+
+    def set_axis_gains(self, gains: ArrayLike) -> None:
+        """Set per-member axis PID gains, broadcastable to (B, A, 4) = (kp, ki, kd, kff)."""
+        g = np.broadcast_to(as_finite_array(gains, "axis gains"), (self.batch_size, self.stage.n_axes, 4))
+        if np.any(g[..., 0] <= 0) or np.any(g[..., 1:3] < 0):
+            raise ValueError("axis gains need kp > 0 and ki, kd >= 0")
+        self.ctrl_p[..., [SK.CP_KP, SK.CP_KI, SK.CP_KD, SK.CP_KFF]] = g
+
+    # ----------------------------------------------------------------- views
+    @property
+    def s(self) -> Array:
+        """(B,) reference arc length, m."""
+        return self.ip_s[:, motion.IS_S]
+
+    @property
+    def done(self) -> NDArray[np.bool_]:
+        """(B,) whether the reference has reached the end of the path."""
+        return self.ip_s[:, motion.IS_DONE] >= 0
+
+    @property
+    def failed(self) -> NDArray[np.bool_]:
+        """(B,) whether a member diverged (its state left the physical range)."""
+        return self.status != LK.STATUS_OK
+
+    @property
+    def cycle_time(self) -> Array:
+        """(B,) time at which the reference reached the path end, s (inf if not yet)."""
+        done = self.ip_s[:, motion.IS_DONE]
+        return np.where(done >= 0, done * self.stage.ts, np.inf)
+
+    @property
+    def contour_error(self) -> Array:
+        """(B, C) true contour error at the last tick, m."""
+        return self.last[..., LK.LS_TRUE]
+
+    @property
+    def contour_error_estimate(self) -> Array:
+        """(B, C) contour error the CCC saw at the last tick, m."""
+        return self.last[..., LK.LS_EST]
+
+    # ------------------------------------------------------------------- run
+    def step(self, n_ticks: int) -> ErrorSums:
+        """Run ``n_ticks`` ticks; return the error sums of just these ticks.
+
+        Members that failed stay frozen; their metrics report ``inf``.
+        """
+        b, a, c = self.batch_size, self.stage.n_axes, len(self.stage.contours)
+        window = ErrorSums.zeros(b, c, a)
+        rec = np.zeros((b, n_ticks if self.record else 0, 2 + 3 * a + 2 * c))
+        t = self.path.table
+        LK.run_ticks(
+            n_ticks, self.tick, self.stage.ts, self.stage.substeps, t.kind, t.s0, t.data,
+            t.bound, self._c_axes, self._c_off, self.ax_p, self.rip, self.dist, self.ad,
+            self.bd, self.ax_s, self.ctrl_p, self.ctrl_s, self.ccc_p, self.ccc_w, self.ccc_s,
+            self.ip_p, self.ip_s, self.path.length, self.foot, self.last,
+            self._noise.take(n_ticks, b), self.status, window.contour, window.axis,
+            self.u_last, rec, self.record, self._work, self._xbuf, self._meas_exact,
+        )  # fmt: skip
+        self.tick += n_ticks
+        self.sums.merge(window)
+        if self.record:
+            self._records.append(rec)
+        return window
+
+    def run(self, max_time: float | None = None, chunk: int = 2048) -> dict[str, Array]:
+        """Run until every member has finished the path (or failed), then return metrics.
+
+        Args:
+            max_time: Stop after this much simulated time, s (default: 20x the nominal
+                cycle time at the slowest commanded feedrate).
+            chunk: Ticks per kernel call.
+
+        Returns:
+            :func:`contour_gym.metrics.metrics_from_sums` of the whole run, with failed
+            members' values set to ``inf``.
+        """
+        if max_time is None:
+            slowest = max(float(self.ip_p[:, motion.IP_F].min()), 1e-9)
+            max_time = 20.0 * self.path.length / slowest + 1.0
+        limit = int(np.ceil(max_time / self.stage.ts))
+        while self.tick < limit and not np.all(self.done | self.failed):
+            self.step(min(chunk, limit - self.tick))
+        return self.metrics()
+
+    def metrics(self) -> dict[str, Array]:
+        """Metrics of everything run since the last reset (failed members -> inf)."""
+        out = metrics_from_sums(self.sums, self.cycle_time)
+        for v in out.values():
+            v[self.failed] = np.inf
+        return out
+
+    def trace(self) -> Trace:
+        """The per-tick record since reset (requires ``record=True``)."""
+        if not self.record:
+            raise ValueError("trace() needs ServoLoop(record=True)")
+        a, c = self.stage.n_axes, len(self.stage.contours)
+        rec = np.concatenate(self._records, axis=1) if self._records else np.zeros((self.batch_size, 0, 2 + 3 * a + 2 * c))
+        base = 2 + 3 * a
+        return Trace(
+            t=np.arange(rec.shape[1]) * self.stage.ts,
+            s=rec[..., 0],
+            v=rec[..., 1],
+            r=rec[..., 2 : 2 + a],
+            x=rec[..., 2 + a : 2 + 2 * a],
+            u=rec[..., 2 + 2 * a : base],
+            eps=rec[..., base::2],
+            eps_est=rec[..., base + 1 :: 2],
+        )
+
+
+
