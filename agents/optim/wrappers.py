@@ -1,0 +1,186 @@
+"""Library optimisers behind the same interface: SciPy's differential evolution and CMA-ES.
+
+Both run in unit coordinates on ``[0, 1]^dim`` and evaluate through the shared
+:class:`~agents.optim._base.Problem`, so bounds, failure handling, history and budget are the
+same as for the swarm algorithms: generation 0 evaluates ``population`` uniform points, then
+``iterations`` generations of ``population`` points each; ``nfev = population * (iterations +
+1)``.
+"""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import Any
+
+import cma as _cma
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.optimize import differential_evolution
+
+from agents.optim._base import FloatArray, Objective, OptimResult, Problem, in_range, run
+from contour_gym._validate import choice, positive
+
+
+def de(
+    objective: Objective,
+    bounds: ArrayLike,
+    *,
+    population: int,
+    iterations: int,
+    seed: int | np.random.Generator,
+    strategy: str = "best1bin",
+    mutation: float | tuple[float, float] = (0.5, 1.0),
+    recombination: float = 0.7,
+    keep_population: bool = False,
+) -> OptimResult:
+    """Differential evolution: ``scipy.optimize.differential_evolution``.
+
+    Called with ``vectorized=True`` (one objective call per generation), ``init`` set to the
+    generation-0 uniform sample (so the population is exactly ``population``; scipy's
+    ``popsize`` multiplier cannot give every size), ``maxiter=iterations``, ``polish=False``,
+    ``tol=0`` and ``atol=0`` (run all generations; scipy stops early only if every member has
+    the same fitness, after which ``history`` repeats its last value), and the run's generator
+    as ``rng``. Scipy's own bounds handling applies: a trial coordinate outside ``[0, 1]`` is
+    resampled uniformly.
+
+    Args:
+        objective: Batch objective ``(n, dim) -> (n,)``, lower is better.
+        bounds: ``(dim, 2)`` array-like of ``[low, high]``.
+        population: Population size, at least 5 (scipy's minimum).
+        iterations: Number of generations after the initial population.
+        seed: Int or ``numpy.random.Generator``; the only source of randomness.
+        strategy: Scipy's mutation strategy name.
+        mutation: Scipy's differential weight (or dithering range).
+        recombination: Scipy's crossover probability.
+        keep_population: Return every evaluated point in ``population_history``.
+
+    Returns:
+        The run's :class:`OptimResult`.
+    """
+    core = partial(
+        _de,
+        strategy=strategy,
+        mutation=mutation,
+        recombination=in_range(recombination, "recombination", 0.0, 1.0),
+    )
+    return run("de", core, objective, bounds, population, iterations, seed, keep_population, 5)
+
+
+def _de(
+    problem: Problem,
+    rng: np.random.Generator,
+    population: int,
+    iterations: int,
+    strategy: str,
+    mutation: float | tuple[float, float],
+    recombination: float,
+) -> None:
+    def batch(u_t: FloatArray) -> FloatArray:
+        # scipy passes (dim, S); its first call is generation 0, the ``init`` sample
+        evaluate = problem.evaluate_initial if problem.nfev == 0 else problem.evaluate
+        return evaluate(u_t.T)
+
+    def generation_done(intermediate_result: Any) -> None:
+        problem.end_generation()
+
+    differential_evolution(
+        batch,
+        [(0.0, 1.0)] * problem.dim,
+        strategy=strategy,
+        maxiter=iterations,
+        mutation=mutation,
+        recombination=recombination,
+        rng=rng,
+        callback=generation_done,
+        polish=False,
+        init=rng.random((population, problem.dim)),
+        tol=0.0,
+        atol=0.0,
+        updating="deferred",
+        vectorized=True,
+    )
+    problem.pad_history(iterations)
+
+
+def cma(
+    objective: Objective,
+    bounds: ArrayLike,
+    *,
+    population: int,
+    iterations: int,
+    seed: int | np.random.Generator,
+    sigma0: float = 0.3,
+    boundary: str = "BoundTransform",
+    keep_population: bool = False,
+) -> OptimResult:
+    """CMA-ES: ``cma.CMAEvolutionStrategy`` driven by ask/tell.
+
+    Runs in unit coordinates with ``bounds=[0, 1]``, ``popsize=population``, ``sigma0`` as a
+    fraction of the box width (default 0.3) and the mean started at the best point of the
+    generation-0 sample. ``iterations`` ask/tell rounds are made whatever cma's own
+    termination criteria say. Randomness: cma's ``randn`` option draws from the run's
+    generator and its ``seed`` option is NaN, so cma never touches ``numpy.random``'s global
+    state. CMA-ES is rank based; a failed member (``inf``) is told to cma as one more than the
+    worst finite fitness of its generation (0 if all failed), which ranks it last. In one
+    dimension cma's cap of the std at a third of the box is switched off (cma 4.5 raises
+    there).
+
+    Args:
+        objective: Batch objective ``(n, dim) -> (n,)``, lower is better.
+        bounds: ``(dim, 2)`` array-like of ``[low, high]``.
+        population: ``popsize``, at least 2.
+        iterations: Number of ask/tell rounds after the initial sample.
+        seed: Int or ``numpy.random.Generator``; the only source of randomness.
+        sigma0: Initial step size as a fraction of the box width.
+        boundary: cma's ``BoundaryHandler``: ``"BoundTransform"`` or ``"BoundPenalty"``.
+        keep_population: Return every evaluated point in ``population_history``.
+
+    Returns:
+        The run's :class:`OptimResult`.
+    """
+    core = partial(
+        _cma_es,
+        sigma0=positive(sigma0, "sigma0"),
+        boundary=choice(boundary, "boundary", ("BoundTransform", "BoundPenalty")),
+    )
+    return run("cma", core, objective, bounds, population, iterations, seed, keep_population, 2)
+
+
+def _cma_es(
+    problem: Problem,
+    rng: np.random.Generator,
+    population: int,
+    iterations: int,
+    sigma0: float,
+    boundary: str,
+) -> None:
+    u0, f0 = problem.initial(rng, population)
+
+    def randn(*shape: int) -> FloatArray:
+        return rng.standard_normal(shape)
+
+    options = {
+        "popsize": population,
+        "bounds": [0.0, 1.0],
+        "BoundaryHandler": boundary,
+        "randn": randn,
+        "seed": np.nan,
+        "verbose": -9,
+        "verb_log": 0,
+        "verb_disp": 0,
+    }
+    if problem.dim == 1:
+        # cma 4.5 fails ("not yet initialized") when it caps a 1-D std at maxstd_boundrange
+        options["maxstd"] = np.inf
+    es = _cma.CMAEvolutionStrategy(u0[int(np.argmin(f0))], sigma0, options)
+    for _ in range(iterations):
+        asked = es.ask()
+        f = problem.evaluate(np.clip(np.asarray(asked, dtype=np.float64), 0.0, 1.0))
+        failed = ~np.isfinite(f)
+        ok = f[~failed]
+        f[failed] = ok.max() + 1.0 if ok.size else 0.0
+        es.tell(asked, f.tolist())
+        problem.end_generation()
+
+
+__all__ = ["cma", "de"]
