@@ -9,6 +9,11 @@ Sign convention (DESIGN.md glossary): in 2-D ``eps`` is positive when the tool i
 left of the direction of travel and ``C = -n_left``; in 3-D ``eps = |eps_vec| >= 0`` and
 ``C = eps_vec / |eps_vec|``. Either way the contour error vector (tool -> foot point) is
 ``eps_vec = C eps``, so a positive gain always pushes the tool back onto the path.
+
+In 3-D the unsigned ``eps`` cannot carry integral action (its integral only grows), so the
+PID acts on each signed component ``eps_vec_i`` with the same gains:
+``u_i += w_i PID(eps_vec_i)``; in 2-D this would differ from the papers' scalar form only
+through the frame's rotation, and the scalar form is kept there.
 """
 
 from __future__ import annotations

@@ -20,12 +20,14 @@ from contour_gym import _loopkernel as LK
 from contour_gym import motion
 from contour_gym._validate import as_finite_array
 from contour_gym.ccc import ccc_params
+from contour_gym.contour import _kernel as CK
+from contour_gym.contour import build_estimator
 from contour_gym.metrics import ErrorSums, metrics_from_sums
 from contour_gym.paths import Path
 from contour_gym.plant import _kernel as PK
 from contour_gym.plant.params import MAX_HARMONICS
 from contour_gym.plant.stage import Stage, axis_row, disturbance_row, zoh_matrices
-from contour_gym.servo import PIDGains, pid_params
+from contour_gym.servo import PIDGains, build_controller
 from contour_gym.servo import _kernel as SK
 
 Array = NDArray[np.float64]
@@ -90,6 +92,11 @@ class ServoLoop:
         ccc_gains: Initial CCC gains, anything :func:`contour_gym.ccc.ccc_params` accepts.
         ccc_weights: Per-coordinate weights of the CCC output, broadcastable to (B, C, 3).
         record: Keep a per-tick :class:`Trace`.
+        axis_controller: Name in :data:`contour_gym.servo.CONTROLLERS`.
+        controller_options: Options of that controller.
+        estimator: Contour error estimator feeding the CCC
+            (:data:`contour_gym.contour.ESTIMATORS`); metrics always use the exact error.
+        estimator_options: Options of that estimator.
     """
 
     def __init__(
@@ -103,6 +110,10 @@ class ServoLoop:
         ccc_gains: ArrayLike | None = None,
         ccc_weights: ArrayLike = 1.0,
         record: bool = False,
+        axis_controller: str = "pid",
+        controller_options: dict[str, object] | None = None,
+        estimator: str = "ground_truth",
+        estimator_options: dict[str, object] | None = None,
     ) -> None:
         if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
             raise ValueError(f"batch_size must be a positive int, got {batch_size!r}")
@@ -128,7 +139,10 @@ class ServoLoop:
             np.stack([disturbance_row(a, stage.ts) for a in stage.axes])[None], b, axis=0
         )
         self.ad, self.bd = zoh_matrices(self.ax_p, stage.ts / stage.substeps)
-        self.ctrl_p = pid_params(tuple(axis_gains), b)
+        self.ctrl_kind, self.ctrl_p = build_controller(
+            axis_controller, stage, tuple(axis_gains), b, **(controller_options or {})
+        )
+        self.est_kind, self.est_p = build_estimator(estimator, **(estimator_options or {}))
         self.ccc_p = ccc_params(ccc_gains, b, c)
         self.ccc_w = np.ascontiguousarray(
             np.broadcast_to(as_finite_array(ccc_weights, "ccc_weights"), (b, c, 3)), dtype=float
@@ -152,16 +166,18 @@ class ServoLoop:
             for j in range(self.stage.dim):
                 self.ax_s[:, self._c_axes[i, j], PK.ST_X] = start[j] + self._c_off[i, j]
         self.ctrl_s = np.zeros((b, a, SK.N_CS))
-        self.ccc_s = np.zeros((b, c, SK.N_CS))
+        self.ccc_s = np.zeros((b, c, 3, SK.N_CS))
         self.ip_s = motion.initial_state(b)
         self.foot = np.zeros((b, c))
+        self.hist = np.zeros((b, CK.N_HIST + 1))
         self.last = np.zeros((b, c, 2))
         self.status = np.zeros(b, dtype=np.int64)
         self.u_last = np.zeros((b, a))
         self.tick = 0
         self.sums = ErrorSums.zeros(b, c, a)
         self._records: list[Array] = []
-        self._noise = _NoiseSource(self._generators(seed) if self.stage.is_random else None, 2 * a)
+        gens = self._generators(seed)
+        self._noise = _NoiseSource(gens if self.stage.is_random else None, 2 * a)
         self._work = np.zeros((LK.N_W, a))
         self._xbuf = np.zeros(a)
 
@@ -186,12 +202,17 @@ class ServoLoop:
             raise ValueError(f"feedrate must be >= 0, got {f.min()}")
         self.ip_p[:, motion.IP_F] = np.broadcast_to(f, (self.batch_size,))
 
-    def set_axis_gains(self, gains: ArrayLike) -> None:
-        """Set per-member axis PID gains, broadcastable to (B, A, 4) = (kp, ki, kd, kff)."""
-        g = np.broadcast_to(as_finite_array(gains, "axis gains"), (self.batch_size, self.stage.n_axes, 4))
-        if np.any(g[..., 0] <= 0) or np.any(g[..., 1:3] < 0):
-            raise ValueError("axis gains need kp > 0 and ki, kd >= 0")
-        self.ctrl_p[..., [SK.CP_KP, SK.CP_KI, SK.CP_KD, SK.CP_KFF]] = g
+    def set_controller_params(self, params: ArrayLike) -> None:
+        """Set per-member axis controller parameters, broadcastable to (B, A, N_CP).
+
+        The layout is the controller's (see :mod:`contour_gym.servo`); for ``pid`` the first
+        four columns are (kp, ki, kd, kff).
+        """
+        p = as_finite_array(params, "controller params")
+        try:
+            self.ctrl_p = np.ascontiguousarray(np.broadcast_to(p, self.ctrl_p.shape))
+        except ValueError as exc:
+            raise ValueError(f"controller params of shape {p.shape} do not broadcast to {self.ctrl_p.shape}") from exc
 
     # ----------------------------------------------------------------- views
     @property
@@ -238,13 +259,14 @@ class ServoLoop:
         LK.run_ticks(
             n_ticks, self.tick, self.stage.ts, self.stage.substeps, t.kind, t.s0, t.data,
             t.bound, self._c_axes, self._c_off, self.ax_p, self.rip, self.dist, self.ad,
-            self.bd, self.ax_s, self.ctrl_p, self.ctrl_s, self.ccc_p, self.ccc_w, self.ccc_s,
-            self.ip_p, self.ip_s, self.path.length, self.foot, self.last,
+            self.bd, self.ax_s, self.ctrl_kind, self.ctrl_p, self.ctrl_s, self.ccc_p, self.ccc_w,
+            self.ccc_s, self.est_kind, self.est_p, self.hist, self.ip_p, self.ip_s,
+            self.path.length, self.foot, self.last,
             self._noise.take(n_ticks, b), self.status, window.contour, window.axis,
+            self.sums.contour, self.sums.axis,
             self.u_last, rec, self.record, self._work, self._xbuf, self._meas_exact,
         )  # fmt: skip
         self.tick += n_ticks
-        self.sums.merge(window)
         if self.record:
             self._records.append(rec)
         return window

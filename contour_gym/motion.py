@@ -66,20 +66,27 @@ def initial_state(batch: int) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def stop_speed(remaining, a_max, j_max):  # type: ignore[no-untyped-def]
-    """Highest speed from which the reference can still stop within ``remaining`` metres.
+def stop_speed(remaining, v, a_max, j_max, ts):  # type: ignore[no-untyped-def]
+    """Highest speed for the coming tick from which the reference can still stop in time.
 
-    With a jerk limit the stopping distance is taken as ``v^2/(2A) + v A/(2J)`` (the
-    trapezoidal-acceleration profile's distance, exact once A is reached).
+    Picks ``v_new`` so that after this tick's travel ``(v + v_new) ts / 2`` the rest of the
+    path still holds the braking distance ``v_new^2 / (2A) + v_new A / J``::
+
+        v_new^2 / (2A) + v_new (A / J + ts / 2) <= remaining - v ts / 2
+
+    ``A/J`` is twice the trapezoidal-acceleration profile's ramp term ``A/(2J)``: with that
+    margin the jerk-limited profile joins the stop curve from below and never needs more
+    than ``J``; the price is a final approach that decays with time constant ``A/J``. Without
+    a jerk limit the term vanishes and the stop is the exact discrete constant-deceleration
+    ramp.
     """
     if math.isinf(a_max):
         return math.inf
-    if remaining <= 0.0:
+    room = remaining - 0.5 * v * ts
+    if room <= 0.0:
         return 0.0
-    if math.isinf(j_max):
-        return math.sqrt(2.0 * a_max * remaining)
-    c = a_max * a_max / (2.0 * j_max)
-    return -c + math.sqrt(c * c + 2.0 * a_max * remaining)
+    c = 0.5 * ts + (0.0 if math.isinf(j_max) else 4.0 * a_max / (2.0 * j_max))
+    return -a_max * c + math.sqrt((a_max * c) ** 2 + 2.0 * a_max * room)
 
 
 @numba.njit(cache=True)
@@ -97,14 +104,18 @@ def interp_tick(length, ts, p, st, k):  # type: ignore[no-untyped-def]
         return
     s, v, a = st[IS_S], st[IS_V], st[IS_A]
     a_max, j_max = p[IP_AMAX], p[IP_JMAX]
-    target = min(max(p[IP_F], 0.0), stop_speed(length - s, a_max, j_max))
+    target = min(max(p[IP_F], 0.0), stop_speed(length - s, v, a_max, j_max, ts))
     if math.isinf(a_max):
         v_new, a_new = target, 0.0
         s_new = s + v_new * ts
     else:
-        a_new = min(max((target - v) / ts, -a_max), a_max)
-        if not math.isinf(j_max):
-            a_new = min(max(a_new, a - j_max * ts), a + j_max * ts)
+        dv = target - v
+        if math.isinf(j_max):
+            a_new = min(max(dv / ts, -a_max), a_max)
+        else:
+            # time-optimal approach to the target speed with zero final acceleration
+            a_des = math.copysign(min(math.sqrt(2.0 * j_max * abs(dv)), a_max, abs(dv) / ts), dv)
+            a_new = min(max(a_des, a - j_max * ts), a + j_max * ts)
         v_new = max(v + a_new * ts, 0.0)
         s_new = s + 0.5 * (v + v_new) * ts
     if s_new >= length - 1e-12 or (v_new == 0.0 and length - s_new < 1e-9):

@@ -12,9 +12,9 @@ import numba
 CTRL_PID = 0
 
 CP_KP, CP_KI, CP_KD, CP_KFF = 0, 1, 2, 3
-N_CP = 8
+N_CP = 24
 CS_I, CS_EPREV, CS_HAS = 0, 1, 2
-N_CS = 4
+N_CS = 12
 
 
 @numba.njit(cache=True)
@@ -35,3 +35,26 @@ def pid_commit(s, e, ts, u_total, u_max):  # type: ignore[no-untyped-def]
         s[CS_I] += e * ts
     s[CS_EPREV] = e
     s[CS_HAS] = 1.0
+
+
+@numba.njit(cache=True)
+def axis_control(kind, p, s, r, r_dot, r_ddot, y, ts):  # type: ignore[no-untyped-def]
+    """Control signal of one axis (before CCC and saturation) for controller ``kind``.
+
+    Args:
+        kind: Controller kind (CTRL_*), the same for every axis and member of a loop.
+        p: (N_CP,) parameters of this axis.
+        s: (N_CS,) state of this axis (read here; updated by :func:`axis_commit`).
+        r: Reference position, m.
+        r_dot: Reference velocity, m/s.
+        r_ddot: Reference acceleration, m/s^2.
+        y: Measured position, m.
+        ts: Servo tick, s.
+    """
+    return pid_output(p, s, r - y, r_dot, ts)
+
+
+@numba.njit(cache=True)
+def axis_commit(kind, p, s, r, r_dot, r_ddot, y, ts, u_total, u_max):  # type: ignore[no-untyped-def]
+    """Update the controller state once the tick's total (unsaturated) control is known."""
+    pid_commit(s, r - y, ts, u_total, u_max)

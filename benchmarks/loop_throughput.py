@@ -1,0 +1,41 @@
+"""Closed-loop throughput: env-ticks per second at B = 1, 64, 1024 on the default circle.
+
+Default scenario: 000's X-Y DC servo on its 10 mm circle with PID CCC (the `contour-gym
+simulate` job). One core (numba runs single-threaded here). Prints medians of 5 repeats.
+Targets (issue 2): >= 2e4 ticks/s at B = 1 and >= 3e6 env-ticks/s at B = 1024.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import time
+
+import numpy as np
+
+from contour_gym.api import make_scenario
+
+
+def measure(batch: int, ticks: int, repeats: int = 5) -> float:
+    sc = make_scenario("xy_dc_servo")
+    loop = sc.loop(batch_size=batch, ccc_gains=sc.preset.ccc_gains.as_tuple())
+    loop.step(5)  # compile / warm up
+    times = []
+    for _ in range(repeats):
+        loop.reset(0)
+        start = time.perf_counter()
+        loop.step(ticks)
+        times.append(time.perf_counter() - start)
+    return batch * ticks / float(np.median(times))
+
+
+def main() -> None:
+    print(f"# loop throughput, {platform.processor() or platform.machine()}, {os.cpu_count()} cores visible")
+    print(f"{'B':>6} {'ticks/call':>10} {'env-ticks/s':>14} {'target':>10}")
+    for batch, ticks, target in ((1, 2000, 2e4), (64, 2000, None), (1024, 1000, 3e6)):
+        rate = measure(batch, ticks)
+        print(f"{batch:>6} {ticks:>10} {rate:>14.3g} {'' if target is None else f'{target:.0e}':>10}")
+
+
+if __name__ == "__main__":
+    main()

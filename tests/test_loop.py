@@ -1,0 +1,121 @@
+import dataclasses
+
+import numpy as np
+import pytest
+
+from contour_gym.api import make_scenario
+from contour_gym.loop import ServoLoop
+from contour_gym.metrics import metrics_from_sums, sums_from_trace
+from contour_gym.motion import Interpolator
+from contour_gym.paths import circle, line
+from contour_gym.plant import PRESETS, get_preset
+
+
+def noisy_scenario():
+    # 001's PMLSM has random disturbances: the seeded part of the loop
+    return make_scenario("xyz_pmlsm")
+
+
+def run(scenario, batch, seeds, gains, n=600, record=False):
+    loop = scenario.loop(batch_size=batch, ccc_gains=gains, record=record)
+    loop.reset(seeds)
+    loop.step(n)
+    return loop
+
+
+def test_batch_members_with_equal_parameters_equal_batch_of_one_bit_for_bit():
+    sc = noisy_scenario()
+    gains = sc.preset.ccc_gains.as_tuple()
+    one = run(sc, 1, [7], gains, record=True)
+    many = run(sc, 4, [7, 7, 7, 7], gains, record=True)
+    t1, t4 = one.trace(), many.trace()
+    for b in range(4):
+        assert np.array_equal(t4.x[b], t1.x[0])
+        assert np.array_equal(t4.eps[b], t1.eps[0])
+        assert np.array_equal(many.ax_s[b], one.ax_s[0])
+
+
+def test_different_disturbance_seeds_differ_and_same_seed_repeats():
+    sc = noisy_scenario()
+    gains = sc.preset.ccc_gains.as_tuple()
+    a = run(sc, 2, [1, 2], gains).ax_s
+    b = run(sc, 2, [1, 2], gains).ax_s
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a[0], a[1])
+
+
+def test_step_chunking_does_not_change_results():
+    sc = noisy_scenario()
+    loop = sc.loop(ccc_gains=sc.preset.ccc_gains.as_tuple())
+    loop.reset(3)
+    for n in (1, 7, 300, 2, 290):
+        loop.step(n)
+    whole = run(sc, 1, [3], sc.preset.ccc_gains.as_tuple(), n=600)
+    assert np.array_equal(loop.ax_s, whole.ax_s)
+    assert np.array_equal(loop.sums.contour, whole.sums.contour)
+
+
+def test_kernel_sums_equal_metrics_recomputed_from_the_trace():
+    sc = make_scenario("xy_servo_coulomb")
+    loop = sc.loop(ccc_gains=sc.preset.ccc_gains.as_tuple(), record=True)
+    loop.reset(0)
+    loop.run()
+    tr = loop.trace()
+    active = np.arange(tr.t.size) <= loop.ip_s[0, 3]
+    sums = sums_from_trace(tr.eps[:, active], tr.r[:, active] - tr.x[:, active], tr.u[:, active])
+    want = metrics_from_sums(sums, loop.cycle_time)
+    got = loop.metrics()
+    for key in ("max_contour_error", "mean_contour_error", "rms_contour_error", "p_e", "chattering"):
+        assert got[key] == pytest.approx(want[key], rel=1e-12), key
+
+
+def test_true_contour_error_matches_path_nearest():
+    sc = make_scenario("xy_dc_servo")
+    loop = sc.loop(record=True)
+    loop.reset(0)
+    loop.step(1500)
+    tr = loop.trace()
+    s, dist = sc.path.nearest(tr.x[0], s_hint=tr.s[0])
+    assert np.max(np.abs(dist - tr.eps[0, :, 0])) < 1e-9
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_pid_ccc_lowers_max_contour_error_on_each_papers_path(name):
+    sc = make_scenario(name)
+    loop = sc.loop(batch_size=2, ccc_gains=[[[0.0, 0.0, 0.0]], [list(sc.preset.ccc_gains.as_tuple())]])
+    loop.reset([0, 0])
+    m = loop.run()
+    assert not loop.failed.any()
+    assert np.all(np.isfinite(m["max_contour_error"]))
+    assert m["max_contour_error"][1] < m["max_contour_error"][0]
+
+
+def test_diverging_member_is_flagged_without_poisoning_others():
+    pr = get_preset("xy_dc_servo")
+    # an actuator that never saturates lets an unstable gain set really diverge
+    stage = dataclasses.replace(pr.stage, axes=tuple(dataclasses.replace(a, u_max=1e12) for a in pr.stage.axes))
+    loop = ServoLoop(stage, circle(0.01), pr.axis_gains, Interpolator(0.03), batch_size=3, ccc_gains=pr.ccc_gains.as_tuple())
+    params = np.repeat(loop.ctrl_p[:1], 3, axis=0)
+    params[1, :, 2] = 1e9  # absurd PID derivative gain: the sampled loop is unstable
+    loop.set_controller_params(params)
+    m = loop.run()
+    assert loop.failed.tolist() == [False, True, False]
+    assert np.isinf(m["max_contour_error"][1])
+    assert np.isfinite(m["max_contour_error"][[0, 2]]).all()
+    assert m["max_contour_error"][0] == m["max_contour_error"][2]
+    assert np.isfinite(loop.ax_s[[0, 2]]).all()
+
+
+def test_bad_inputs_raise_value_errors():
+    pr = get_preset("xy_dc_servo")
+    with pytest.raises(ValueError, match="ccc_gains"):
+        ServoLoop(pr.stage, circle(0.01), pr.axis_gains, Interpolator(0.03), ccc_gains=(np.nan, 0, 0))
+    with pytest.raises(ValueError, match="3-D"):
+        make_scenario("xy_dc_servo", "helix")
+    loop = ServoLoop(pr.stage, line((0, 0), (0.05, 0)), pr.axis_gains, Interpolator(0.03))
+    with pytest.raises(ValueError, match="feedrate"):
+        loop.set_feedrate(float("inf"))
+    with pytest.raises(ValueError, match="batch_size"):
+        ServoLoop(pr.stage, circle(0.01), pr.axis_gains, Interpolator(0.03), batch_size=0)
+    with pytest.raises(ValueError, match="seeds"):
+        loop.reset([1, 2])

@@ -1,0 +1,172 @@
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from contour_gym.plant import (
+    PRESETS,
+    AxisParams,
+    CoulombFriction,
+    Disturbance,
+    LuGreFriction,
+    Ripple,
+    Stage,
+    StribeckFriction,
+    get_preset,
+)
+from contour_gym.plant import _kernel as K
+from contour_gym.plant.stage import Contour, axis_row, disturbance_row, zoh_matrices
+
+
+def run_axis(axis: AxisParams, u, ts=1e-3, nsub=1, n=1000, x0=0.0, v0=0.0, seed=None):
+    """Drive one axis with control u(k) (callable) and return positions and velocities."""
+    p = axis_row(axis)
+    rip = np.zeros((6, 3)) if axis.ripple is None else axis.ripple.as_array()
+    dist = disturbance_row(axis, ts)
+    ad, bd = zoh_matrices(p[None], ts / nsub)
+    st = np.zeros(K.N_ST)
+    st[K.ST_X], st[K.ST_V] = x0, v0
+    rng = np.random.default_rng(seed)
+    xs, vs = np.empty(n), np.empty(n)
+    for k in range(n):
+        w = rng.standard_normal() if seed is not None else 0.0
+        K.axis_tick(p, rip, dist, ad[0], bd[0], st, u(k), k * ts, ts, nsub, w)
+        xs[k], vs[k] = st[K.ST_X], st[K.ST_V]
+    return xs, vs
+
+
+def test_zoh_matches_ode_solution():
+    axis = AxisParams("x", mass=2.0, damping=3.0, stiffness=50.0, force_constant=4.0, u_max=10.0)
+    ts, n = 1e-3, 500
+    u = lambda k: math.sin(0.01 * k)  # noqa: E731 - held constant over each tick
+    xs, _ = run_axis(axis, u, ts=ts, n=n)
+    x, v = 0.0, 0.0
+    for k in range(n):
+        sol = solve_ivp(
+            lambda t, y, uk=u(k): [y[1], (4.0 * uk - 3.0 * y[1] - 50.0 * y[0]) / 2.0],
+            (0, ts), [x, v], rtol=1e-12, atol=1e-15,
+        )
+        x, v = sol.y[:, -1]
+    assert xs[-1] == pytest.approx(x, abs=1e-12)
+
+
+def test_current_loop_is_first_order_lag():
+    axis = AxisParams("x", mass=1.0, damping=0.0, force_constant=1.0, u_max=10.0, current_tau=0.01)
+    p = axis_row(axis)
+    ad, bd = zoh_matrices(p[None], 1e-3)
+    st = np.zeros(K.N_ST)
+    for k in range(10):
+        K.axis_tick(p, np.zeros((6, 3)), disturbance_row(axis, 1e-3), ad[0], bd[0], st, 1.0, k * 1e-3, 1e-3, 1, 0.0)
+    assert st[K.ST_I] == pytest.approx(1.0 - math.exp(-0.01 / 0.01), rel=1e-12)
+
+
+def test_coulomb_stiction_holds_below_breakaway_and_moves_above():
+    axis = AxisParams("x", mass=1.0, damping=0.0, force_constant=1.0, u_max=100.0,
+                      friction=CoulombFriction(fc=2.0, fs=3.0))
+    xs, vs = run_axis(axis, lambda k: 2.9, n=200)
+    assert np.all(xs == 0.0) and np.all(vs == 0.0)
+    xs, vs = run_axis(axis, lambda k: 3.1, n=200)
+    assert xs[-1] > 0 and np.all(vs >= 0)
+
+
+def test_coulomb_coasting_stops_at_analytic_distance_without_reversing():
+    axis = AxisParams("x", mass=2.0, damping=0.0, force_constant=1.0, u_max=1.0,
+                      friction=CoulombFriction(fc=4.0))
+    xs, vs = run_axis(axis, lambda k: 0.0, n=2000, v0=1.0)
+    assert np.all(vs >= 0.0)
+    assert vs[-1] == 0.0
+    assert xs[-1] == pytest.approx(1.0**2 * 2.0 / (2 * 4.0), rel=1e-3)
+
+
+def test_stribeck_curve_matches_003_form():
+    fr = StribeckFriction(fc=1.0, fs=2.0, vs=0.1, delta=2.0, fv=3.0)
+    p = axis_row(AxisParams("x", mass=1, damping=0, force_constant=1, u_max=1, friction=fr))
+    for v in (-0.3, -0.05, 0.02, 0.5):
+        want = (1.0 + 1.0 * math.exp(-((abs(v) / 0.1) ** 2)) + 3.0 * abs(v)) * math.copysign(1, v)
+        assert K.kinetic_friction(p, v) == pytest.approx(want, rel=1e-12)
+
+
+def test_lugre_reaches_stribeck_steady_state():
+    # a huge mass keeps the velocity ~constant; in steady sliding the bristle deflection
+    # settles at z = g(v)/sigma0, i.e. F = g(v) + sigma2 v (002 eqs. 2-3)
+    fr = LuGreFriction(sigma0=560.0, sigma1=300.0, sigma2=4.0, fc=20.0, fs=30.0, vs=0.5)
+    axis = AxisParams("x", mass=1e9, damping=0.0, force_constant=1.0, u_max=1.0, friction=fr)
+    p = axis_row(axis)
+    ts = 1e-3
+    ad, bd = zoh_matrices(p[None], ts / 4)
+    for v0 in (0.1, -0.4, 1.0):
+        st = np.zeros(K.N_ST)
+        st[K.ST_V] = v0
+        for k in range(20000):  # 20 s: > 35 bristle time constants g/(sigma0 |v|)
+            K.axis_tick(p, np.zeros((6, 3)), disturbance_row(axis, ts), ad[0], bd[0], st, 0.0, k * ts, ts, 4, 0.0)
+        v = st[K.ST_V]
+        assert v == pytest.approx(v0, rel=1e-4)
+        g = 20.0 + 10.0 * math.exp(-((v / 0.5) ** 2))
+        assert st[K.ST_Z] == pytest.approx(math.copysign(g / 560.0, v), rel=1e-6)
+
+
+def test_ripple_force_formula():
+    rip = Ripple(sin_amp=(1.0, 0.5), cos_amp=(0.2, 0.0), wavenumber=(10.0, 20.0))
+    x = 0.123
+    want = math.sin(1.23) + 0.2 * math.cos(1.23) + 0.5 * math.sin(2.46)
+    assert K.ripple_force(rip.as_array(), 2, x) == pytest.approx(want, rel=1e-12)
+
+
+def test_random_disturbance_is_seeded_and_has_the_given_std():
+    d = Disturbance(random_std=3.0, random_bandwidth=50.0)
+    row = disturbance_row(AxisParams("x", 1, 0, 1, 1, disturbance=d), 1e-3)
+    def draw(seed):
+        st = np.zeros(K.N_ST)
+        rng = np.random.default_rng(seed)
+        return np.array([K.disturbance_force(row, st, k * 1e-3, rng.standard_normal()) for k in range(40000)])
+    a, b, c = draw(1), draw(1), draw(2)
+    assert np.array_equal(a, b) and not np.array_equal(a, c)
+    assert a[1000:].std() == pytest.approx(3.0, rel=0.1)
+
+
+def test_rotary_conversion():
+    a = AxisParams.from_rotary("x", inertia=0.01, viscous=0.1, torque_constant=1.0, lead=0.01,
+                               coulomb_torque=0.2, u_max=5.0)
+    n = 2 * math.pi / 0.01
+    assert a.mass == pytest.approx(0.01 * n * n)
+    assert a.damping == pytest.approx(0.1 * n * n)
+    assert a.force_constant == pytest.approx(n)
+    assert a.friction == CoulombFriction(0.2 * n)
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_presets_build_with_notes(name):
+    pr = get_preset(name)
+    assert pr.stage.notes and pr.paper in pr.stage.notes[:3] + pr.stage.notes
+    assert len(pr.axis_gains) == pr.stage.n_axes
+
+
+@pytest.mark.parametrize(
+    "kwargs, needle",
+    [
+        (dict(mass=-1.0), "x.mass"),
+        (dict(mass=float("nan")), "x.mass"),
+        (dict(force_constant=0.0), "x.force_constant"),
+        (dict(u_max=-2.0), "x.u_max"),
+    ],
+)
+def test_bad_axis_parameters_raise(kwargs, needle):
+    base = dict(mass=1.0, damping=0.0, force_constant=1.0, u_max=1.0)
+    base.update(kwargs)
+    with pytest.raises(ValueError, match=needle):
+        AxisParams("x", **base)
+
+
+def test_bad_stage_and_preset_inputs():
+    ax = AxisParams("x", mass=1.0, damping=0.0, force_constant=1.0, u_max=1.0)
+    with pytest.raises(ValueError, match="ts"):
+        Stage("s", (ax, ax), (Contour((0, 1)),), ts=-1e-3)
+    with pytest.raises(ValueError, match="out of range"):
+        Stage("s", (ax, ax), (Contour((0, 2)),), ts=1e-3)
+    with pytest.raises(ValueError, match="xy_dc_servo"):
+        get_preset("no_such_machine")
+    with pytest.raises(ValueError, match="fs"):
+        StribeckFriction(fc=2.0, fs=1.0, vs=0.1)
+    with pytest.raises(ValueError, match="sigma0"):
+        LuGreFriction(sigma0=-1, sigma1=1, sigma2=0, fc=1, fs=2, vs=0.1)
