@@ -27,7 +27,7 @@ LS_TRUE, LS_EST = 0, 1
 W_R, W_RDOT, W_RDDOT, W_Y, W_U = 0, 1, 2, 3, 4
 N_W = 5
 
-STATUS_OK, STATUS_FAILED = 0, 1
+STATUS_OK, STATUS_FAILED, STATUS_PAUSED = 0, 1, 2
 STATE_LIMIT = 1e3  # |x| in m or |v| in m/s beyond this is a diverged member
 
 
@@ -95,9 +95,12 @@ def _ccc(p, w, st, axes, dim, eps, g0, g1, g2, ts, work):  # type: ignore[no-unt
 def _member_run(  # type: ignore[no-untyped-def]  # noqa: C901
     b, n, k0, ts, nsub, kind, s0, data, bound, c_axes, c_off, ax_p, rip, dist, ad, bd, ax_s,
     ctrl_kind, ctrl_p, ctrl_s, ccc_p, ccc_w, ccc_s, est_kind, est_p, hist, ip_p, ip_s, length,
-    foot, last, noise, acc_c, acc_a, ep_c, ep_a, u_last, rec, record, work, xbuf, meas_exact,
+    foot, last, noise, acc_c, acc_a, ep_c, ep_a, u_last, y_last, rec, record, work, xbuf,
+    meas_exact,
 ):
-    """Run ``n`` servo ticks of batch member ``b``; False when its state diverged.
+    """Run ``n`` servo ticks of batch member ``b`` from its local tick ``k0``.
+
+    Returns False when its state diverged.
 
     The tick body is written inline here: a call per tick with this many array arguments
     cost more than the tick itself.
@@ -114,6 +117,7 @@ def _member_run(  # type: ignore[no-untyped-def]  # noqa: C901
             xbuf[a] = ax_s[b, a, ST_X]
             w = noise[b, j, n_axes + a] if has_noise else 0.0
             work[W_Y, a] = measure(ax_p[b, a], xbuf[a], w)
+            y_last[b, a] = work[W_Y, a]
             work[W_U, a] = axis_control(
                 ctrl_kind, ctrl_p[b, a], ctrl_s[b, a], work[W_R, a], work[W_RDOT, a],
                 work[W_RDDOT, a], work[W_Y, a], ts,
@@ -170,22 +174,24 @@ def _member_run(  # type: ignore[no-untyped-def]  # noqa: C901
 def run_ticks(  # type: ignore[no-untyped-def]
     n, k0, ts, nsub, kind, s0, data, bound, c_axes, c_off, ax_p, rip, dist, ad, bd, ax_s,
     ctrl_kind, ctrl_p, ctrl_s, ccc_p, ccc_w, ccc_s, est_kind, est_p, hist, ip_p, ip_s, length,
-    foot, last, noise, status, acc_c, acc_a, ep_c, ep_a, u_last, rec, record, work, xbuf,
-    meas_exact,
+    foot, last, noise, status, acc_c, acc_a, ep_c, ep_a, u_last, y_last, rec, record, work,
+    xbuf, meas_exact, k_start,
 ):
-    """Run ``n`` ticks for every member that has not failed; a diverging member is flagged.
+    """Run ``n`` ticks for every member whose status is OK; a diverging member is flagged.
 
     ``acc_*`` receive the sums of just these ticks, ``ep_*`` the episode's running sums (kept
-    in the kernel so they do not depend on how an episode is cut into calls).
+    in the kernel so they do not depend on how an episode is cut into calls). ``k0`` is the
+    loop's tick; member ``b`` lives in local time ``k0 - k_start[b]`` (members of a vector
+    env restart at different ticks).
     """
     for b in range(ax_p.shape[0]):
         if status[b] != STATUS_OK:
             continue
         ok = _member_run(
-            b, n, k0, ts, nsub, kind, s0, data, bound, c_axes, c_off, ax_p, rip, dist, ad, bd,
+            b, n, k0 - k_start[b], ts, nsub, kind, s0, data, bound, c_axes, c_off, ax_p, rip, dist, ad, bd,
             ax_s, ctrl_kind, ctrl_p, ctrl_s, ccc_p, ccc_w, ccc_s, est_kind, est_p, hist, ip_p,
-            ip_s, length, foot, last, noise, acc_c, acc_a, ep_c, ep_a, u_last, rec, record, work,
-            xbuf, meas_exact,
+            ip_s, length, foot, last, noise, acc_c, acc_a, ep_c, ep_a, u_last, y_last, rec, record,
+            work, xbuf, meas_exact,
         )
         if not ok:
             status[b] = STATUS_FAILED

@@ -60,23 +60,41 @@ class Trace:
 
 
 class _NoiseSource:
-    """Per-member standard normals, drawn in chunks so a member's stream does not depend on B."""
+    """Per-member standard normals, drawn in chunks, each member with its own read position.
 
-    def __init__(self, gens: list[np.random.Generator] | None, width: int) -> None:
-        self.gens, self.width = gens, width
-        self.buf = np.zeros((len(gens) if gens else 0, 0, width))
-        self.pos = 0
+    A member's numbers are its own generator's normal stream consumed in order (numpy fills
+    arrays sequentially, so chunk sizes do not matter): results never depend on B, on how a
+    run is cut into calls, or on other members' resets and pauses.
+    """
 
-    def take(self, n: int, batch: int) -> Array:
-        if not self.gens:
-            return np.zeros((batch, 0, 0))
-        if self.pos + n > self.buf.shape[1]:
-            fresh = max(n, NOISE_CHUNK)
-            drawn = np.stack([g.standard_normal((fresh, self.width)) for g in self.gens])
-            self.buf = np.concatenate([self.buf[:, self.pos :], drawn], axis=1)
-            self.pos = 0
-        out = np.ascontiguousarray(self.buf[:, self.pos : self.pos + n])
-        self.pos += n
+    def __init__(self, batch: int, width: int, active: bool) -> None:
+        self.width, self.active = width, active
+        self.gens: list[np.random.Generator | None] = [None] * batch
+        self.buf = np.zeros((batch, NOISE_CHUNK if active else 0, width))
+        self.pos = np.full(batch, self.buf.shape[1], dtype=np.intp)
+
+    def reseed(self, members: NDArray[np.intp], gens: list[np.random.Generator]) -> None:
+        for b, g in zip(members, gens):
+            self.gens[b] = g
+            self.pos[b] = self.buf.shape[1]  # nothing left: the next take draws fresh
+
+    def take(self, n: int, running: NDArray[np.bool_]) -> Array:
+        """(B, n, width) normals; only ``running`` members advance their streams."""
+        if not self.active:
+            return np.zeros((len(self.gens), 0, 0))
+        if n > self.buf.shape[1]:
+            grown = np.zeros((self.buf.shape[0], n, self.width))
+            grown[:, : self.buf.shape[1]] = self.buf
+            self.buf = grown
+        cap = self.buf.shape[1]
+        for b in np.flatnonzero(running & (self.pos + n > cap)):
+            rest = self.buf[b, self.pos[b] :].copy()
+            self.buf[b, : len(rest)] = rest
+            self.buf[b, len(rest) :] = self.gens[b].standard_normal((cap - len(rest), self.width))  # type: ignore[union-attr]
+            self.pos[b] = 0
+        rows = np.minimum(self.pos[:, None] + np.arange(n), cap - 1)
+        out = self.buf[np.arange(len(self.gens))[:, None], rows]
+        self.pos[running] += n
         return out
 
 
@@ -149,22 +167,13 @@ class ServoLoop:
         )
         self.ip_p = interpolator.params(b)
         self._meas_exact = not any(a.encoder_resolution > 0 or a.noise_std > 0 for a in stage.axes)
+        self._nominal = (self.ax_p.copy(), self.dist.copy())
         self.reset(0)
 
     # ----------------------------------------------------------------- state
-    def reset(self, seed: int | Sequence[int] | None = None) -> None:
-        """Put every member at rest at the start of the path.
-
-        Args:
-            seed: An int (member ``i`` uses child ``i`` of ``SeedSequence(seed)``), one seed
-                per member, or None for fresh entropy.
-        """
+    def _allocate(self) -> None:
         b, c, a = self.batch_size, len(self.stage.contours), self.stage.n_axes
         self.ax_s = np.zeros((b, a, PK.N_ST))
-        start = self.path.point(0.0)
-        for i in range(c):
-            for j in range(self.stage.dim):
-                self.ax_s[:, self._c_axes[i, j], PK.ST_X] = start[j] + self._c_off[i, j]
         self.ctrl_s = np.zeros((b, a, SK.N_CS))
         self.ccc_s = np.zeros((b, c, 3, SK.N_CS))
         self.ip_s = motion.initial_state(b)
@@ -173,21 +182,55 @@ class ServoLoop:
         self.last = np.zeros((b, c, 2))
         self.status = np.zeros(b, dtype=np.int64)
         self.u_last = np.zeros((b, a))
+        self.y_last = np.zeros((b, a))
+        self.k_start = np.zeros(b, dtype=np.int64)
         self.tick = 0
         self.sums = ErrorSums.zeros(b, c, a)
         self._records: list[Array] = []
-        gens = self._generators(seed)
-        self._noise = _NoiseSource(gens if self.stage.is_random else None, 2 * a)
+        self._noise = _NoiseSource(b, 2 * a, self.stage.is_random)
         self._work = np.zeros((LK.N_W, a))
         self._xbuf = np.zeros(a)
+        self._start = np.zeros(a)
+        pt = self.path.point(0.0)
+        for i in range(c):
+            for j in range(self.stage.dim):
+                self._start[self._c_axes[i, j]] = pt[j] + self._c_off[i, j]
 
-    def _generators(self, seed: int | Sequence[int] | None) -> list[np.random.Generator]:
+    def reset(
+        self, seed: int | Sequence[int] | None = None, members: ArrayLike | None = None
+    ) -> None:
+        """Put members at rest at the start of the path.
+
+        Args:
+            seed: An int (member ``i`` of the reset ones uses child ``i`` of
+                ``SeedSequence(seed)``), one seed per reset member, or None for fresh entropy.
+            members: Indices or boolean mask of the members to reset (default: all, which
+                also restarts the loop's clock and recording).
+        """
+        if members is None:
+            self._allocate()
+            idx = np.arange(self.batch_size)
+        else:
+            idx = np.arange(self.batch_size)[np.asarray(members)].reshape(-1)
+        for arr in (self.ctrl_s, self.ccc_s, self.foot, self.hist, self.last, self.u_last, self.y_last):
+            arr[idx] = 0.0
+        self.ax_s[idx] = 0.0
+        self.ax_s[idx, :, PK.ST_X] = self._start
+        self.y_last[idx] = self._start
+        self.ip_s[idx] = motion.initial_state(len(idx))
+        self.status[idx] = LK.STATUS_OK
+        self.k_start[idx] = self.tick
+        self.sums.contour[idx] = 0.0
+        self.sums.axis[idx] = 0.0
+        self._noise.reseed(idx, self._generators(seed, len(idx)))
+
+    def _generators(self, seed: int | Sequence[int] | None, count: int) -> list[np.random.Generator]:
         if seed is None or isinstance(seed, (int, np.integer)):
-            children = np.random.SeedSequence(seed).spawn(self.batch_size)
+            children = np.random.SeedSequence(seed).spawn(count)
             return [np.random.default_rng(s) for s in children]
         seeds = list(seed)
-        if len(seeds) != self.batch_size:
-            raise ValueError(f"need {self.batch_size} seeds, got {len(seeds)}")
+        if len(seeds) != count:
+            raise ValueError(f"need {count} seeds, got {len(seeds)}")
         return [np.random.default_rng(np.random.SeedSequence(int(s)).spawn(1)[0]) for s in seeds]
 
     # ------------------------------------------------------------ parameters
@@ -213,6 +256,46 @@ class ServoLoop:
             self.ctrl_p = np.ascontiguousarray(np.broadcast_to(p, self.ctrl_p.shape))
         except ValueError as exc:
             raise ValueError(f"controller params of shape {p.shape} do not broadcast to {self.ctrl_p.shape}") from exc
+
+    def set_plant_scaling(
+        self,
+        members: ArrayLike,
+        *,
+        mass: ArrayLike = 1.0,
+        damping: ArrayLike = 1.0,
+        force_constant: ArrayLike = 1.0,
+        friction: ArrayLike = 1.0,
+        disturbance: ArrayLike = 1.0,
+    ) -> None:
+        """Scale members' axis parameters relative to the stage's nominal values.
+
+        Domain randomisation (axis mismatch, friction and disturbance levels; 002 section 4.2
+        analyses gain and time-constant mismatch). Each factor broadcasts to (len(members),
+        n_axes) and must be finite and > 0 (friction/disturbance >= 0).
+        """
+        idx = np.arange(self.batch_size)[np.asarray(members)].reshape(-1)
+        shape = (len(idx), self.stage.n_axes)
+        f = {
+            k: np.broadcast_to(as_finite_array(v, k), shape)
+            for k, v in dict(mass=mass, damping=damping, force_constant=force_constant,
+                             friction=friction, disturbance=disturbance).items()
+        }  # fmt: skip
+        for k in ("mass", "damping", "force_constant"):
+            if np.any(f[k] <= 0):
+                raise ValueError(f"{k} scale must be > 0, got {f[k].min()}")
+        for k in ("friction", "disturbance"):
+            if np.any(f[k] < 0):
+                raise ValueError(f"{k} scale must be >= 0, got {f[k].min()}")
+        ax_p, dist = self._nominal[0][idx].copy(), self._nominal[1][idx].copy()
+        ax_p[..., PK.AX_M] *= f["mass"]
+        ax_p[..., PK.AX_B] *= f["damping"]
+        ax_p[..., PK.AX_K] *= f["force_constant"]
+        for col in (PK.AX_FC, PK.AX_FS, PK.AX_FV, PK.AX_S0, PK.AX_S2):
+            ax_p[..., col] *= f["friction"]
+        for col in (PK.DS_STEP_A, PK.DS_SIN_A, PK.DS_RND_STD):
+            dist[..., col] *= f["disturbance"]
+        self.ax_p[idx], self.dist[idx] = ax_p, dist
+        self.ad[idx], self.bd[idx] = zoh_matrices(ax_p, self.stage.ts / self.stage.substeps)
 
     # ----------------------------------------------------------------- views
     @property
@@ -242,16 +325,33 @@ class ServoLoop:
         return self.last[..., LK.LS_TRUE]
 
     @property
+    def measured_position(self) -> Array:
+        """(B, A) encoder reading of the last tick, m."""
+        return self.y_last
+
+    @property
     def contour_error_estimate(self) -> Array:
         """(B, C) contour error the CCC saw at the last tick, m."""
         return self.last[..., LK.LS_EST]
 
     # ------------------------------------------------------------------- run
-    def step(self, n_ticks: int) -> ErrorSums:
+    def step(self, n_ticks: int, skip: ArrayLike | None = None) -> ErrorSums:
         """Run ``n_ticks`` ticks; return the error sums of just these ticks.
+
+        Args:
+            n_ticks: Ticks to run.
+            skip: Indices or mask of members that sit this call out (their clocks do not
+                advance); a vector env's members being auto-reset.
 
         Members that failed stay frozen; their metrics report ``inf``.
         """
+        if not isinstance(n_ticks, (int, np.integer)) or n_ticks < 0:
+            raise ValueError(f"n_ticks must be a non-negative int, got {n_ticks!r}")
+        paused = np.zeros(self.batch_size, dtype=bool)
+        if skip is not None:
+            paused[np.asarray(skip)] = True
+            paused &= self.status == LK.STATUS_OK
+            self.status[paused] = LK.STATUS_PAUSED
         b, a, c = self.batch_size, self.stage.n_axes, len(self.stage.contours)
         window = ErrorSums.zeros(b, c, a)
         rec = np.zeros((b, n_ticks if self.record else 0, 2 + 3 * a + 2 * c))
@@ -262,11 +362,14 @@ class ServoLoop:
             self.bd, self.ax_s, self.ctrl_kind, self.ctrl_p, self.ctrl_s, self.ccc_p, self.ccc_w,
             self.ccc_s, self.est_kind, self.est_p, self.hist, self.ip_p, self.ip_s,
             self.path.length, self.foot, self.last,
-            self._noise.take(n_ticks, b), self.status, window.contour, window.axis,
+            self._noise.take(n_ticks, ~paused & (self.status == LK.STATUS_OK)), self.status, window.contour, window.axis,
             self.sums.contour, self.sums.axis,
-            self.u_last, rec, self.record, self._work, self._xbuf, self._meas_exact,
+            self.u_last, self.y_last, rec, self.record, self._work, self._xbuf,
+            self._meas_exact, self.k_start,
         )  # fmt: skip
         self.tick += n_ticks
+        self.status[paused] = LK.STATUS_OK
+        self.k_start[paused] += n_ticks
         if self.record:
             self._records.append(rec)
         return window

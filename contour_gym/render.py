@@ -7,16 +7,13 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-import matplotlib
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from numpy.typing import NDArray
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from numpy.typing import NDArray  # noqa: E402
-
-from contour_gym.loop import Trace  # noqa: E402
-from contour_gym.paths import Path  # noqa: E402
+from contour_gym.loop import Trace
+from contour_gym.paths import Path
 
 
 def magnified(path: Path, positions: NDArray[np.float64], s_hint: NDArray[np.float64], factor: float) -> NDArray[np.float64]:
@@ -58,7 +55,9 @@ def contour_figure(
     Returns:
         The figure (caller saves or converts it).
     """
-    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.6))
+    fig = Figure(figsize=(11, 4.6))
+    FigureCanvasAgg(fig)
+    left, right = fig.subplots(1, 2)
     dense = path.point(np.linspace(0.0, path.length, 2000))
     left.plot(dense[:, 0] * 1e3, dense[:, 1] * 1e3, "k-", lw=1.0, label="path")
     for label, tr in runs.items():
@@ -78,8 +77,7 @@ def contour_figure(
 
 
 def figure_to_array(fig: Figure) -> NDArray[np.uint8]:
-    """Render a figure into an (H, W, 3) uint8 RGB array and close it."""
-    fig.canvas.draw()
-    rgba = np.asarray(fig.canvas.buffer_rgba())  # type: ignore[attr-defined]
-    plt.close(fig)
-    return np.ascontiguousarray(rgba[..., :3])
+    """Render a figure into an (H, W, 3) uint8 RGB array."""
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    return np.ascontiguousarray(np.asarray(canvas.buffer_rgba())[..., :3])

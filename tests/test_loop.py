@@ -119,3 +119,31 @@ def test_bad_inputs_raise_value_errors():
         ServoLoop(pr.stage, circle(0.01), pr.axis_gains, Interpolator(0.03), batch_size=0)
     with pytest.raises(ValueError, match="seeds"):
         loop.reset([1, 2])
+
+
+def test_resetting_some_members_matches_fresh_single_loops():
+    sc = noisy_scenario()
+    gains = sc.preset.ccc_gains.as_tuple()
+    loop = sc.loop(batch_size=3, ccc_gains=gains)
+    loop.reset([1, 2, 3])
+    loop.step(250)
+    loop.reset([9], members=[1])  # member 1 restarts mid-run with a new seed
+    loop.step(300)
+    fresh = run(sc, 1, [9], gains, n=300)
+    assert np.array_equal(loop.ax_s[1], fresh.ax_s[0])
+    assert np.array_equal(loop.sums.contour[1], fresh.sums.contour[0])
+    untouched = run(sc, 1, [3], gains, n=550)
+    assert np.array_equal(loop.ax_s[2], untouched.ax_s[0])
+
+
+def test_plant_scaling_changes_only_the_scaled_member():
+    sc = make_scenario("xy_servo_coulomb")
+    loop = sc.loop(batch_size=2)
+    loop.set_plant_scaling([1], mass=[1.2, 0.8], friction=2.0)
+    loop.step(500)
+    ref = sc.loop(batch_size=1)
+    ref.step(500)
+    assert np.array_equal(loop.ax_s[0], ref.ax_s[0])
+    assert not np.allclose(loop.ax_s[1], ref.ax_s[0])
+    with pytest.raises(ValueError, match="mass"):
+        loop.set_plant_scaling([0], mass=-1.0)

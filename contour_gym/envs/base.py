@@ -1,0 +1,207 @@
+"""Gymnasium wrappers around :class:`ContourTask`: a single env and a native vector env."""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.error import ResetNeeded
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+from numpy.typing import NDArray
+
+from contour_gym.envs.config import EnvConfig
+from contour_gym.envs.core import ContourTask, member_rngs
+
+RENDER_MODES = ["human", "rgb_array"]
+
+
+def check_actions(action: Any, shape: tuple[int, ...]) -> NDArray[np.float64]:
+    """Validate an action array: right shape and finite, else ValueError (never NaN onward)."""
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"action must be numeric, got {action!r}") from exc
+    if a.shape != shape:
+        raise ValueError(f"action must have shape {shape}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"action must be finite, got {a}")
+    return a
+
+
+def _check_render_mode(render_mode: str | None) -> None:
+    if render_mode is not None and render_mode not in RENDER_MODES:
+        raise ValueError(f"unknown render_mode {render_mode!r}; accepted: {', '.join(RENDER_MODES)}")
+
+
+class ContourEnv(gym.Env[dict[str, NDArray[np.float32]], NDArray[np.float32]]):
+    """Base of the single envs; subclasses set ``kind`` and document the spec."""
+
+    kind: ClassVar[str]
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": RENDER_MODES, "render_fps": 10}
+
+    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
+        _check_render_mode(render_mode)
+        self.config = EnvConfig.from_kwargs(kwargs)
+        self.render_mode = render_mode
+        self.task = ContourTask(self.config, 1, self.kind, record=render_mode is not None)
+        self.action_space = self.task.action_space()
+        self.observation_space = self.task.observation_space()
+        self._needs_reset = True
+        self._window: Any = None
+
+    # reference policies speak in gains; these convert (CCC env)
+    def action_to_gains(self, action: Any) -> NDArray[np.float64]:
+        """CCC gains (C, 3) of an action; see :meth:`ContourTask.action_to_gains`."""
+        return self.task.action_to_gains(np.asarray(action))
+
+    def gains_to_action(self, gains: Any) -> NDArray[np.float64]:
+        """The action (3C,) that sets CCC gains (C, 3) (or (3,) for every contour)."""
+        g = np.broadcast_to(np.asarray(gains, dtype=float), (self.task.n_contours, 3))
+        return self.task.gains_to_action(g)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, NDArray[np.float32]], dict[str, Any]]:
+        """Start an episode at the path start (see the class docstring)."""
+        super().reset(seed=seed)
+        self.task.reset_members(np.array([0]), [self.np_random])
+        self._needs_reset = False
+        return self._obs(), self.task.info(0, failure=False, ended=False)
+
+    def step(
+        self, action: Any
+    ) -> tuple[dict[str, NDArray[np.float32]], float, bool, bool, dict[str, Any]]:
+        """Hold the action for ``decision_ticks`` servo ticks (see the class docstring)."""
+        if self._needs_reset:
+            raise ResetNeeded("call reset() before step(), also after an episode has ended")
+        a = check_actions(action, self.action_space.shape)[None]  # type: ignore[index]
+        none = np.zeros(1, dtype=bool)
+        self.task.apply(a, none)
+        window, progress = self.task.advance(none)
+        reward, terminated, failure = self.task.reward(window, progress)
+        self._needs_reset = bool(terminated[0])
+        info = self.task.info(0, failure=bool(failure[0]), ended=bool(terminated[0]))
+        return self._obs(), float(reward[0]), bool(terminated[0]), False, info
+
+    def _obs(self) -> dict[str, NDArray[np.float32]]:
+        return {k: v[0] for k, v in self.task.observe().items()}
+
+    def render(self) -> NDArray[np.uint8] | None:  # type: ignore[override]
+        """The contour with the error magnified 200x (rgb_array) or shown in a window."""
+        if self.render_mode is None:
+            gym.logger.warn("render() needs render_mode='rgb_array' or 'human'")
+            return None
+        from contour_gym.render import contour_figure, figure_to_array
+
+        contour = self.task.stage.contours[0]
+        fig = contour_figure(
+            self.task.path, {self.kind: self.task.loop.trace()}, axes=contour.axes[:2],
+            offset=(contour.offset or (0.0, 0.0))[:2],
+        )  # fmt: skip
+        image = figure_to_array(fig)
+        if self.render_mode == "rgb_array":
+            return image
+        _show(image)
+        return None
+
+
+def _show(image: NDArray[np.uint8]) -> None:
+    import matplotlib.pyplot as plt
+
+    plt.figure("contour-gym")
+    plt.clf()
+    plt.imshow(image)
+    plt.axis("off")
+    plt.pause(0.001)
+
+
+class ContourVectorEnv(VectorEnv):  # type: ignore[type-arg]
+    """Base of the native vector envs: one batched array program over ``num_envs`` members.
+
+    Autoreset is NEXT_STEP: the step after a member's episode ends returns its reset
+    observation with reward 0 and ignores its action. Member ``i`` of ``reset(seed=s)`` is
+    seeded ``s + i``, like a single env reset with that seed, so a vector env equals a loop
+    of single envs bit for bit.
+    """
+
+    kind: ClassVar[str]
+    metadata: ClassVar[dict[str, Any]] = {
+        "render_modes": ["rgb_array"],
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
+
+    def __init__(
+        self, num_envs: int = 1, max_episode_steps: int | None = None, render_mode: str | None = None, **kwargs: Any
+    ) -> None:
+        if not isinstance(num_envs, int) or num_envs < 1:
+            raise ValueError(f"num_envs must be a positive int, got {num_envs!r}")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"unknown render_mode {render_mode!r}; accepted: rgb_array")
+        self.config = EnvConfig.from_kwargs(kwargs)
+        self.num_envs, self.render_mode = num_envs, render_mode
+        self.max_episode_steps = max_episode_steps
+        self.task = ContourTask(self.config, num_envs, self.kind, record=render_mode is not None)
+        self.single_action_space = self.task.action_space()
+        self.single_observation_space = self.task.observation_space()
+        self.action_space = batch_space(self.single_action_space, num_envs)
+        self.observation_space = batch_space(self.single_observation_space, num_envs)
+        self._steps = np.zeros(num_envs, dtype=np.int64)
+        self._prev_done = np.zeros(num_envs, dtype=bool)
+        self._started = False
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, NDArray[np.float32]], dict[str, Any]]:
+        """Reset every member; member ``i`` is seeded ``seed + i``."""
+        everyone = np.arange(self.num_envs)
+        self.task.reset_members(everyone, member_rngs(seed, self.num_envs))
+        self._steps[:] = 0
+        self._prev_done[:] = False
+        self._started = True
+        return self.task.observe(), {}
+
+    def step(self, actions: Any) -> tuple[dict[str, NDArray[np.float32]], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], dict[str, Any]]:
+        """Step every member; members whose episode ended last step are reset instead."""
+        if not self._started:
+            raise ResetNeeded("call reset() before step()")
+        a = check_actions(actions, self.action_space.shape)  # type: ignore[arg-type]
+        restart = self._prev_done.copy()
+        if restart.any():
+            idx = np.flatnonzero(restart)
+            self.task.reset_members(idx, [self.task.rngs[i] for i in idx])
+            self._steps[restart] = 0
+        self.task.apply(a, restart)
+        window, progress = self.task.advance(restart)
+        reward, terminated, failure = self.task.reward(window, progress)
+        self._steps[~restart] += 1
+        limit = self.max_episode_steps
+        truncated = ~terminated & (self._steps >= limit) if limit else np.zeros_like(terminated)
+        reward[restart], terminated[restart], truncated[restart] = 0.0, False, False
+        self._prev_done = terminated | truncated
+        info = self._infos(failure & ~restart, self._prev_done)
+        return self.task.observe(), reward, terminated, truncated, info
+
+    def _infos(self, failure: NDArray[np.bool_], ended: NDArray[np.bool_]) -> dict[str, Any]:
+        info: dict[str, Any] = {"failure": failure, "_failure": np.ones(self.num_envs, dtype=bool)}
+        if ended.any():
+            per = [self.task.info(int(b), bool(failure[b]), True)["metrics"] if ended[b] else None for b in range(self.num_envs)]
+            keys = next(p for p in per if p is not None).keys()
+            info["metrics"] = {k: np.array([p[k] if p else np.nan for p in per]) for k in keys}
+            info["_metrics"] = ended.copy()
+        return info
+
+    def render(self) -> tuple[Any, ...] | None:
+        """An rgb_array per member (render_mode='rgb_array')."""
+        if self.render_mode is None:
+            return None
+        from contour_gym.render import contour_figure, figure_to_array
+
+        contour = self.task.stage.contours[0]
+        trace = self.task.loop.trace()
+        return tuple(
+            figure_to_array(contour_figure(self.task.path, {self.kind: trace}, axes=contour.axes[:2],
+                                           offset=(contour.offset or (0.0, 0.0))[:2], member=b))
+            for b in range(self.num_envs)
+        )

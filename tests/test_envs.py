@@ -1,0 +1,200 @@
+import pickle
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.error import ResetNeeded
+from gymnasium.utils.env_checker import check_env
+
+import contour_gym
+from contour_gym.envs import CCCEnv, CCCVectorEnv, FeedrateEnv, FeedrateVectorEnv
+from contour_gym.paths import from_gcode, parametric
+
+ALL_IDS = contour_gym.ENV_IDS
+
+
+@pytest.mark.parametrize("env_id", ALL_IDS)
+def test_gymnasium_check_env_without_warnings(env_id):
+    env = gym.make(env_id).unwrapped
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env, skip_render_check=True)
+
+
+@pytest.mark.parametrize("env_id", ALL_IDS)
+def test_sb3_check_env_without_warnings(env_id):
+    from stable_baselines3.common.env_checker import check_env as sb3_check
+
+    env = gym.make(env_id)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sb3_check(env, warn=True)
+
+
+def rollout(env, seed, steps=60, actions=None):
+    rng = np.random.default_rng(123)
+    obs, _ = env.reset(seed=seed)
+    out = [obs]
+    rewards = []
+    for k in range(steps):
+        a = rng.uniform(-1, 1, env.action_space.shape) if actions is None else actions[k]
+        obs, r, term, trunc, _ = env.step(a)
+        out.append(obs)
+        rewards.append(r)
+        if term or trunc:
+            break
+    return out, rewards
+
+
+def same_obs(a, b):
+    return all(np.array_equal(a[k], b[k]) for k in a)
+
+
+@pytest.mark.parametrize("cls", [CCCEnv, FeedrateEnv])
+def test_same_seed_same_rollout_and_randomisation_differs_by_seed(cls):
+    kw = dict(plant="xyz_pmlsm", randomize=True)
+    o1, r1 = rollout(cls(**kw), 3)
+    o2, r2 = rollout(cls(**kw), 3)
+    o3, r3 = rollout(cls(**kw), 4)
+    assert r1 == r2 and all(same_obs(a, b) for a, b in zip(o1, o2))
+    assert r1 != r3
+
+
+def test_envs_pickle_and_resume_identically():
+    env = CCCEnv(plant="xyz_pmlsm", randomize=True)
+    env.reset(seed=1)
+    for _ in range(5):
+        env.step(np.zeros(3))
+    clone = pickle.loads(pickle.dumps(env))
+    a = np.full(3, 0.3)
+    for _ in range(5):
+        x = env.step(a)
+        y = clone.step(a)
+        assert x[1] == y[1] and same_obs(x[0], y[0])
+
+
+@pytest.mark.parametrize(("single", "vector", "kw"), [
+    (CCCEnv, CCCVectorEnv, dict(plant="xyz_pmlsm", randomize=True, decision_ticks=50)),
+    (FeedrateEnv, FeedrateVectorEnv, dict(plant="xy_servo_coulomb", path="corner", decision_ticks=40)),
+])
+def test_vector_env_equals_loop_of_single_envs_bit_for_bit(single, vector, kw):
+    n, steps, seed = 3, 90, 11
+    venv = vector(num_envs=n, max_episode_steps=40, **kw)
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, (steps, n, venv.single_action_space.shape[0]))
+    vobs, _ = venv.reset(seed=seed)
+    vrec = [(vobs, None, None, None)]
+    for k in range(steps):
+        o, r, te, tr, _ = venv.step(actions[k])
+        vrec.append((o, r, te, tr))
+    for i in range(n):
+        env = gym.wrappers.TimeLimit(single(**kw), 40)
+        obs, _ = env.reset(seed=seed + i)
+        assert same_obs(obs, {k: v[i] for k, v in vrec[0][0].items()})
+        done = False
+        for k in range(steps):
+            o, r, te, tr = vrec[k + 1]
+            if done:  # next-step autoreset: the vector member reset instead of stepping
+                obs, _ = env.reset()
+                assert r[i] == 0.0 and not te[i] and not tr[i]
+                done = False
+            else:
+                obs, rew, term, trunc, _ = env.step(actions[k, i])
+                assert rew == r[i] and term == te[i] and trunc == tr[i]
+                done = term or trunc
+            assert same_obs(obs, {key: v[i] for key, v in o.items()}), (i, k)
+
+
+def test_make_vec_uses_the_native_vector_env():
+    venv = gym.make_vec("contour_gym/CCC-Circle-v0", num_envs=4)
+    assert isinstance(venv.unwrapped, CCCVectorEnv)
+    obs, _ = venv.reset(seed=0)
+    obs, r, te, tr, info = venv.step(np.zeros((4, 3)))
+    assert r.shape == (4,) and obs["contour_error"].shape == (4, 1)
+
+
+GCODE_PART = """G21 G90 G17
+G0 X0 Y0
+G1 X20 Y0 F1200
+G3 X30 Y10 I0 J10
+G1 X30 Y20
+G2 X20 Y30 R10
+G1 X0 Y30
+"""
+
+
+@pytest.mark.parametrize("cls", [CCCEnv, FeedrateEnv])
+@pytest.mark.parametrize("path", [
+    parametric(lambda t: np.column_stack([0.02 * np.cos(t), 0.01 * np.sin(2 * t)]), 0.0, np.pi),
+    from_gcode(GCODE_PART),
+])
+def test_envs_run_user_parametric_path_and_gcode_part(cls, path):
+    env = cls(plant="xy_servo_coulomb", path=path, decision_ticks=20)
+    obs, _ = env.reset(seed=0)
+    for _ in range(10_000):
+        obs, r, term, trunc, info = env.step(np.zeros(env.action_space.shape))
+        assert np.isfinite(r)
+        if term:
+            break
+    assert term and not info["failure"]
+    assert info["metrics"]["cycle_time"] > path.length / (2.0 * env.task.f_nominal)
+    assert info["s"] == pytest.approx(path.length)
+
+
+def test_bad_inputs():
+    env = CCCEnv()
+    with pytest.raises(ResetNeeded):
+        env.step(np.zeros(3))
+    env.reset(seed=0)
+    for bad in (np.array([np.nan, 0, 0]), np.array([0.0, np.inf, 0.0]), np.zeros(2), np.zeros((1, 3))):
+        with pytest.raises(ValueError):
+            env.step(bad)
+    obs, r, term, trunc, info = env.step(np.array([5.0, -7.0, 0.0]))  # clipped, documented
+    assert np.array_equal(obs["gains"], np.array([1.0, -1.0, 0.0], dtype=np.float32))
+    with pytest.raises(ValueError, match="accepted"):
+        CCCEnv(no_such_option=1)
+    with pytest.raises(ValueError, match="xy_dc_servo"):
+        CCCEnv(plant="no_such_plant")
+    with pytest.raises(ValueError, match="circle"):
+        CCCEnv(path="no_such_path")
+    with pytest.raises(ValueError, match="randomize"):
+        CCCEnv(randomize={"masss": 0.1})
+
+
+def test_stepping_after_termination_raises():
+    env = CCCEnv(decision_ticks=500)
+    env.reset(seed=0)
+    term = False
+    while not term:
+        _, _, term, _, _ = env.step(np.zeros(3))
+    with pytest.raises(ResetNeeded):
+        env.step(np.zeros(3))
+
+
+def test_failure_terminates_with_penalty_and_flag():
+    env = CCCEnv(hard_limit=5e-6, tolerance=1e-6, failure_penalty=50.0)  # start transient ~10 um
+    env.reset(seed=0)
+    term, info = False, {}
+    while not term:
+        _, r, term, _, info = env.step(np.zeros(3))
+    assert info["failure"] and r == -50.0
+
+
+def test_gain_mapping_round_trip_and_log_scale():
+    env = CCCEnv()
+    a = np.array([-1.0, 0.0, 0.5])
+    g = env.action_to_gains(a)
+    np.testing.assert_allclose(env.gains_to_action(g), a, atol=1e-12)
+    lo, hi = env.action_to_gains(-np.ones(3)), env.action_to_gains(np.ones(3))
+    np.testing.assert_allclose(np.sqrt(lo * hi), env.action_to_gains(np.zeros(3)), rtol=1e-12)
+
+
+def test_rgb_array_render_shows_the_contour():
+    env = CCCEnv(render_mode="rgb_array", decision_ticks=100)
+    env.reset(seed=0)
+    for _ in range(5):
+        env.step(np.zeros(3))
+    img = env.render()
+    assert img.dtype == np.uint8 and img.ndim == 3 and img.shape[2] == 3
+    assert img.std() > 5  # not a blank canvas
