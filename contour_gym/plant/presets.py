@@ -104,12 +104,12 @@ def _xyz_pmlsm() -> Preset:
         AxisParams(n, mass=m, damping=b, force_constant=30.0, u_max=10.0, disturbance=disturbance)
         for n, m, b in (("x", 4.0, 8.0), ("y", 3.0, 6.0), ("z", 2.0, 4.0))
     )
-    gains = tuple(pd_pole_placement(a, w, 0.8, 0.1) for a, w in zip(axes, (60.0, 50.0, 40.0)))
+    gains = tuple(pd_pole_placement(a, w, 0.8, 0.1) for a, w in zip(axes, (150.0, 130.0, 110.0)))
     stage = Stage(
         "xyz_pmlsm", axes, (Contour((0, 1, 2)),), ts=1e-3,
         notes="001 three-axis PMLSM: table 2 lost in extraction; masses 4/3/2 kg, damping "
         "8/6/4 N s/m, K = 30 N/A, u_max 10 A, random + 1 Hz sinusoidal disturbance of 2 N "
-        "(chosen). Loop bandwidths 60/50/40 rad/s (chosen mismatch).",
+        "(chosen). Loop bandwidths 150/130/110 rad/s (chosen mismatch).",
     )  # fmt: skip
     kp = gains[0].kp
     return Preset(
