@@ -1,0 +1,43 @@
+"""Geometry: contours parameterised by arc length, compiled to one table format.
+
+Every path (line, arc, circle, polyline, helix, composite, parametric, B-spline, NURBS, G-code,
+named library paths) compiles to a :class:`PathTable` of LINE, HELIX and POLY5 segments. The
+numba functions in :mod:`contour_gym.paths._geom` (``eval_path``, ``nearest_window``,
+``nearest_global``, ``nearest_hint``, ``side_2d``, ``find_segment``) evaluate it and find exact
+nearest points, both for the Python API here and for the servo-loop kernel.
+
+Units are SI (metres). 2-D paths keep z = 0 in the table. Signed distances in 2-D are positive
+to the left of the direction of travel.
+"""
+
+from __future__ import annotations
+
+from contour_gym.paths._freeform import bspline, nurbs, parametric
+from contour_gym.paths._gcode import GcodeError, GcodePath, from_gcode
+from contour_gym.paths._geom import HELIX, LINE, POLY5
+from contour_gym.paths._library import NAMES, load
+from contour_gym.paths._path import Path
+from contour_gym.paths._primitives import arc, circle, composite, helix, line, polyline
+from contour_gym.paths._table import PathTable
+
+__all__ = [
+    "HELIX",
+    "LINE",
+    "NAMES",
+    "POLY5",
+    "GcodeError",
+    "GcodePath",
+    "Path",
+    "PathTable",
+    "arc",
+    "bspline",
+    "circle",
+    "composite",
+    "from_gcode",
+    "helix",
+    "line",
+    "load",
+    "nurbs",
+    "parametric",
+    "polyline",
+]

@@ -1,0 +1,247 @@
+"""The :class:`Path` class: an immutable, arc-length parameterised contour backed by a table."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from contour_gym._validate import as_finite_array
+from contour_gym.paths import _geom
+from contour_gym.paths._table import PathTable, transform_table
+
+FloatArray = NDArray[np.float64]
+
+CLOSED_TOL = 1e-9  # start and end closer than this (m): the path is closed
+CORNER_TOL = 1e-8  # unit tangents differing by more than this: a corner
+
+
+class Path:
+    """A 2-D or 3-D contour parameterised by arc length ``s`` in metres.
+
+    Every evaluation goes through the compiled table (:attr:`table`), the same arrays and
+    functions the servo-loop kernel uses. Paths are immutable and picklable.
+
+    Arc lengths outside ``[0, length]`` are clamped to it. Array inputs of shape (N,) give
+    outputs of shape (N, dim) or (N,); scalars give (dim,) or a float.
+
+    Attributes:
+        length: Total arc length, m.
+        dim: 2 or 3.
+        table: The compiled :class:`PathTable`.
+        name: A label (library name, constructor name, ...).
+        closed: True if the end point equals the start point (within 1e-9 m).
+        corners: Arc lengths where the tangent is discontinuous (sorted). On a closed path whose
+            end tangent differs from its start tangent, 0.0 is included.
+    """
+
+    __slots__ = ("_table", "_name", "_closed", "_corners")
+    _table: PathTable
+    _name: str
+    _closed: bool
+    _corners: FloatArray
+
+    def __init__(self, table: PathTable, name: str = "path") -> None:
+        """Build a path around a compiled table.
+
+        Args:
+            table: The compiled segments.
+            name: A label.
+        """
+        ends = _geom.segment_ends(table.kind, table.s0, table.data)
+        closed = bool(np.linalg.norm(ends[0, 0, :3] - ends[-1, 1, :3]) <= CLOSED_TOL)
+        jump = np.linalg.norm(ends[1:, 0, 3:] - ends[:-1, 1, 3:], axis=1) > CORNER_TOL
+        corners = table.s0[1:-1][jump]
+        if closed and np.linalg.norm(ends[0, 0, 3:] - ends[-1, 1, 3:]) > CORNER_TOL:
+            corners = np.concatenate(([0.0], corners))
+        corners = np.array(corners, dtype=np.float64)
+        corners.flags.writeable = False
+        object.__setattr__(self, "_table", table)
+        object.__setattr__(self, "_name", str(name))
+        object.__setattr__(self, "_closed", closed)
+        object.__setattr__(self, "_corners", corners)
+
+    def __setattr__(self, key: str, value: Any) -> None:
+        raise AttributeError(f"{type(self).__name__} is immutable")
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (Path, (self._table, self._name))
+
+    def __repr__(self) -> str:
+        return (f"{type(self).__name__}(name={self._name!r}, dim={self.dim}, "
+                f"length={self.length:.6g} m, segments={self._table.n_segments})")
+
+    @property
+    def table(self) -> PathTable:
+        """The compiled table."""
+        return self._table
+
+    @property
+    def name(self) -> str:
+        """A label for the path."""
+        return self._name
+
+    @property
+    def length(self) -> float:
+        """Total arc length, m."""
+        return self._table.length
+
+    @property
+    def dim(self) -> int:
+        """Number of coordinates: 2 or 3."""
+        return self._table.dim
+
+    @property
+    def closed(self) -> bool:
+        """True if the end point equals the start point within 1e-9 m."""
+        return self._closed
+
+    @property
+    def corners(self) -> FloatArray:
+        """Arc lengths where the unit tangent jumps by more than 1e-8 (read-only array)."""
+        return self._corners
+
+    # evaluation -----------------------------------------------------------------------------
+
+    def _eval(self, s: ArrayLike) -> tuple[FloatArray, bool]:
+        arr = as_finite_array(s, "s")
+        flat = np.ascontiguousarray(arr.reshape(-1))
+        out = np.empty((flat.shape[0], 9))
+        t = self._table
+        _geom.eval_many(t.kind, t.s0, t.data, flat, out)
+        return out, arr.ndim == 0
+
+    def evaluate(self, s: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Point, first and second derivative with respect to arc length.
+
+        Args:
+            s: Arc length(s), m.
+
+        Returns:
+            ``(P, dP/ds, d2P/ds2)``, each (N, dim) for an array, (dim,) for a scalar. At a corner
+            the derivatives of the segment starting there are returned.
+        """
+        out, scalar = self._eval(s)
+        d = self.dim
+        parts = (out[:, 0:d], out[:, 3:3 + d], out[:, 6:6 + d])
+        if scalar:
+            return parts[0][0], parts[1][0], parts[2][0]
+        return parts
+
+    def point(self, s: ArrayLike) -> FloatArray:
+        """Point(s) on the path at arc length ``s``: (N, dim) or (dim,)."""
+        return self.evaluate(s)[0]
+
+    def tangent(self, s: ArrayLike) -> FloatArray:
+        """Unit tangent at arc length ``s``, the outgoing one at a corner: (N, dim) or (dim,)."""
+        d1 = self.evaluate(s)[1]
+        return d1 / np.linalg.norm(d1, axis=-1, keepdims=True)
+
+    def curvature(self, s: ArrayLike) -> FloatArray | float:
+        """Curvature ``|dP x d2P| / |dP|^3 >= 0`` at ``s``, 1/m: (N,) or float."""
+        out, scalar = self._eval(s)
+        d1 = out[:, 3:6]
+        kappa = np.linalg.norm(np.cross(d1, out[:, 6:9]), axis=1) / np.linalg.norm(d1, axis=1) ** 3
+        return float(kappa[0]) if scalar else kappa
+
+    def signed_curvature(self, s: ArrayLike) -> FloatArray | float:
+        """Signed curvature of a 2-D path (positive turning left, i.e. counter-clockwise), 1/m.
+
+        Raises:
+            ValueError: if the path is 3-D.
+        """
+        if self.dim != 2:
+            raise ValueError(f"signed_curvature needs a 2-D path, this one has dim {self.dim}")
+        out, scalar = self._eval(s)
+        num = out[:, 3] * out[:, 7] - out[:, 4] * out[:, 6]
+        kappa = num / np.hypot(out[:, 3], out[:, 4]) ** 3
+        return float(kappa[0]) if scalar else kappa
+
+    # nearest point --------------------------------------------------------------------------
+
+    def _points3(self, points: ArrayLike) -> tuple[FloatArray, bool]:
+        arr = as_finite_array(points, "points")
+        if arr.ndim == 1 and arr.shape == (self.dim,):
+            arr = arr[None, :]
+            single = True
+        elif arr.ndim == 2 and arr.shape[1] == self.dim:
+            single = False
+        else:
+            raise ValueError(f"points must have shape ({self.dim},) or (N, {self.dim}), "
+                             f"got {arr.shape}")
+        pts = np.zeros((arr.shape[0], 3))
+        pts[:, : self.dim] = arr
+        return pts, single
+
+    def nearest(self, points: ArrayLike, s_hint: ArrayLike | None = None
+                ) -> tuple[FloatArray | float, FloatArray | float]:
+        """Exact nearest point on the path: its arc length and the (signed) distance.
+
+        Without ``s_hint`` the whole path is searched. With ``s_hint`` (one per point) only the
+        window ``[s_hint - W, s_hint + W]`` with ``W = 4 |p - point(s_hint)| + 1e-9`` is searched
+        (clamped to [0, L], no wrap-around on closed paths): it contains the nearest point of the
+        branch being traversed whenever the path between ``s_hint`` and that point has chord at
+        least half its arc length (one corner turning up to 120 degrees, arcs up to 217 degrees),
+        and it keeps a self-intersecting path (``infinity``) on the branch of the hint.
+
+        Args:
+            points: (N, dim) or (dim,) points, m.
+            s_hint: Optional (N,) arc lengths (or a scalar for one point) near the feet.
+
+        Returns:
+            ``(s, distance)``: arc length of the foot point and the distance, signed in 2-D
+            (positive left of the direction of travel; against the corner bisector at a corner),
+            non-negative in 3-D. Arrays (N,) or floats for a single point.
+        """
+        pts, single = self._points3(points)
+        n = pts.shape[0]
+        t = self._table
+        out_s = np.empty(n)
+        out_d2 = np.empty(n)
+        if s_hint is None:
+            hint = np.zeros(n)
+            mode = 0
+        else:
+            hint = np.ascontiguousarray(as_finite_array(s_hint, "s_hint").reshape(-1))
+            if hint.shape != (n,):
+                raise ValueError(f"s_hint must have one value per point ({n}), got {hint.shape}")
+            mode = 1
+        _geom.nearest_many(t.kind, t.s0, t.data, t.bound, pts, hint, mode, out_s, out_d2)
+        dist = np.sqrt(out_d2)
+        if self.dim == 2:
+            sign = np.empty(n)
+            _geom.side_many(t.kind, t.s0, t.data, self._closed, out_s, pts, sign)
+            dist = dist * sign
+        if single:
+            return float(out_s[0]), float(dist[0])
+        return out_s, dist
+
+    # transformations ------------------------------------------------------------------------
+
+    def transformed(self, rotation: ArrayLike | None = None, offset: ArrayLike | None = None
+                    ) -> Path:
+        """A copy moved by ``x -> rotation @ x + offset`` (exact: the table rows are mapped).
+
+        Args:
+            rotation: Orthogonal (dim, dim) matrix; identity if omitted. A reflection swaps left
+                and right, so it flips the sign of 2-D distances.
+            offset: (dim,) translation, m; zero if omitted.
+
+        Returns:
+            The transformed path, same name.
+        """
+        d = self.dim
+        rot = np.eye(d) if rotation is None else as_finite_array(rotation, "rotation", shape=(d, d))
+        if not np.allclose(rot @ rot.T, np.eye(d), atol=1e-12):
+            raise ValueError(f"rotation must be orthogonal, got {rot.tolist()}")
+        off = np.zeros(d) if offset is None else as_finite_array(offset, "offset", shape=(d,))
+        rot3 = np.eye(3)
+        rot3[:d, :d] = rot
+        off3 = np.zeros(3)
+        off3[:d] = off
+        return self._rebuilt(transform_table(self._table, rot3, off3))
+
+    def _rebuilt(self, table: PathTable) -> Path:
+        """Same kind of path with another table (subclasses keep their extra data)."""
+        return Path(table, self._name)
