@@ -30,11 +30,13 @@ def measure(batch: int, ticks: int, repeats: int = 5) -> float:
 
 
 def main() -> None:
-    print(f"# loop throughput, {platform.processor() or platform.machine()}, {os.cpu_count()} cores visible")
+    print(f"# loop throughput, {platform.machine()}, {os.cpu_count()} cores visible, one used")
     print(f"{'B':>6} {'ticks/call':>10} {'env-ticks/s':>14} {'target':>10}")
     for batch, ticks, target in ((1, 2000, 2e4), (64, 2000, None), (1024, 1000, 3e6)):
         rate = measure(batch, ticks)
-        print(f"{batch:>6} {ticks:>10} {rate:>14.3g} {'' if target is None else f'{target:.0e}':>10}")
+        print(
+            f"{batch:>6} {ticks:>10} {rate:>14.3g} {'' if target is None else f'{target:.0e}':>10}"
+        )
 
 
 if __name__ == "__main__":

@@ -11,7 +11,8 @@ import math
 
 import numba
 
-from contour_gym.contour._kernel import estimate, ground_truth, history_push
+from contour_gym._blob import flat, view1, view2, view3, view4
+from contour_gym.contour._kernel import EST_GROUND_TRUTH, estimate, ground_truth, history_push
 from contour_gym.motion import IS_A, IS_DONE, IS_S, IS_V, interp_tick
 from contour_gym.paths._geom import eval_path
 from contour_gym.plant._kernel import AX_UMAX, ST_V, ST_X, axis_tick, measure
@@ -93,9 +94,48 @@ def _ccc(p, w, st, axes, dim, eps, g0, g1, g2, ts, work):  # type: ignore[no-unt
 
 @numba.njit(cache=True)
 def _member_run(  # type: ignore[no-untyped-def]  # noqa: C901
-    b, n, k0, ts, nsub, kind, s0, data, bound, c_axes, c_off, ax_p, rip, dist, ad, bd, ax_s,
-    ctrl_kind, ctrl_p, ctrl_s, ccc_p, ccc_w, ccc_s, est_kind, est_p, hist, ip_p, ip_s, length,
-    foot, last, noise, acc_c, acc_a, ep_c, ep_a, u_last, y_last, rec, record, work, xbuf,
+    b,
+    n,
+    k0,
+    ts,
+    nsub,
+    kind,
+    s0,
+    data,
+    bound,
+    c_axes,
+    c_off,
+    ax_p,
+    rip,
+    dist,
+    ad,
+    bd,
+    ax_s,
+    ctrl_kind,
+    ctrl_p,
+    ctrl_s,
+    ccc_p,
+    ccc_w,
+    ccc_s,
+    est_kind,
+    est_p,
+    hist,
+    ip_p,
+    ip_s,
+    length,
+    foot,
+    last,
+    noise,
+    acc_c,
+    acc_a,
+    ep_c,
+    ep_a,
+    u_last,
+    y_last,
+    rec,
+    record,
+    work,
+    xbuf,
     meas_exact,
 ):
     """Run ``n`` servo ticks of batch member ``b`` from its local tick ``k0``.
@@ -119,19 +159,40 @@ def _member_run(  # type: ignore[no-untyped-def]  # noqa: C901
             work[W_Y, a] = measure(ax_p[b, a], xbuf[a], w)
             y_last[b, a] = work[W_Y, a]
             work[W_U, a] = axis_control(
-                ctrl_kind, ctrl_p[b, a], ctrl_s[b, a], work[W_R, a], work[W_RDOT, a],
-                work[W_RDDOT, a], work[W_Y, a], ts,
+                ctrl_kind,
+                ctrl_p[b, a],
+                ctrl_s[b, a],
+                work[W_R, a],
+                work[W_RDOT, a],
+                work[W_RDDOT, a],
+                work[W_Y, a],
+                ts,
             )
         for c in range(c_axes.shape[0]):
             dim, p0, p1, p2 = _contour_coords(c_axes, c_off, c, xbuf)
-            eps, _, _, _, sf = ground_truth(kind, s0, data, bound, dim, p0, p1, p2, s)
+            eps, g0, g1, g2, sf = ground_truth(kind, s0, data, bound, dim, p0, p1, p2, s)
             foot[b, c] = sf
-            if not meas_exact:
-                dim, p0, p1, p2 = _contour_coords(c_axes, c_off, c, work[W_Y])
-            eh, g0, g1, g2 = estimate(
-                est_kind, est_p, kind, s0, data, bound, dim, p0, p1, p2, s, v,
-                ip_s[b, IS_A], hist[b], ts,
-            )
+            eh = eps
+            if not (meas_exact and est_kind == EST_GROUND_TRUTH):  # else: already computed
+                if not meas_exact:
+                    dim, p0, p1, p2 = _contour_coords(c_axes, c_off, c, work[W_Y])
+                eh, g0, g1, g2 = estimate(
+                    est_kind,
+                    est_p,
+                    kind,
+                    s0,
+                    data,
+                    bound,
+                    dim,
+                    p0,
+                    p1,
+                    p2,
+                    s,
+                    v,
+                    ip_s[b, IS_A],
+                    hist[b],
+                    ts,
+                )
             _ccc(ccc_p[b, c], ccc_w[b, c], ccc_s[b, c], c_axes[c], dim, eh, g0, g1, g2, ts, work)
             last[b, c, LS_TRUE], last[b, c, LS_EST] = eps, eh
             if active:
@@ -144,8 +205,16 @@ def _member_run(  # type: ignore[no-untyped-def]  # noqa: C901
         for a in range(n_axes):
             u_max = ax_p[b, a, AX_UMAX]
             axis_commit(
-                ctrl_kind, ctrl_p[b, a], ctrl_s[b, a], work[W_R, a], work[W_RDOT, a],
-                work[W_RDDOT, a], work[W_Y, a], ts, work[W_U, a], u_max,
+                ctrl_kind,
+                ctrl_p[b, a],
+                ctrl_s[b, a],
+                work[W_R, a],
+                work[W_RDOT, a],
+                work[W_RDDOT, a],
+                work[W_Y, a],
+                ts,
+                work[W_U, a],
+                u_max,
             )
             work[W_U, a] = min(max(work[W_U, a], -u_max), u_max)
         if active:
@@ -161,8 +230,19 @@ def _member_run(  # type: ignore[no-untyped-def]  # noqa: C901
         for a in range(n_axes):
             u_last[b, a] = work[W_U, a]
             w = noise[b, j, a] if has_noise else 0.0
-            axis_tick(ax_p[b, a], rip[b, a], dist[b, a], ad[b, a], bd[b, a], ax_s[b, a],
-                      work[W_U, a], k * ts, ts, nsub, w)
+            axis_tick(
+                ax_p[b, a],
+                rip[b, a],
+                dist[b, a],
+                ad[b, a],
+                bd[b, a],
+                ax_s[b, a],
+                work[W_U, a],
+                k * ts,
+                ts,
+                nsub,
+                w,
+            )
             if not (abs(ax_s[b, a, ST_X]) < STATE_LIMIT and abs(ax_s[b, a, ST_V]) < STATE_LIMIT):
                 ok = False
         if not ok:
@@ -170,28 +250,110 @@ def _member_run(  # type: ignore[no-untyped-def]  # noqa: C901
     return True
 
 
+# The arrays of a ServoLoop's float and int blobs, in layout order (contour_gym._blob).
+FLOAT_ARRAYS = (
+    "ax_p", "rip", "dist", "ad", "bd", "ax_s", "ctrl_p", "ctrl_s", "ccc_p", "ccc_w", "ccc_s",
+    "est_p", "hist", "ip_p", "ip_s", "foot", "last", "acc_c", "acc_a", "ep_c", "ep_a",
+    "u_last", "y_last", "work", "xbuf", "c_off",
+)  # fmt: skip
+I_CCC_P, I_EST_P, I_IP_P, I_IP_S = 8, 11, 13, 14
+I_LAST, I_ACC_C, I_Y_LAST, I_C_OFF = 16, 17, 22, 25
+I_C_AXES, I_STATUS = 0, 1
+assert FLOAT_ARRAYS.index("ccc_p") == I_CCC_P and FLOAT_ARRAYS.index("ip_s") == I_IP_S
+assert FLOAT_ARRAYS.index("last") == I_LAST and FLOAT_ARRAYS.index("acc_c") == I_ACC_C
+assert FLOAT_ARRAYS.index("y_last") == I_Y_LAST and FLOAT_ARRAYS.index("c_off") == I_C_OFF
+assert FLOAT_ARRAYS.index("ip_p") == I_IP_P and FLOAT_ARRAYS.index("est_p") == I_EST_P
+
+
 @numba.njit(cache=True)
 def run_ticks(  # type: ignore[no-untyped-def]
-    n, k0, ts, nsub, kind, s0, data, bound, c_axes, c_off, ax_p, rip, dist, ad, bd, ax_s,
-    ctrl_kind, ctrl_p, ctrl_s, ccc_p, ccc_w, ccc_s, est_kind, est_p, hist, ip_p, ip_s, length,
-    foot, last, noise, status, acc_c, acc_a, ep_c, ep_a, u_last, y_last, rec, record, work,
-    xbuf, meas_exact, k_start,
+    n,
+    k0,
+    ts,
+    nsub,
+    length,
+    record,
+    meas_exact,
+    ctrl_kind,
+    est_kind,
+    kind,
+    s0,
+    data,
+    bound,
+    fb,
+    fl,
+    ib,
+    il,
+    noise,
+    rec,
 ):
     """Run ``n`` ticks for every member whose status is OK; a diverging member is flagged.
 
-    ``acc_*`` receive the sums of just these ticks, ``ep_*`` the episode's running sums (kept
-    in the kernel so they do not depend on how an episode is cut into calls). ``k0`` is the
-    loop's tick; member ``b`` lives in local time ``k0 - k_start[b]`` (members of a vector
-    env restart at different ticks).
+    ``fb``/``fl`` and ``ib``/``il`` are the float and int blobs and their layouts (arrays in
+    the order of ``FLOAT_ARRAYS`` and (c_axes, status, k_start)). ``acc_*`` receive the sums
+    of just these ticks, ``ep_*`` the episode's running sums (kept in the kernel so they do
+    not depend on how an episode is cut into calls). ``k0`` is the loop's tick; member ``b``
+    lives in local time ``k0 - k_start[b]`` (vector env members restart at different ticks).
     """
+    flat(fb, fl, I_ACC_C)[:] = 0.0  # the window sums acc_c and acc_a start at zero
+    flat(fb, fl, I_ACC_C + 1)[:] = 0.0
+    ax_p, rip, dist = view3(fb, fl, 0), view4(fb, fl, 1), view3(fb, fl, 2)
+    ad, bd, ax_s = view4(fb, fl, 3), view4(fb, fl, 4), view3(fb, fl, 5)
+    ctrl_p, ctrl_s, ccc_p = view3(fb, fl, 6), view3(fb, fl, 7), view3(fb, fl, 8)
+    ccc_w, ccc_s, est_p = view3(fb, fl, 9), view4(fb, fl, 10), view1(fb, fl, 11)
+    hist, ip_p, ip_s = view2(fb, fl, 12), view2(fb, fl, 13), view2(fb, fl, 14)
+    foot, last, acc_c = view2(fb, fl, 15), view3(fb, fl, 16), view3(fb, fl, 17)
+    acc_a, ep_c, ep_a = view3(fb, fl, 18), view3(fb, fl, 19), view3(fb, fl, 20)
+    u_last, y_last, work = view2(fb, fl, 21), view2(fb, fl, 22), view2(fb, fl, 23)
+    xbuf, c_off = view1(fb, fl, 24), view2(fb, fl, 25)
+    c_axes, status, k_start = view2(ib, il, 0), view1(ib, il, 1), view1(ib, il, 2)
     for b in range(ax_p.shape[0]):
         if status[b] != STATUS_OK:
             continue
         ok = _member_run(
-            b, n, k0 - k_start[b], ts, nsub, kind, s0, data, bound, c_axes, c_off, ax_p, rip, dist, ad, bd,
-            ax_s, ctrl_kind, ctrl_p, ctrl_s, ccc_p, ccc_w, ccc_s, est_kind, est_p, hist, ip_p,
-            ip_s, length, foot, last, noise, acc_c, acc_a, ep_c, ep_a, u_last, y_last, rec, record,
-            work, xbuf, meas_exact,
+            b,
+            n,
+            k0 - k_start[b],
+            ts,
+            nsub,
+            kind,
+            s0,
+            data,
+            bound,
+            c_axes,
+            c_off,
+            ax_p,
+            rip,
+            dist,
+            ad,
+            bd,
+            ax_s,
+            ctrl_kind,
+            ctrl_p,
+            ctrl_s,
+            ccc_p,
+            ccc_w,
+            ccc_s,
+            est_kind,
+            est_p,
+            hist,
+            ip_p,
+            ip_s,
+            length,
+            foot,
+            last,
+            noise,
+            acc_c,
+            acc_a,
+            ep_c,
+            ep_a,
+            u_last,
+            y_last,
+            rec,
+            record,
+            work,
+            xbuf,
+            meas_exact,
         )
         if not ok:
             status[b] = STATUS_FAILED

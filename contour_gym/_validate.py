@@ -10,7 +10,11 @@ from numpy.typing import ArrayLike, NDArray
 
 
 def as_finite_array(
-    value: ArrayLike, name: str, *, ndim: int | None = None, shape: tuple[int | None, ...] | None = None
+    value: ArrayLike,
+    name: str,
+    *,
+    ndim: int | None = None,
+    shape: tuple[int | None, ...] | None = None,
 ) -> NDArray[np.float64]:
     """Return ``value`` as a float64 array, raising ValueError if it is non-finite or misshaped.
 
@@ -32,15 +36,18 @@ def as_finite_array(
         raise ValueError(f"{name} must be numeric, got {value!r}") from exc
     if ndim is not None and arr.ndim != ndim:
         raise ValueError(f"{name} must have {ndim} dimension(s), got shape {arr.shape}")
-    if shape is not None:
-        if arr.ndim != len(shape) or any(
-            want is not None and got != want for got, want in zip(arr.shape, shape)
-        ):
-            want_txt = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ")"
-            raise ValueError(f"{name} must have shape {want_txt}, got {arr.shape}")
+    if shape is not None and not _shape_matches(arr.shape, shape):
+        want_txt = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ")"
+        raise ValueError(f"{name} must have shape {want_txt}, got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite, got {_short(arr)}")
     return arr
+
+
+def _shape_matches(got: tuple[int, ...], want: tuple[int | None, ...]) -> bool:
+    if len(got) != len(want):
+        return False
+    return all(w is None or g == w for g, w in zip(got, want, strict=True))
 
 
 def finite(value: Any, name: str) -> float:

@@ -50,7 +50,9 @@ class Scenario:
 
 
 def make_scenario(
-    plant: str | Preset = "xy_dc_servo", path: str | Path | None = None, feedrate: float | None = None
+    plant: str | Preset = "xy_dc_servo",
+    path: str | Path | None = None,
+    feedrate: float | None = None,
 ) -> Scenario:
     """Resolve a plant preset, a path and a feedrate into a :class:`Scenario`.
 
@@ -115,7 +117,9 @@ def run_trace(
     return member_metrics(loop.metrics(), 0), loop.trace()
 
 
-def _run(scenario: Scenario, ccc_gains: object, seed: int, *, record: bool, **kwargs: Any) -> ServoLoop:
+def _run(
+    scenario: Scenario, ccc_gains: object, seed: int, *, record: bool, **kwargs: Any
+) -> ServoLoop:
     loop = scenario.loop(ccc_gains=ccc_gains, record=record, **kwargs)
     loop.reset(seed)
     loop.run()

@@ -55,7 +55,9 @@ class CCCGains:
 OFF = CCCGains(0.0, 0.0, 0.0)
 
 
-def ccc_params(gains: ArrayLike | CCCGains | Sequence[float] | None, batch: int, n_contours: int) -> np.ndarray:
+def ccc_params(
+    gains: ArrayLike | CCCGains | Sequence[float] | None, batch: int, n_contours: int
+) -> np.ndarray:
     """Kernel rows (batch, n_contours, N_CP) from gains given as any broadcastable form.
 
     Args:
@@ -85,5 +87,9 @@ def ccc_params(gains: ArrayLike | CCCGains | Sequence[float] | None, batch: int,
     if np.any(arr < 0):
         raise ValueError(f"ccc_gains must be >= 0, got {arr.min()}")
     out = np.zeros((batch, n_contours, SK.N_CP))
-    out[..., SK.CP_KP], out[..., SK.CP_KI], out[..., SK.CP_KD] = arr[..., 0], arr[..., 1], arr[..., 2]
+    out[..., SK.CP_KP], out[..., SK.CP_KI], out[..., SK.CP_KD] = (
+        arr[..., 0],
+        arr[..., 1],
+        arr[..., 2],
+    )
     return out

@@ -12,12 +12,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from contour_gym import _loopkernel as LK
 from contour_gym import motion
+from contour_gym._blob import Blob
 from contour_gym._validate import as_finite_array
 from contour_gym.ccc import ccc_params
 from contour_gym.contour import _kernel as CK
@@ -71,12 +73,13 @@ class _NoiseSource:
         self.width, self.active = width, active
         self.gens: list[np.random.Generator | None] = [None] * batch
         self.buf = np.zeros((batch, NOISE_CHUNK if active else 0, width))
-        self.pos = np.full(batch, self.buf.shape[1], dtype=np.intp)
+        self.pos = np.zeros(batch, dtype=np.intp)  # next unread row per member
+        self.end = np.zeros(batch, dtype=np.intp)  # end of the valid rows per member
 
     def reseed(self, members: NDArray[np.intp], gens: list[np.random.Generator]) -> None:
-        for b, g in zip(members, gens):
+        for b, g in zip(members, gens, strict=True):
             self.gens[b] = g
-            self.pos[b] = self.buf.shape[1]  # nothing left: the next take draws fresh
+            self.pos[b] = self.end[b] = 0  # nothing left: the next take draws fresh
 
     def take(self, n: int, running: NDArray[np.bool_]) -> Array:
         """(B, n, width) normals; only ``running`` members advance their streams."""
@@ -87,11 +90,11 @@ class _NoiseSource:
             grown[:, : self.buf.shape[1]] = self.buf
             self.buf = grown
         cap = self.buf.shape[1]
-        for b in np.flatnonzero(running & (self.pos + n > cap)):
-            rest = self.buf[b, self.pos[b] :].copy()
+        for b in np.flatnonzero(running & (self.pos + n > self.end)):
+            rest = self.buf[b, self.pos[b] : self.end[b]].copy()
             self.buf[b, : len(rest)] = rest
             self.buf[b, len(rest) :] = self.gens[b].standard_normal((cap - len(rest), self.width))  # type: ignore[union-attr]
-            self.pos[b] = 0
+            self.pos[b], self.end[b] = 0, cap
         rows = np.minimum(self.pos[:, None] + np.arange(n), cap - 1)
         out = self.buf[np.arange(len(self.gens))[:, None], rows]
         self.pos[running] += n
@@ -117,6 +120,37 @@ class ServoLoop:
         estimator_options: Options of that estimator.
     """
 
+    # views into the float and int blobs (set by _attach_views; always written in place)
+    ax_p: Array
+    rip: Array
+    dist: Array
+    ad: Array
+    bd: Array
+    ax_s: Array
+    ctrl_p: Array
+    ctrl_s: Array
+    ccc_p: Array
+    ccc_w: Array
+    ccc_s: Array
+    est_p: Array
+    hist: Array
+    ip_p: Array
+    ip_s: Array
+    foot: Array
+    last: Array
+    acc_c: Array
+    acc_a: Array
+    ep_c: Array
+    ep_a: Array
+    u_last: Array
+    y_last: Array
+    work: Array
+    xbuf: Array
+    c_off: Array
+    c_axes: NDArray[np.int64]
+    status: NDArray[np.int64]
+    k_start: NDArray[np.int64]
+
     def __init__(
         self,
         stage: Stage,
@@ -136,65 +170,91 @@ class ServoLoop:
         if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
             raise ValueError(f"batch_size must be a positive int, got {batch_size!r}")
         if path.dim != stage.dim:
-            raise ValueError(f"path {path.name!r} is {path.dim}-D but stage {stage.name!r} draws {stage.dim}-D contours")
+            raise ValueError(
+                f"path {path.name!r} is {path.dim}-D but stage {stage.name!r} draws "
+                f"{stage.dim}-D contours"
+            )
         if len(axis_gains) != stage.n_axes:
             raise ValueError(f"need {stage.n_axes} axis gains, got {len(axis_gains)}")
         self.stage, self.path, self.batch_size, self.record = stage, path, int(batch_size), record
         self.interpolator = interpolator
-        b, c = self.batch_size, len(stage.contours)
-        self._c_axes = np.full((c, 3), -1, dtype=np.int64)
-        self._c_off = np.zeros((c, 3))
+        b, c, a = self.batch_size, len(stage.contours), stage.n_axes
+        c_axes = np.full((c, 3), -1, dtype=np.int64)
+        c_off = np.zeros((c, 3))
         for i, con in enumerate(stage.contours):
-            self._c_axes[i, : con.dim] = con.axes
+            c_axes[i, : con.dim] = con.axes
             if con.offset:
-                self._c_off[i, : con.dim] = con.offset
-        self.ax_p = np.repeat(np.stack([axis_row(a) for a in stage.axes])[None], b, axis=0)
-        self.rip = np.zeros((b, stage.n_axes, MAX_HARMONICS, 3))
-        for i, a in enumerate(stage.axes):
-            if a.ripple is not None:
-                self.rip[:, i] = a.ripple.as_array()
-        self.dist = np.repeat(
-            np.stack([disturbance_row(a, stage.ts) for a in stage.axes])[None], b, axis=0
+                c_off[i, : con.dim] = con.offset
+        ax_p = np.repeat(np.stack([axis_row(x) for x in stage.axes])[None], b, axis=0)
+        rip = np.zeros((b, a, MAX_HARMONICS, 3))
+        for i, x in enumerate(stage.axes):
+            if x.ripple is not None:
+                rip[:, i] = x.ripple.as_array()
+        dist = np.repeat(
+            np.stack([disturbance_row(x, stage.ts) for x in stage.axes])[None], b, axis=0
         )
-        self.ad, self.bd = zoh_matrices(self.ax_p, stage.ts / stage.substeps)
-        self.ctrl_kind, self.ctrl_p = build_controller(
+        ad, bd = zoh_matrices(ax_p, stage.ts / stage.substeps)
+        self.ctrl_kind, ctrl_p = build_controller(
             axis_controller, stage, tuple(axis_gains), b, **(controller_options or {})
         )
-        self.est_kind, self.est_p = build_estimator(estimator, **(estimator_options or {}))
-        self.ccc_p = ccc_params(ccc_gains, b, c)
-        self.ccc_w = np.ascontiguousarray(
-            np.broadcast_to(as_finite_array(ccc_weights, "ccc_weights"), (b, c, 3)), dtype=float
-        )
-        self.ip_p = interpolator.params(b)
-        self._meas_exact = not any(a.encoder_resolution > 0 or a.noise_std > 0 for a in stage.axes)
+        self.est_kind, est_p = build_estimator(estimator, **(estimator_options or {}))
+        ccc_w = np.broadcast_to(as_finite_array(ccc_weights, "ccc_weights"), (b, c, 3))
+        params = {
+            "ax_p": ax_p, "rip": rip, "dist": dist, "ad": ad, "bd": bd, "ctrl_p": ctrl_p,
+            "ccc_p": ccc_params(ccc_gains, b, c), "ccc_w": ccc_w, "est_p": est_p,
+            "ip_p": interpolator.params(b), "c_off": c_off,
+        }  # fmt: skip
+        self._build_blobs(params, c_axes)
+        self._meas_exact = not any(x.encoder_resolution > 0 or x.noise_std > 0 for x in stage.axes)
+        self._rec_width = 2 + 3 * a + 2 * c
+        self._no_record = np.zeros((b, 0, self._rec_width))
         self._nominal = (self.ax_p.copy(), self.dist.copy())
+        self._start = np.zeros(a)
+        start = path.point(0.0)
+        for i in range(c):
+            for j in range(stage.dim):
+                self._start[c_axes[i, j]] = start[j] + c_off[i, j]
         self.reset(0)
 
-    # ----------------------------------------------------------------- state
-    def _allocate(self) -> None:
+    def _build_blobs(self, params: dict[str, Array], c_axes: NDArray[np.int64]) -> None:
+        # every array the kernel touches lives in one of two blobs (see contour_gym._blob);
+        # the attributes below are views, always written in place
         b, c, a = self.batch_size, len(self.stage.contours), self.stage.n_axes
-        self.ax_s = np.zeros((b, a, PK.N_ST))
-        self.ctrl_s = np.zeros((b, a, SK.N_CS))
-        self.ccc_s = np.zeros((b, c, 3, SK.N_CS))
-        self.ip_s = motion.initial_state(b)
-        self.foot = np.zeros((b, c))
-        self.hist = np.zeros((b, CK.N_HIST + 1))
-        self.last = np.zeros((b, c, 2))
-        self.status = np.zeros(b, dtype=np.int64)
-        self.u_last = np.zeros((b, a))
-        self.y_last = np.zeros((b, a))
-        self.k_start = np.zeros(b, dtype=np.int64)
+        state_shapes = {
+            "ax_s": (b, a, PK.N_ST), "ctrl_s": (b, a, SK.N_CS), "ccc_s": (b, c, 3, SK.N_CS),
+            "hist": (b, CK.N_HIST + 1), "ip_s": (b, motion.N_IS), "foot": (b, c),
+            "last": (b, c, 2), "acc_c": (b, c, 4), "acc_a": (b, a, 4), "ep_c": (b, c, 4),
+            "ep_a": (b, a, 4), "u_last": (b, a), "y_last": (b, a), "work": (LK.N_W, a),
+            "xbuf": (a,),
+        }  # fmt: skip
+        shapes = {**{k: v.shape for k, v in params.items()}, **state_shapes}
+        self._fblob = Blob([(name, shapes[name]) for name in LK.FLOAT_ARRAYS])
+        self._iblob = Blob(
+            [("c_axes", c_axes.shape), ("status", (b,)), ("k_start", (b,))], np.int64
+        )
+        self._attach_views()
+        for name, value in params.items():
+            getattr(self, name)[...] = value
+        self.c_axes[...] = c_axes
+
+    def _attach_views(self) -> None:
+        for name, view in {**self._fblob.views, **self._iblob.views}.items():
+            setattr(self, name, view)
+        self.sums = ErrorSums(self.ep_c, self.ep_a)
+
+    def __getstate__(self) -> dict[str, object]:
+        names = set(self._fblob.views) | set(self._iblob.views) | {"sums"}
+        return {k: v for k, v in self.__dict__.items() if k not in names}
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+        self._attach_views()
+
+    # ----------------------------------------------------------------- state
+    def _restart_clock(self) -> None:
         self.tick = 0
-        self.sums = ErrorSums.zeros(b, c, a)
         self._records: list[Array] = []
-        self._noise = _NoiseSource(b, 2 * a, self.stage.is_random)
-        self._work = np.zeros((LK.N_W, a))
-        self._xbuf = np.zeros(a)
-        self._start = np.zeros(a)
-        pt = self.path.point(0.0)
-        for i in range(c):
-            for j in range(self.stage.dim):
-                self._start[self._c_axes[i, j]] = pt[j] + self._c_off[i, j]
+        self._noise = _NoiseSource(self.batch_size, 2 * self.stage.n_axes, self.stage.is_random)
 
     def reset(
         self, seed: int | Sequence[int] | None = None, members: ArrayLike | None = None
@@ -208,11 +268,19 @@ class ServoLoop:
                 also restarts the loop's clock and recording).
         """
         if members is None:
-            self._allocate()
+            self._restart_clock()
             idx = np.arange(self.batch_size)
         else:
             idx = np.arange(self.batch_size)[np.asarray(members)].reshape(-1)
-        for arr in (self.ctrl_s, self.ccc_s, self.foot, self.hist, self.last, self.u_last, self.y_last):
+        for arr in (
+            self.ctrl_s,
+            self.ccc_s,
+            self.foot,
+            self.hist,
+            self.last,
+            self.u_last,
+            self.y_last,
+        ):
             arr[idx] = 0.0
         self.ax_s[idx] = 0.0
         self.ax_s[idx, :, PK.ST_X] = self._start
@@ -224,7 +292,9 @@ class ServoLoop:
         self.sums.axis[idx] = 0.0
         self._noise.reseed(idx, self._generators(seed, len(idx)))
 
-    def _generators(self, seed: int | Sequence[int] | None, count: int) -> list[np.random.Generator]:
+    def _generators(
+        self, seed: int | Sequence[int] | None, count: int
+    ) -> list[np.random.Generator]:
         if seed is None or isinstance(seed, (int, np.integer)):
             children = np.random.SeedSequence(seed).spawn(count)
             return [np.random.default_rng(s) for s in children]
@@ -236,7 +306,7 @@ class ServoLoop:
     # ------------------------------------------------------------ parameters
     def set_ccc_gains(self, gains: ArrayLike | None) -> None:
         """Set the CCC PID gains, broadcastable to (B, C, 3); None switches the CCC off."""
-        self.ccc_p = ccc_params(gains, self.batch_size, len(self.stage.contours))
+        self.ccc_p[...] = ccc_params(gains, self.batch_size, len(self.stage.contours))
 
     def set_feedrate(self, feedrate: ArrayLike) -> None:
         """Command a feedrate (m/s), scalar or (B,); the interpolator ramps to it."""
@@ -253,9 +323,11 @@ class ServoLoop:
         """
         p = as_finite_array(params, "controller params")
         try:
-            self.ctrl_p = np.ascontiguousarray(np.broadcast_to(p, self.ctrl_p.shape))
+            self.ctrl_p[...] = np.broadcast_to(p, self.ctrl_p.shape)
         except ValueError as exc:
-            raise ValueError(f"controller params of shape {p.shape} do not broadcast to {self.ctrl_p.shape}") from exc
+            raise ValueError(
+                f"controller params of shape {p.shape} do not broadcast to {self.ctrl_p.shape}"
+            ) from exc
 
     def set_plant_scaling(
         self,
@@ -345,34 +417,48 @@ class ServoLoop:
 
         Members that failed stay frozen; their metrics report ``inf``.
         """
+        call = self.prepare(n_ticks, skip)
+        LK.run_ticks(*self.kernel_args(call))
+        self.complete(call)
+        return ErrorSums(self.acc_c.copy(), self.acc_a.copy())
+
+    def prepare(self, n_ticks: int, skip: ArrayLike | None = None) -> tuple[int, Any, Array, Array]:
+        """Bookkeeping before a kernel call; returns what :meth:`kernel_args` needs."""
         if not isinstance(n_ticks, (int, np.integer)) or n_ticks < 0:
             raise ValueError(f"n_ticks must be a non-negative int, got {n_ticks!r}")
-        paused = np.zeros(self.batch_size, dtype=bool)
+        paused = None
         if skip is not None:
+            paused = np.zeros(self.batch_size, dtype=bool)
             paused[np.asarray(skip)] = True
             paused &= self.status == LK.STATUS_OK
             self.status[paused] = LK.STATUS_PAUSED
-        b, a, c = self.batch_size, self.stage.n_axes, len(self.stage.contours)
-        window = ErrorSums.zeros(b, c, a)
-        rec = np.zeros((b, n_ticks if self.record else 0, 2 + 3 * a + 2 * c))
+        if self.record:
+            rec = np.zeros((self.batch_size, n_ticks, self._rec_width))
+        else:
+            rec = self._no_record
+        noise = self._noise.take(n_ticks, self.status == LK.STATUS_OK)
+        return n_ticks, paused, noise, rec
+
+    def kernel_args(self, call: tuple[int, Any, Array, Array]) -> tuple[Any, ...]:
+        """Arguments of :func:`contour_gym._loopkernel.run_ticks` for a prepared call."""
+        n_ticks, _, noise, rec = call
         t = self.path.table
-        LK.run_ticks(
-            n_ticks, self.tick, self.stage.ts, self.stage.substeps, t.kind, t.s0, t.data,
-            t.bound, self._c_axes, self._c_off, self.ax_p, self.rip, self.dist, self.ad,
-            self.bd, self.ax_s, self.ctrl_kind, self.ctrl_p, self.ctrl_s, self.ccc_p, self.ccc_w,
-            self.ccc_s, self.est_kind, self.est_p, self.hist, self.ip_p, self.ip_s,
-            self.path.length, self.foot, self.last,
-            self._noise.take(n_ticks, ~paused & (self.status == LK.STATUS_OK)), self.status, window.contour, window.axis,
-            self.sums.contour, self.sums.axis,
-            self.u_last, self.y_last, rec, self.record, self._work, self._xbuf,
-            self._meas_exact, self.k_start,
+        return (
+            n_ticks, self.tick, self.stage.ts, self.stage.substeps, self.path.length,
+            self.record, self._meas_exact, self.ctrl_kind, self.est_kind, t.kind, t.s0, t.data,
+            t.bound, self._fblob.buffer, self._fblob.layout, self._iblob.buffer,
+            self._iblob.layout, noise, rec,
         )  # fmt: skip
+
+    def complete(self, call: tuple[int, Any, Array, Array]) -> None:
+        """Bookkeeping after a kernel call (clock, paused members, recording)."""
+        n_ticks, paused, _, rec = call
         self.tick += n_ticks
-        self.status[paused] = LK.STATUS_OK
-        self.k_start[paused] += n_ticks
+        if paused is not None:
+            self.status[paused] = LK.STATUS_OK
+            self.k_start[paused] += n_ticks
         if self.record:
             self._records.append(rec)
-        return window
 
     def run(self, max_time: float | None = None, chunk: int = 2048) -> dict[str, Array]:
         """Run until every member has finished the path (or failed), then return metrics.
@@ -406,10 +492,14 @@ class ServoLoop:
         if not self.record:
             raise ValueError("trace() needs ServoLoop(record=True)")
         a, c = self.stage.n_axes, len(self.stage.contours)
-        rec = np.concatenate(self._records, axis=1) if self._records else np.zeros((self.batch_size, 0, 2 + 3 * a + 2 * c))
+        rec = (
+            np.concatenate(self._records, axis=1)
+            if self._records
+            else np.zeros((self.batch_size, 0, 2 + 3 * a + 2 * c))
+        )
         base = 2 + 3 * a
         return Trace(
-            t=np.arange(rec.shape[1]) * self.stage.ts,
+            t=np.arange(rec.shape[1], dtype=np.float64) * self.stage.ts,
             s=rec[..., 0],
             v=rec[..., 1],
             r=rec[..., 2 : 2 + a],
@@ -418,6 +508,3 @@ class ServoLoop:
             eps=rec[..., base::2],
             eps_est=rec[..., base + 1 :: 2],
         )
-
-
-

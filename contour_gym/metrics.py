@@ -76,7 +76,12 @@ def sums_from_trace(eps: Array, tracking: Array, u: Array, u0: Array | None = No
     tv = np.abs(np.diff(np.concatenate([prev, u], axis=1), axis=1)).sum(axis=1)
     ae, at = np.abs(eps), np.abs(tracking)
     contour = np.stack(
-        [ae.sum(1), (eps**2).sum(1), ae.max(1, initial=0.0), np.full(ae.sum(1).shape, eps.shape[1])],
+        [
+            ae.sum(1),
+            (eps**2).sum(1),
+            ae.max(1, initial=0.0),
+            np.full(ae.sum(1).shape, eps.shape[1]),
+        ],
         axis=-1,
     )
     axis = np.stack([at.sum(1), (tracking**2).sum(1), at.max(1, initial=0.0), tv], axis=-1)

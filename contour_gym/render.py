@@ -16,7 +16,9 @@ from contour_gym.loop import Trace
 from contour_gym.paths import Path
 
 
-def magnified(path: Path, positions: NDArray[np.float64], s_hint: NDArray[np.float64], factor: float) -> NDArray[np.float64]:
+def magnified(
+    path: Path, positions: NDArray[np.float64], s_hint: NDArray[np.float64], factor: float
+) -> NDArray[np.float64]:
     """Move each position away from its foot point on ``path`` by ``factor`` (004's 200x plot).
 
     Args:

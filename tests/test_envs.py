@@ -57,7 +57,7 @@ def test_same_seed_same_rollout_and_randomisation_differs_by_seed(cls):
     o1, r1 = rollout(cls(**kw), 3)
     o2, r2 = rollout(cls(**kw), 3)
     o3, r3 = rollout(cls(**kw), 4)
-    assert r1 == r2 and all(same_obs(a, b) for a, b in zip(o1, o2))
+    assert r1 == r2 and all(same_obs(a, b) for a, b in zip(o1, o2, strict=True))
     assert r1 != r3
 
 
@@ -74,10 +74,17 @@ def test_envs_pickle_and_resume_identically():
         assert x[1] == y[1] and same_obs(x[0], y[0])
 
 
-@pytest.mark.parametrize(("single", "vector", "kw"), [
-    (CCCEnv, CCCVectorEnv, dict(plant="xyz_pmlsm", randomize=True, decision_ticks=50)),
-    (FeedrateEnv, FeedrateVectorEnv, dict(plant="xy_servo_coulomb", path="corner", decision_ticks=40)),
-])
+@pytest.mark.parametrize(
+    ("single", "vector", "kw"),
+    [
+        (CCCEnv, CCCVectorEnv, dict(plant="xyz_pmlsm", randomize=True, decision_ticks=50)),
+        (
+            FeedrateEnv,
+            FeedrateVectorEnv,
+            dict(plant="xy_servo_coulomb", path="corner", decision_ticks=40),
+        ),
+    ],
+)
 def test_vector_env_equals_loop_of_single_envs_bit_for_bit(single, vector, kw):
     n, steps, seed = 3, 90, 11
     venv = vector(num_envs=n, max_episode_steps=40, **kw)
@@ -125,10 +132,13 @@ G1 X0 Y30
 
 
 @pytest.mark.parametrize("cls", [CCCEnv, FeedrateEnv])
-@pytest.mark.parametrize("path", [
-    parametric(lambda t: np.column_stack([0.02 * np.cos(t), 0.01 * np.sin(2 * t)]), 0.0, np.pi),
-    from_gcode(GCODE_PART),
-])
+@pytest.mark.parametrize(
+    "path",
+    [
+        parametric(lambda t: np.column_stack([0.02 * np.cos(t), 0.01 * np.sin(2 * t)]), 0.0, np.pi),
+        from_gcode(GCODE_PART),
+    ],
+)
 def test_envs_run_user_parametric_path_and_gcode_part(cls, path):
     env = cls(plant="xy_servo_coulomb", path=path, decision_ticks=20)
     obs, _ = env.reset(seed=0)
@@ -147,7 +157,12 @@ def test_bad_inputs():
     with pytest.raises(ResetNeeded):
         env.step(np.zeros(3))
     env.reset(seed=0)
-    for bad in (np.array([np.nan, 0, 0]), np.array([0.0, np.inf, 0.0]), np.zeros(2), np.zeros((1, 3))):
+    for bad in (
+        np.array([np.nan, 0, 0]),
+        np.array([0.0, np.inf, 0.0]),
+        np.zeros(2),
+        np.zeros((1, 3)),
+    ):
         with pytest.raises(ValueError):
             env.step(bad)
     obs, r, term, trunc, info = env.step(np.array([5.0, -7.0, 0.0]))  # clipped, documented
@@ -198,3 +213,17 @@ def test_rgb_array_render_shows_the_contour():
     img = env.render()
     assert img.dtype == np.uint8 and img.ndim == 3 and img.shape[2] == 3
     assert img.std() > 5  # not a blank canvas
+
+
+def test_vector_env_survives_every_member_resetting_at_once():
+    venv = CCCVectorEnv(num_envs=3, decision_ticks=1000)  # same path, same end for all
+    venv.reset(seed=0)
+    ended = np.zeros(3, dtype=bool)
+    for _ in range(10):
+        _, r, te, tr, _ = venv.step(np.zeros((3, 3)))
+        if ended.all():
+            assert np.all(r == 0.0) and not te.any()
+            break
+        ended = te | tr
+    else:
+        pytest.fail("episodes never ended")

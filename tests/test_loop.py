@@ -65,7 +65,13 @@ def test_kernel_sums_equal_metrics_recomputed_from_the_trace():
     sums = sums_from_trace(tr.eps[:, active], tr.r[:, active] - tr.x[:, active], tr.u[:, active])
     want = metrics_from_sums(sums, loop.cycle_time)
     got = loop.metrics()
-    for key in ("max_contour_error", "mean_contour_error", "rms_contour_error", "p_e", "chattering"):
+    for key in (
+        "max_contour_error",
+        "mean_contour_error",
+        "rms_contour_error",
+        "p_e",
+        "chattering",
+    ):
         assert got[key] == pytest.approx(want[key], rel=1e-12), key
 
 
@@ -82,7 +88,9 @@ def test_true_contour_error_matches_path_nearest():
 @pytest.mark.parametrize("name", PRESETS)
 def test_pid_ccc_lowers_max_contour_error_on_each_papers_path(name):
     sc = make_scenario(name)
-    loop = sc.loop(batch_size=2, ccc_gains=[[[0.0, 0.0, 0.0]], [list(sc.preset.ccc_gains.as_tuple())]])
+    loop = sc.loop(
+        batch_size=2, ccc_gains=[[[0.0, 0.0, 0.0]], [list(sc.preset.ccc_gains.as_tuple())]]
+    )
     loop.reset([0, 0])
     m = loop.run()
     assert not loop.failed.any()
@@ -93,8 +101,17 @@ def test_pid_ccc_lowers_max_contour_error_on_each_papers_path(name):
 def test_diverging_member_is_flagged_without_poisoning_others():
     pr = get_preset("xy_dc_servo")
     # an actuator that never saturates lets an unstable gain set really diverge
-    stage = dataclasses.replace(pr.stage, axes=tuple(dataclasses.replace(a, u_max=1e12) for a in pr.stage.axes))
-    loop = ServoLoop(stage, circle(0.01), pr.axis_gains, Interpolator(0.03), batch_size=3, ccc_gains=pr.ccc_gains.as_tuple())
+    stage = dataclasses.replace(
+        pr.stage, axes=tuple(dataclasses.replace(a, u_max=1e12) for a in pr.stage.axes)
+    )
+    loop = ServoLoop(
+        stage,
+        circle(0.01),
+        pr.axis_gains,
+        Interpolator(0.03),
+        batch_size=3,
+        ccc_gains=pr.ccc_gains.as_tuple(),
+    )
     params = np.repeat(loop.ctrl_p[:1], 3, axis=0)
     params[1, :, 2] = 1e9  # absurd PID derivative gain: the sampled loop is unstable
     loop.set_controller_params(params)
@@ -109,7 +126,9 @@ def test_diverging_member_is_flagged_without_poisoning_others():
 def test_bad_inputs_raise_value_errors():
     pr = get_preset("xy_dc_servo")
     with pytest.raises(ValueError, match="ccc_gains"):
-        ServoLoop(pr.stage, circle(0.01), pr.axis_gains, Interpolator(0.03), ccc_gains=(np.nan, 0, 0))
+        ServoLoop(
+            pr.stage, circle(0.01), pr.axis_gains, Interpolator(0.03), ccc_gains=(np.nan, 0, 0)
+        )
     with pytest.raises(ValueError, match="3-D"):
         make_scenario("xy_dc_servo", "helix")
     loop = ServoLoop(pr.stage, line((0, 0), (0.05, 0)), pr.axis_gains, Interpolator(0.03))

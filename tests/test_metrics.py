@@ -20,7 +20,11 @@ def test_metrics_on_known_arrays():
 
 def test_merging_windows_equals_one_window():
     rng = np.random.default_rng(0)
-    eps, e, u = rng.normal(size=(2, 50, 1)), rng.normal(size=(2, 50, 2)), rng.normal(size=(2, 50, 2))
+    eps, e, u = (
+        rng.normal(size=(2, 50, 1)),
+        rng.normal(size=(2, 50, 2)),
+        rng.normal(size=(2, 50, 2)),
+    )
     whole = sums_from_trace(eps, e, u)
     part = sums_from_trace(eps[:, :20], e[:, :20], u[:, :20])
     part.merge(sums_from_trace(eps[:, 20:], e[:, 20:], u[:, 20:], u0=u[:, 19]))

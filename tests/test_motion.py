@@ -17,7 +17,9 @@ def profile(length, interp, ts=1e-3, n=None, changes=None):
         if changes and k in changes:
             p[motion.IP_F] = changes[k]
         interp_tick(length, ts, p, st, k)
-        s.append(st[motion.IS_S]); v.append(st[motion.IS_V]); a.append(st[motion.IS_A])
+        s.append(st[motion.IS_S])
+        v.append(st[motion.IS_V])
+        a.append(st[motion.IS_A])
         if st[motion.IS_DONE] >= 0:
             break
     return np.array(s), np.array(v), np.array(a), st[motion.IS_DONE]
@@ -70,8 +72,15 @@ def test_feedrate_change_follows_accel_limit():
     assert v[k - 5] < 0.06 and v[k + 1] == pytest.approx(0.06)
 
 
-@pytest.mark.parametrize("kwargs", [dict(feedrate=0.0), dict(feedrate=float("nan")),
-                                    dict(feedrate=0.1, accel=-1.0), dict(feedrate=0.1, jerk=0.0)])
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        dict(feedrate=0.0),
+        dict(feedrate=float("nan")),
+        dict(feedrate=0.1, accel=-1.0),
+        dict(feedrate=0.1, jerk=0.0),
+    ],
+)
 def test_bad_interpolator_settings(kwargs):
     with pytest.raises(ValueError):
         Interpolator(**kwargs)

@@ -42,10 +42,18 @@ def test_zoh_matches_ode_solution():
     u = lambda k: math.sin(0.01 * k)  # noqa: E731 - held constant over each tick
     xs, _ = run_axis(axis, u, ts=ts, n=n)
     x, v = 0.0, 0.0
+
+    def rhs(t, y, uk):
+        return [y[1], (4.0 * uk - 3.0 * y[1] - 50.0 * y[0]) / 2.0]
+
     for k in range(n):
         sol = solve_ivp(
-            lambda t, y, uk=u(k): [y[1], (4.0 * uk - 3.0 * y[1] - 50.0 * y[0]) / 2.0],
-            (0, ts), [x, v], rtol=1e-12, atol=1e-15,
+            rhs,
+            (0, ts),
+            [x, v],
+            args=(u(k),),
+            rtol=1e-12,
+            atol=1e-15,
         )
         x, v = sol.y[:, -1]
     assert xs[-1] == pytest.approx(x, abs=1e-12)
@@ -57,13 +65,31 @@ def test_current_loop_is_first_order_lag():
     ad, bd = zoh_matrices(p[None], 1e-3)
     st = np.zeros(K.N_ST)
     for k in range(10):
-        K.axis_tick(p, np.zeros((6, 3)), disturbance_row(axis, 1e-3), ad[0], bd[0], st, 1.0, k * 1e-3, 1e-3, 1, 0.0)
+        K.axis_tick(
+            p,
+            np.zeros((6, 3)),
+            disturbance_row(axis, 1e-3),
+            ad[0],
+            bd[0],
+            st,
+            1.0,
+            k * 1e-3,
+            1e-3,
+            1,
+            0.0,
+        )
     assert st[K.ST_I] == pytest.approx(1.0 - math.exp(-0.01 / 0.01), rel=1e-12)
 
 
 def test_coulomb_stiction_holds_below_breakaway_and_moves_above():
-    axis = AxisParams("x", mass=1.0, damping=0.0, force_constant=1.0, u_max=100.0,
-                      friction=CoulombFriction(fc=2.0, fs=3.0))
+    axis = AxisParams(
+        "x",
+        mass=1.0,
+        damping=0.0,
+        force_constant=1.0,
+        u_max=100.0,
+        friction=CoulombFriction(fc=2.0, fs=3.0),
+    )
     xs, vs = run_axis(axis, lambda k: 2.9, n=200)
     assert np.all(xs == 0.0) and np.all(vs == 0.0)
     xs, vs = run_axis(axis, lambda k: 3.1, n=200)
@@ -71,8 +97,9 @@ def test_coulomb_stiction_holds_below_breakaway_and_moves_above():
 
 
 def test_coulomb_coasting_stops_at_analytic_distance_without_reversing():
-    axis = AxisParams("x", mass=2.0, damping=0.0, force_constant=1.0, u_max=1.0,
-                      friction=CoulombFriction(fc=4.0))
+    axis = AxisParams(
+        "x", mass=2.0, damping=0.0, force_constant=1.0, u_max=1.0, friction=CoulombFriction(fc=4.0)
+    )
     xs, vs = run_axis(axis, lambda k: 0.0, n=2000, v0=1.0)
     assert np.all(vs >= 0.0)
     assert vs[-1] == 0.0
@@ -99,7 +126,19 @@ def test_lugre_reaches_stribeck_steady_state():
         st = np.zeros(K.N_ST)
         st[K.ST_V] = v0
         for k in range(20000):  # 20 s: > 35 bristle time constants g/(sigma0 |v|)
-            K.axis_tick(p, np.zeros((6, 3)), disturbance_row(axis, ts), ad[0], bd[0], st, 0.0, k * ts, ts, 4, 0.0)
+            K.axis_tick(
+                p,
+                np.zeros((6, 3)),
+                disturbance_row(axis, ts),
+                ad[0],
+                bd[0],
+                st,
+                0.0,
+                k * ts,
+                ts,
+                4,
+                0.0,
+            )
         v = st[K.ST_V]
         assert v == pytest.approx(v0, rel=1e-4)
         g = 20.0 + 10.0 * math.exp(-((v / 0.5) ** 2))
@@ -116,18 +155,29 @@ def test_ripple_force_formula():
 def test_random_disturbance_is_seeded_and_has_the_given_std():
     d = Disturbance(random_std=3.0, random_bandwidth=50.0)
     row = disturbance_row(AxisParams("x", 1, 0, 1, 1, disturbance=d), 1e-3)
+
     def draw(seed):
         st = np.zeros(K.N_ST)
         rng = np.random.default_rng(seed)
-        return np.array([K.disturbance_force(row, st, k * 1e-3, rng.standard_normal()) for k in range(40000)])
+        return np.array(
+            [K.disturbance_force(row, st, k * 1e-3, rng.standard_normal()) for k in range(40000)]
+        )
+
     a, b, c = draw(1), draw(1), draw(2)
     assert np.array_equal(a, b) and not np.array_equal(a, c)
     assert a[1000:].std() == pytest.approx(3.0, rel=0.1)
 
 
 def test_rotary_conversion():
-    a = AxisParams.from_rotary("x", inertia=0.01, viscous=0.1, torque_constant=1.0, lead=0.01,
-                               coulomb_torque=0.2, u_max=5.0)
+    a = AxisParams.from_rotary(
+        "x",
+        inertia=0.01,
+        viscous=0.1,
+        torque_constant=1.0,
+        lead=0.01,
+        coulomb_torque=0.2,
+        u_max=5.0,
+    )
     n = 2 * math.pi / 0.01
     assert a.mass == pytest.approx(0.01 * n * n)
     assert a.damping == pytest.approx(0.1 * n * n)

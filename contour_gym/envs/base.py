@@ -18,28 +18,28 @@ RENDER_MODES = ["human", "rgb_array"]
 
 
 def check_actions(action: Any, shape: tuple[int, ...]) -> NDArray[np.float64]:
-    """Validate an action array: right shape and finite, else ValueError (never NaN onward)."""
+    """Validate an action's shape (ValueError); finiteness is checked in the compiled step."""
     try:
         a = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"action must be numeric, got {action!r}") from exc
     if a.shape != shape:
         raise ValueError(f"action must have shape {shape}, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"action must be finite, got {a}")
     return a
 
 
 def _check_render_mode(render_mode: str | None) -> None:
     if render_mode is not None and render_mode not in RENDER_MODES:
-        raise ValueError(f"unknown render_mode {render_mode!r}; accepted: {', '.join(RENDER_MODES)}")
+        raise ValueError(
+            f"unknown render_mode {render_mode!r}; accepted: {', '.join(RENDER_MODES)}"
+        )
 
 
-class ContourEnv(gym.Env[dict[str, NDArray[np.float32]], NDArray[np.float32]]):
+class ContourEnv(gym.Env):
     """Base of the single envs; subclasses set ``kind`` and document the spec."""
 
     kind: ClassVar[str]
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": RENDER_MODES, "render_fps": 10}
+    metadata = {"render_modes": RENDER_MODES, "render_fps": 10}  # noqa: RUF012 (gymnasium convention)
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         _check_render_mode(render_mode)
@@ -76,11 +76,8 @@ class ContourEnv(gym.Env[dict[str, NDArray[np.float32]], NDArray[np.float32]]):
         """Hold the action for ``decision_ticks`` servo ticks (see the class docstring)."""
         if self._needs_reset:
             raise ResetNeeded("call reset() before step(), also after an episode has ended")
-        a = check_actions(action, self.action_space.shape)[None]  # type: ignore[index]
-        none = np.zeros(1, dtype=bool)
-        self.task.apply(a, none)
-        window, progress = self.task.advance(none)
-        reward, terminated, failure = self.task.reward(window, progress)
+        a = check_actions(action, (self.task.n_actions,))[None]
+        reward, terminated, failure = self.task.step(a)
         self._needs_reset = bool(terminated[0])
         info = self.task.info(0, failure=bool(failure[0]), ended=bool(terminated[0]))
         return self._obs(), float(reward[0]), bool(terminated[0]), False, info
@@ -88,7 +85,7 @@ class ContourEnv(gym.Env[dict[str, NDArray[np.float32]], NDArray[np.float32]]):
     def _obs(self) -> dict[str, NDArray[np.float32]]:
         return {k: v[0] for k, v in self.task.observe().items()}
 
-    def render(self) -> NDArray[np.uint8] | None:  # type: ignore[override]
+    def render(self) -> NDArray[np.uint8] | None:
         """The contour with the error magnified 200x (rgb_array) or shown in a window."""
         if self.render_mode is None:
             gym.logger.warn("render() needs render_mode='rgb_array' or 'human'")
@@ -117,7 +114,7 @@ def _show(image: NDArray[np.uint8]) -> None:
     plt.pause(0.001)
 
 
-class ContourVectorEnv(VectorEnv):  # type: ignore[type-arg]
+class ContourVectorEnv(VectorEnv):
     """Base of the native vector envs: one batched array program over ``num_envs`` members.
 
     Autoreset is NEXT_STEP: the step after a member's episode ends returns its reset
@@ -127,13 +124,17 @@ class ContourVectorEnv(VectorEnv):  # type: ignore[type-arg]
     """
 
     kind: ClassVar[str]
-    metadata: ClassVar[dict[str, Any]] = {
+    metadata = {  # noqa: RUF012 (gymnasium convention)
         "render_modes": ["rgb_array"],
         "autoreset_mode": AutoresetMode.NEXT_STEP,
     }
 
     def __init__(
-        self, num_envs: int = 1, max_episode_steps: int | None = None, render_mode: str | None = None, **kwargs: Any
+        self,
+        num_envs: int = 1,
+        max_episode_steps: int | None = None,
+        render_mode: str | None = None,
+        **kwargs: Any,
     ) -> None:
         if not isinstance(num_envs, int) or num_envs < 1:
             raise ValueError(f"num_envs must be a positive int, got {num_envs!r}")
@@ -162,19 +163,25 @@ class ContourVectorEnv(VectorEnv):  # type: ignore[type-arg]
         self._started = True
         return self.task.observe(), {}
 
-    def step(self, actions: Any) -> tuple[dict[str, NDArray[np.float32]], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], dict[str, Any]]:
+    def step(
+        self, actions: Any
+    ) -> tuple[
+        dict[str, NDArray[np.float32]],
+        NDArray[np.float64],
+        NDArray[np.bool_],
+        NDArray[np.bool_],
+        dict[str, Any],
+    ]:
         """Step every member; members whose episode ended last step are reset instead."""
         if not self._started:
             raise ResetNeeded("call reset() before step()")
-        a = check_actions(actions, self.action_space.shape)  # type: ignore[arg-type]
+        a = check_actions(actions, (self.num_envs, self.task.n_actions))
         restart = self._prev_done.copy()
         if restart.any():
             idx = np.flatnonzero(restart)
             self.task.reset_members(idx, [self.task.rngs[i] for i in idx])
             self._steps[restart] = 0
-        self.task.apply(a, restart)
-        window, progress = self.task.advance(restart)
-        reward, terminated, failure = self.task.reward(window, progress)
+        reward, terminated, failure = self.task.step(a, restart)
         self._steps[~restart] += 1
         limit = self.max_episode_steps
         truncated = ~terminated & (self._steps >= limit) if limit else np.zeros_like(terminated)
@@ -186,7 +193,10 @@ class ContourVectorEnv(VectorEnv):  # type: ignore[type-arg]
     def _infos(self, failure: NDArray[np.bool_], ended: NDArray[np.bool_]) -> dict[str, Any]:
         info: dict[str, Any] = {"failure": failure, "_failure": np.ones(self.num_envs, dtype=bool)}
         if ended.any():
-            per = [self.task.info(int(b), bool(failure[b]), True)["metrics"] if ended[b] else None for b in range(self.num_envs)]
+            per = [
+                self.task.info(int(b), bool(failure[b]), True)["metrics"] if ended[b] else None
+                for b in range(self.num_envs)
+            ]
             keys = next(p for p in per if p is not None).keys()
             info["metrics"] = {k: np.array([p[k] if p else np.nan for p in per]) for k in keys}
             info["_metrics"] = ended.copy()
@@ -201,7 +211,14 @@ class ContourVectorEnv(VectorEnv):  # type: ignore[type-arg]
         contour = self.task.stage.contours[0]
         trace = self.task.loop.trace()
         return tuple(
-            figure_to_array(contour_figure(self.task.path, {self.kind: trace}, axes=contour.axes[:2],
-                                           offset=(contour.offset or (0.0, 0.0))[:2], member=b))
+            figure_to_array(
+                contour_figure(
+                    self.task.path,
+                    {self.kind: trace},
+                    axes=contour.axes[:2],
+                    offset=(contour.offset or (0.0, 0.0))[:2],
+                    member=b,
+                )
+            )
             for b in range(self.num_envs)
         )

@@ -23,15 +23,16 @@ _SPEC = """
     ``gains_to_action`` convert, so reference policies can speak in gains.
 
     ## Observation space
-    ``Dict`` of float32 ``Box(-1e4, 1e4)`` (scaled values clipped to that), one entry per key:
+    ``Dict`` of float32 ``Box(-1e4, 1e4)`` (scaled values clipped to that; ``tol`` is
+    ``tolerance``):
 
     | key | shape | meaning | unit and scale |
     |---|---|---|---|
-    | contour_error | (C,) | estimated contour error (what a real controller has), signed in 2-D | m / tolerance |
-    | contour_error_change | (C,) | its change over the last decision | m / tolerance |
+    | contour_error | (C,) | estimated contour error (what a controller has), signed | m / tol |
+    | contour_error_change | (C,) | its change over the last decision | m / tol |
     | tracking_error | (A,) | reference minus encoder reading per axis | m / 1 mm |
     | reference_velocity | (A,) | reference velocity per axis | (m/s) / nominal feedrate |
-    | curvature | (1+L,) | path curvature at s_ref and at ``lookahead`` distances ahead (signed in 2-D) | 1/m x 1 cm |
+    | curvature | (1+L,) | curvature at s_ref and ``lookahead`` ahead (signed in 2-D) | 1/m x 1 cm |
     | progress | (1,) | s_ref / path length | - |
     | gains | (3C,) | the action in force | [-1, 1] |
 
@@ -66,11 +67,11 @@ _SPEC = """
 """
 
 
-class CCCEnv(ContourEnv):
+class CCCEnv(ContourEnv):  # noqa: D101 (the spec is assigned to __doc__)
     __doc__ = "Cross-coupled controller gains as actions (``contour_gym/CCC-v0``).\n" + _SPEC
     kind = CCC
 
 
-class CCCVectorEnv(ContourVectorEnv):
+class CCCVectorEnv(ContourVectorEnv):  # noqa: D101
     __doc__ = "Native vector version of :class:`CCCEnv` (one array program).\n" + _SPEC
     kind = CCC

@@ -77,7 +77,9 @@ class EnvConfig:
         as_finite_array(self.lookahead, "lookahead", ndim=1)
         lo, hi = as_finite_array(self.feedrate_range, "feedrate_range", shape=(2,))
         if not 0 < lo < 1 < hi:
-            raise ValueError(f"feedrate_range must satisfy 0 < low < 1 < high, got {self.feedrate_range!r}")
+            raise ValueError(
+                f"feedrate_range must satisfy 0 < low < 1 < high, got {self.feedrate_range!r}"
+            )
         positive(self.max_feedrate_change, "max_feedrate_change")
         if self.ccc_gains is not None:
             as_finite_array(self.ccc_gains, "ccc_gains", shape=(3,))
@@ -114,5 +116,3 @@ class EnvConfig:
             if not 0 <= lo <= hi:
                 raise ValueError(f"randomize[{key!r}] must be 0 <= low <= high, got {out[key]!r}")
         return out
-
-

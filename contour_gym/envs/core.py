@@ -3,7 +3,7 @@
 The single envs run it with B = 1 and the native vector envs with B = num_envs, so a vector
 env equals a loop of single envs by construction: every member owns its generator (seeded
 the way ``gymnasium.Env.reset(seed)`` seeds ``np_random``), its randomisation draws, its loop
-noise stream and its clock.
+noise stream and its clock. The per-step arithmetic is compiled (:mod:`._kernel`).
 """
 
 from __future__ import annotations
@@ -15,18 +15,16 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from numpy.typing import NDArray
 
-from contour_gym import motion
+from contour_gym._blob import Blob
 from contour_gym.api import make_scenario
+from contour_gym.envs import _kernel as EK
 from contour_gym.envs.config import EnvConfig
-from contour_gym.metrics import ErrorSums, member_metrics
+from contour_gym.metrics import member_metrics
 from contour_gym.plant import _kernel as PK
+from contour_gym.servo import _kernel as SK
 
 Array = NDArray[np.float64]
 CCC, FEEDRATE = "ccc", "feedrate"
-CURVATURE_SCALE = 0.01  # m: curvature is observed as kappa * 1 cm
-TRACKING_SCALE = 1e-3  # m: tracking errors are observed in mm
-FEEDRATE_PENALTY = 10.0  # feedrate env: penalty per tolerance of excess error
-OBS_LIMIT = 1e4  # every scaled observation is clipped to +-OBS_LIMIT
 
 
 class ContourTask:
@@ -60,18 +58,40 @@ class ContourTask:
         kp0 = self.g0[0] if self.g0[0] > 0 else preset.ccc_gains.kp
         ki0 = self.g0[1] if self.g0[1] > 0 else kp0 * 10.0
         r = config.gain_range
-        self.log_lo = np.log([kp0 / r, ki0 / r, kp0 * 1e-5])
-        self.log_hi = np.log([kp0 * r, ki0 * r, kp0 * 1e-2])
+        log_lo, log_hi = (
+            np.log([kp0 / r, ki0 / r, kp0 * 1e-5]),
+            np.log([kp0 * r, ki0 * r, kp0 * 1e-2]),
+        )
         # the CCC env starts from the preset gains clipped into its action range (kd = 0 sits
         # at the log scale's floor); the feedrate env holds them as given
-        self.g_start = np.clip(self.g0, np.exp(self.log_lo), np.exp(self.log_hi)) if kind == CCC else self.g0
+        self.g_start = np.clip(self.g0, np.exp(log_lo), np.exp(log_hi)) if kind == CCC else self.g0
         self.rngs: list[np.random.Generator] = [np.random.default_rng(0)] * batch
-        self.gains = np.repeat(self.g_start[None, None], batch, 0).repeat(self.n_contours, 1)
-        self.feed = np.full(batch, self.f_nominal)
-        self.eps_prev = np.zeros((batch, self.n_contours))
-        self.action = np.zeros((batch, self.n_actions), dtype=np.float32)
-        self._axis_map = [(c.axes[j], i, j) for i, c in enumerate(self.stage.contours) for j in range(c.dim)]
-        self._offsets = [(c.offset[j] if c.offset else 0.0) for c in self.stage.contours for j in range(c.dim)]
+        self.feed = self.loop.ip_p[:, 0]  # view: commanded feedrate per member
+        self._kind_code = EK.KIND_CCC if kind == CCC else EK.KIND_FEEDRATE
+        self._nominal_progress = self.f_nominal * config.decision_ticks * self.stage.ts
+        self._sizes = self._observation_sizes()
+        n_obs = sum(self._sizes.values())
+        shapes = {
+            "action": (batch, self.n_actions), "skip": (batch,), "log_lo": (3,), "log_hi": (3,),
+            "lookahead": (len(config.lookahead),), "eps_prev": (batch, self.n_contours),
+            "s_before": (batch,), "obs": (batch, n_obs), "ref": (batch, self.n_axes),
+            "vel": (batch, self.n_axes), "reward": (batch,), "terminated": (batch,),
+            "failure": (batch,),
+        }  # fmt: skip
+        self._blob = Blob([(name, shapes[name]) for name in EK.ENV_ARRAYS])
+        self._v = self._blob.views
+        self._v["log_lo"][...], self._v["log_hi"][...] = log_lo, log_hi
+        self._v["lookahead"][...] = config.lookahead
+        self._axis_map = [
+            (c.axes[j], j, c.offset[j] if c.offset else 0.0)
+            for c in self.stage.contours
+            for j in range(c.dim)
+        ]
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._v = self._blob.views  # views alias the unpickled buffer again
+        self.feed = self.loop.ip_p[:, 0]
 
     # ---------------------------------------------------------------- spaces
     @property
@@ -85,12 +105,13 @@ class ContourTask:
 
     def observation_space(self) -> spaces.Dict:
         """The single-member observation space (see the env docstrings for units)."""
-        sizes = self._observation_sizes()
+        lim = EK.OBS_LIMIT
         return spaces.Dict(
-            {k: spaces.Box(-OBS_LIMIT, OBS_LIMIT, (n,), np.float32) for k, n in sizes.items()}
+            {k: spaces.Box(-lim, lim, (n,), np.float32) for k, n in self._sizes.items()}
         )
 
     def _observation_sizes(self) -> dict[str, int]:
+        # key order is the column order _kernel._observe writes
         last = ("gains", 3 * self.n_contours) if self.kind == CCC else ("feedrate", 2)
         return {
             "contour_error": self.n_contours,
@@ -105,136 +126,114 @@ class ContourTask:
     # ------------------------------------------------------- gains <-> actions
     def action_to_gains(self, action: Array) -> Array:
         """Map actions in [-1, 1], shape (..., 3C), to CCC gains (..., C, 3) on a log scale."""
-        a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0).reshape(*np.shape(action)[:-1], -1, 3)
-        return np.exp(self.log_lo + 0.5 * (a + 1.0) * (self.log_hi - self.log_lo))
+        a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
+        a = a.reshape(*a.shape[:-1], self.n_contours, 3)
+        lo, hi = self._v["log_lo"], self._v["log_hi"]
+        return np.exp(lo + 0.5 * (a + 1.0) * (hi - lo))
 
     def gains_to_action(self, gains: Array) -> Array:
         """Inverse of :meth:`action_to_gains`; gains outside the range map outside [-1, 1]."""
         g = np.asarray(gains, dtype=float)
         if np.any(g <= 0) or not np.all(np.isfinite(g)):
             raise ValueError(f"gains must be finite and > 0 to have an action, got {g}")
-        a = 2.0 * (np.log(g) - self.log_lo) / (self.log_hi - self.log_lo) - 1.0
+        lo, hi = self._v["log_lo"], self._v["log_hi"]
+        a = 2.0 * (np.log(g) - lo) / (hi - lo) - 1.0
         return a.reshape(*g.shape[:-2], -1)
 
     # ----------------------------------------------------------------- reset
     def reset_members(self, members: NDArray[np.intp], rngs: list[np.random.Generator]) -> None:
         """Start new episodes for ``members`` with their generators ``rngs``."""
         seeds = []
-        for b, rng in zip(members, rngs):
+        for b, rng in zip(members, rngs, strict=True):
             self.rngs[b] = rng
             self._randomize(int(b), rng)
             seeds.append(int(rng.integers(2**63 - 1)))
         self.loop.reset(seeds, members=members)
-        self.gains[members] = self.g_start
-        self.feed[members] = self.f_nominal
-        self.eps_prev[members] = 0.0
-        start = self.gains_to_action(self.gains[members]) if self.kind == CCC else 0.0
-        self.action[members] = np.clip(start, -1.0, 1.0)
-        self._push_settings()
+        self._v["eps_prev"][members] = 0.0
+        self._v["skip"][members] = 1.0  # observe them without a reward
+        if self.kind == CCC:
+            self.loop.ccc_p[members, :, SK.CP_KP : SK.CP_KD + 1] = self.g_start
+            start = self.gains_to_action(
+                np.broadcast_to(self.g_start, (len(members), self.n_contours, 3))
+            )
+            self._v["action"][members] = np.clip(start, -1.0, 1.0)
+        else:
+            self.feed[members] = self.f_nominal
+        self._finish()
+        self._v["skip"][members] = 0.0
 
     def _randomize(self, b: int, rng: np.random.Generator) -> None:
         ranges = self.config.randomization()
         if ranges is None:
             return
         shape = (self.n_axes,)
-        factors = {k: 1.0 + rng.uniform(-ranges[k], ranges[k], shape) for k in ("mass", "damping", "force_constant")}
+        factors = {
+            k: 1.0 + rng.uniform(-ranges[k], ranges[k], shape)
+            for k in ("mass", "damping", "force_constant")
+        }
         for k in ("friction", "disturbance"):
             factors[k] = rng.uniform(ranges[k][0], ranges[k][1], shape)
         self.loop.set_plant_scaling([b], **factors)
 
-    def _push_settings(self) -> None:
-        if self.kind == CCC:
-            self.loop.set_ccc_gains(self.gains)
-        else:
-            self.loop.set_feedrate(self.feed)
-
     # ------------------------------------------------------------------ step
-    def apply(self, actions: Array, skip: NDArray[np.bool_]) -> None:
-        """Apply clipped actions (B, n) to the members not in ``skip``."""
-        a = np.clip(actions, -1.0, 1.0)
-        live = ~skip
-        if self.kind == CCC:
-            self.gains[live] = self.action_to_gains(a[live])
-        else:
-            df = a[live, 0] * self.config.max_feedrate_change * self.f_nominal
-            self.feed[live] = np.clip(self.feed[live] + df, *self.f_bounds)  # 004 eq. 3.3
-        self.action[live] = a[live]
-        self._push_settings()
+    def step(
+        self, actions: Array, skip: NDArray[np.bool_] | None = None
+    ) -> tuple[Array, NDArray[np.bool_], NDArray[np.bool_]]:
+        """One decision: apply actions (B, n) (clipped), run ``decision_ticks`` ticks.
 
-    def advance(self, skip: NDArray[np.bool_]) -> tuple[ErrorSums, Array]:
-        """Run one decision; returns the window sums and each member's progress (m)."""
-        s_before = self.loop.s.copy()
-        self.eps_prev = np.where(skip[:, None], self.eps_prev, self.loop.contour_error_estimate)
-        window = self.loop.step(self.config.decision_ticks, skip=np.flatnonzero(skip))
-        return window, self.loop.s - s_before
+        Members in ``skip`` neither act nor advance (vector env auto-reset).
 
-    def reward(self, window: ErrorSums, progress: Array) -> tuple[Array, NDArray[np.bool_], NDArray[np.bool_]]:
-        """Rewards (B,), terminated (B,) and failure (B,) of the decision just run.
-
-        CCC: ``-mean(|eps|) / tolerance`` over the decision's ticks and contours.
-        Feedrate: ``ds / (F_nom T_dec) - 10 max(0, max|eps| - tol) / tol``.
-        Either way a failure subtracts ``failure_penalty``.
+        Returns:
+            Rewards (B,), terminated (B,) and failure (B,) (see ``_kernel.finish_step``).
         """
-        cfg = self.config
-        c = window.contour
-        max_eps = c[..., 2].max(axis=1)
-        if self.kind == CCC:
-            reward = -(c[..., 0].sum(1) / np.maximum(c[..., 3].sum(1), 1.0)) / cfg.tolerance
+        v, loop = self._v, self.loop
+        if skip is None:
+            v["action"][...] = actions
+            v["skip"][...] = 0.0
         else:
-            nominal = self.f_nominal * cfg.decision_ticks * self.stage.ts
-            excess = np.maximum(max_eps - cfg.tolerance, 0.0) / cfg.tolerance
-            reward = progress / nominal - FEEDRATE_PENALTY * excess
-        failure = self.loop.failed | (max_eps > cfg.hard_limit)
-        reward = np.where(failure, -cfg.failure_penalty, np.nan_to_num(reward, nan=0.0, posinf=0.0, neginf=0.0))
-        terminated = failure | self.loop.done
-        return reward, terminated, failure
+            v["action"][~skip] = actions[~skip]
+            v["skip"][...] = skip
+        if not np.isfinite(v["action"]).all():
+            raise ValueError(f"actions must be finite, got {actions}")
+        cfg = self.config
+        call = loop.prepare(cfg.decision_ticks, None if skip is None else np.flatnonzero(skip))
+        EK.env_step(
+            self._kind_code, cfg.max_feedrate_change * self.f_nominal, self.f_bounds[0],
+            self.f_bounds[1], self._blob.buffer, self._blob.layout, cfg.tolerance,
+            cfg.hard_limit, cfg.failure_penalty, self._nominal_progress, self.f_nominal,
+            self.path.dim, *loop.kernel_args(call),
+        )  # fmt: skip
+        loop.complete(call)
+        return v["reward"].copy(), v["terminated"] != 0.0, v["failure"] != 0.0
+
+    def _finish(self) -> None:
+        cfg, loop, t = self.config, self.loop, self.path.table
+        EK.finish_step(
+            self._kind_code, t.kind, t.s0, t.data, self.path.dim, self.path.length,
+            loop._fblob.buffer, loop._fblob.layout, loop._iblob.buffer, loop._iblob.layout,
+            self._blob.buffer, self._blob.layout, cfg.tolerance, cfg.hard_limit,
+            cfg.failure_penalty, self._nominal_progress, self.f_nominal,
+        )  # fmt: skip
 
     # ----------------------------------------------------------- observation
-    def _to_axes(self, coords: Array, offset: bool) -> Array:
-        out = np.zeros((coords.shape[0], self.n_axes))
-        for (axis, _, j), off in zip(self._axis_map, self._offsets):
-            out[:, axis] = coords[:, j] + (off if offset else 0.0)
-        return out
-
-    def _curvature(self, s: Array) -> Array:
-        if self.path.dim == 2:
-            return np.asarray(self.path.signed_curvature(s))  # type: ignore[attr-defined]
-        return np.asarray(self.path.curvature(s))
-
     def observe(self) -> dict[str, NDArray[np.float32]]:
-        """Observations (B, ...) as documented in the env docstrings."""
-        cfg, loop = self.config, self.loop
-        s, v = loop.s, loop.ip_s[:, motion.IS_V]
-        ref = self._to_axes(self.path.point(s).reshape(len(s), -1), offset=True)
-        vel = self._to_axes(self.path.tangent(s).reshape(len(s), -1) * v[:, None], offset=False)
-        ahead = np.minimum(s[:, None] + np.array((0.0, *cfg.lookahead)), self.path.length)
-        curv = self._curvature(ahead.ravel()).reshape(ahead.shape) * CURVATURE_SCALE
-        eps = loop.contour_error_estimate
-        obs = {
-            "contour_error": eps / cfg.tolerance,
-            "contour_error_change": (eps - self.eps_prev) / cfg.tolerance,
-            "tracking_error": (ref - loop.measured_position) / TRACKING_SCALE,
-            "reference_velocity": vel / self.f_nominal,
-            "curvature": curv,
-            "progress": (s / self.path.length)[:, None],
-        }
-        if self.kind == CCC:
-            obs["gains"] = self.action
-        else:
-            obs["feedrate"] = np.column_stack([self.feed, v]) / self.f_nominal
-        return {k: np.clip(val, -OBS_LIMIT, OBS_LIMIT).astype(np.float32) for k, val in obs.items()}
+        """Observations (B, ...) as documented in the env docstrings (fresh arrays)."""
+        flat = self._v["obs"].astype(np.float32)
+        out, col = {}, 0
+        for key, n in self._sizes.items():
+            out[key] = flat[:, col : col + n]
+            col += n
+        return out
 
     # ------------------------------------------------------------------ info
     def info(self, b: int, failure: bool, ended: bool) -> dict[str, Any]:
         """Info of member ``b`` after a step (SI units)."""
         loop = self.loop
-        x = loop.ax_s[b, :, PK.ST_X]
-        ref = self._to_axes(self.path.point(loop.s[b : b + 1]).reshape(1, -1), offset=True)[0]
         out: dict[str, Any] = {
             "contour_error": loop.contour_error[b].copy(),
             "contour_error_estimate": loop.contour_error_estimate[b].copy(),
-            "tracking_error": ref - x,
-            "feedrate": float(self.feed[b]) if self.kind == FEEDRATE else float(self.f_nominal),
+            "tracking_error": self._v["ref"][b] - loop.ax_s[b, :, PK.ST_X],
+            "feedrate": float(self.feed[b]),
             "s": float(loop.s[b]),
             "failure": bool(failure),
         }

@@ -19,12 +19,12 @@ _SPEC = """
     misshaped actions raise ValueError.
 
     ## Observation space
-    ``Dict`` of float32 ``Box(-1e4, 1e4)`` (scaled values clipped to that):
+    ``Dict`` of float32 ``Box(-1e4, 1e4)`` (scaled values clipped; ``tol`` = ``tolerance``):
 
     | key | shape | meaning | unit and scale |
     |---|---|---|---|
-    | contour_error | (C,) | estimated contour error, signed in 2-D | m / tolerance |
-    | contour_error_change | (C,) | its change over the last decision (004's second input) | m / tolerance |
+    | contour_error | (C,) | estimated contour error, signed in 2-D | m / tol |
+    | contour_error_change | (C,) | its change over the decision (004's 2nd input) | m / tol |
     | tracking_error | (A,) | reference minus encoder reading per axis | m / 1 mm |
     | reference_velocity | (A,) | reference velocity per axis | (m/s) / F_nom |
     | curvature | (1+L,) | path curvature at s_ref and ``lookahead`` distances ahead | 1/m x 1 cm |
@@ -56,11 +56,11 @@ _SPEC = """
 """
 
 
-class FeedrateEnv(ContourEnv):
+class FeedrateEnv(ContourEnv):  # noqa: D101 (the spec is assigned to __doc__)
     __doc__ = "Feedrate changes as actions (``contour_gym/Feedrate-v0``).\n" + _SPEC
     kind = FEEDRATE
 
 
-class FeedrateVectorEnv(ContourVectorEnv):
+class FeedrateVectorEnv(ContourVectorEnv):  # noqa: D101
     __doc__ = "Native vector version of :class:`FeedrateEnv`.\n" + _SPEC
     kind = FEEDRATE

@@ -37,7 +37,10 @@ SCENARIOS: dict[str, tuple[str, dict[str, Any]]] = {
 
 _ENTRY = {
     "CCC": ("contour_gym.envs.ccc:CCCEnv", "contour_gym.envs.ccc:CCCVectorEnv"),
-    "Feedrate": ("contour_gym.envs.feedrate:FeedrateEnv", "contour_gym.envs.feedrate:FeedrateVectorEnv"),
+    "Feedrate": (
+        "contour_gym.envs.feedrate:FeedrateEnv",
+        "contour_gym.envs.feedrate:FeedrateVectorEnv",
+    ),
 }
 
 

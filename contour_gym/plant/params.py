@@ -114,7 +114,9 @@ Friction = CoulombFriction | StribeckFriction | LuGreFriction
 
 @dataclass(frozen=True)
 class Ripple:
-    """Position-periodic force ripple, paper 003 eqs. 5-6: ``sum_j a_j sin(w_j x) + b_j cos(w_j x)``.
+    """Position-periodic force ripple, paper 003 eqs. 5-6.
+
+    ``F = sum_j a_j sin(w_j x) + b_j cos(w_j x)``.
 
     Attributes:
         sin_amp: ``a_j``, N (up to 6 harmonics in 003).

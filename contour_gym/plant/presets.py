@@ -51,7 +51,9 @@ class Preset:
     notes: str = field(default="", compare=False)
 
 
-def pd_pole_placement(axis: AxisParams, omega: float, zeta: float = 0.7, ki_ratio: float = 0.0) -> PIDGains:
+def pd_pole_placement(
+    axis: AxisParams, omega: float, zeta: float = 0.7, ki_ratio: float = 0.0
+) -> PIDGains:
     """PID gains placing the axis' closed-loop poles at ``omega`` with damping ``zeta``.
 
     For ``m x'' + b x' = K u`` with ``u = kp e + kd de/dt``: ``kp = m omega^2 / K`` and
@@ -104,7 +106,9 @@ def _xyz_pmlsm() -> Preset:
         AxisParams(n, mass=m, damping=b, force_constant=30.0, u_max=10.0, disturbance=disturbance)
         for n, m, b in (("x", 4.0, 8.0), ("y", 3.0, 6.0), ("z", 2.0, 4.0))
     )
-    gains = tuple(pd_pole_placement(a, w, 0.8, 0.1) for a, w in zip(axes, (150.0, 130.0, 110.0)))
+    gains = tuple(
+        pd_pole_placement(a, w, 0.8, 0.1) for a, w in zip(axes, (150.0, 130.0, 110.0), strict=True)
+    )
     stage = Stage(
         "xyz_pmlsm", axes, (Contour((0, 1, 2)),), ts=1e-3,
         notes="001 three-axis PMLSM: table 2 lost in extraction; masses 4/3/2 kg, damping "
@@ -125,7 +129,9 @@ def _lugre_linear_motor() -> Preset:
         AxisParams(n, mass=m, damping=5.0, force_constant=50.0, u_max=10.0, friction=lugre)
         for n, m in (("x", 8.0), ("z", 6.0))
     )
-    gains = tuple(pd_pole_placement(a, w, 0.8, 0.1) for a, w in zip(axes, (80.0, 60.0)))
+    gains = tuple(
+        pd_pole_placement(a, w, 0.8, 0.1) for a, w in zip(axes, (80.0, 60.0), strict=True)
+    )
     stage = Stage(
         "lugre_linear_motor", axes, (Contour((0, 1)),), ts=1e-3, substeps=4,
         notes="002: LuGre F_s = 30 N, v_s = 0.5 m/s, sigma0 = 560, sigma1 = 300 (table 1, "
@@ -140,7 +146,9 @@ def _lugre_linear_motor() -> Preset:
     )  # fmt: skip
 
 
-def _gantry_axis(name: str, k_m: float, b_m: float, h_m: float, mass: float, enc: float) -> AxisParams:
+def _gantry_axis(
+    name: str, k_m: float, b_m: float, h_m: float, mass: float, enc: float
+) -> AxisParams:
     # 003 identifies K/M, b/M and the lumped uncertainty H/M; with a chosen mass M we split H
     # into Stribeck friction (F_c = 0.5 H, F_s = 0.7 H) and six ripple harmonics (0.3 H).
     h = h_m * mass
@@ -163,7 +171,9 @@ def _xyy_gantry() -> Preset:
         _gantry_axis("y1", 881.36, 142.324, 0.17, 2.0, 1e-7),
         _gantry_axis("y2", 1949.706, 179.56, 1.71, 2.0, 1e-7),
     )
-    gains = tuple(pd_pole_placement(a, w, 0.8, 0.1) for a, w in zip(axes, (90.0, 120.0, 150.0)))
+    gains = tuple(
+        pd_pole_placement(a, w, 0.8, 0.1) for a, w in zip(axes, (90.0, 120.0, 150.0), strict=True)
+    )
     contours = (Contour((0, 1), (0.0, 0.07)), Contour((0, 2), (0.0, 0.21)))
     stage = Stage(
         "xyy_gantry", axes, contours, ts=5e-4, substeps=2,
@@ -195,7 +205,7 @@ def _xy_servo_coulomb() -> Preset:
     )  # fmt: skip
     # 004 table 4.2's k_p ratio 5.5 : 4.95 sets the bandwidth mismatch (chosen scale 60 rad/s).
     omegas = (60.0, 60.0 * math.sqrt(4.95 / 5.5))
-    gains = tuple(pd_pole_placement(a, w, 0.8, 0.1) for a, w in zip(axes, omegas))
+    gains = tuple(pd_pole_placement(a, w, 0.8, 0.1) for a, w in zip(axes, omegas, strict=True))
     stage = Stage(
         "xy_servo_coulomb", axes, (Contour((0, 1)),), ts=1e-3, substeps=2,
         notes="004 tables 4.1/4.2: J, B, F_c, K_t per axis (published; Y's K_t blank, taken "
