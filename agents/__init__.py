@@ -1,0 +1,1 @@
+"""Everything that decides: optimisers, reference policies, RL agents, the CLI."""

@@ -35,6 +35,12 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--feedrate", type=float, default=None, help="mm/min (default: the paper's)")
     sim.add_argument("--seed", type=int, default=0)
     sim.add_argument("--out", default="contour_gym_simulate.png", help="plot file")
+    train = sub.add_parser("train", help="train a stable-baselines3 agent (needs the rl extra)")
+    train.add_argument("--env", default="contour_gym/CCC-Circle-v0", help="registered env id")
+    train.add_argument("--algo", default="ppo", choices=("ppo", "sac"))
+    train.add_argument("--steps", type=int, default=50_000, help="env steps")
+    train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--out", default="runs", help="folder for checkpoints and the model")
     return parser
 
 
@@ -86,11 +92,21 @@ def simulate_command(args: argparse.Namespace) -> int:
     return 0
 
 
+def train_command(args: argparse.Namespace) -> int:
+    """Run ``contour-gym train``: checkpoints as it goes, the model at the end or on Ctrl-C."""
+    from agents.rl.train import train
+
+    path = train(args.env, args.algo, args.steps, seed=args.seed, out_dir=args.out)
+    print(f"model saved to {path}")
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``contour-gym`` command."""
     args = _parser().parse_args(argv)
+    command = {"simulate": simulate_command, "train": train_command}[args.command]
     try:
-        return simulate_command(args)
+        return command(args)
     except ValueError as exc:
         print(f"contour-gym: error: {exc}", file=sys.stderr)
         return 2

@@ -24,11 +24,8 @@ def load_hyperparameters(algo: str) -> dict[str, Any]:
     """The YAML hyperparameters of ``algo`` shipped in ``configs/rl``."""
     if algo not in ALGOS:
         raise ValueError(f"unknown algo {algo!r}; accepted: {', '.join(ALGOS)}")
-    local = Path(__file__).resolve().parents[2] / "configs" / "rl" / f"{algo}.yaml"
-    if local.exists():
-        text = local.read_text()
-    else:  # installed wheel: the configs ship as package data of agents
-        text = (importlib.resources.files("agents") / "configs" / "rl" / f"{algo}.yaml").read_text()
+    # configs/ ships inside the wheel as agents/configs (a link in the source tree)
+    text = (importlib.resources.files("agents") / "configs" / "rl" / f"{algo}.yaml").read_text()
     data = yaml.safe_load(text)
     if not isinstance(data, dict):
         raise ValueError(f"configs/rl/{algo}.yaml must hold a mapping")
