@@ -6,8 +6,12 @@ never imports torch.
 
 from __future__ import annotations
 
-from contour_gym.api import make_scenario, simulate
-from contour_gym.envs import ENV_IDS, register_envs
+from contour_gym import _numba_cache
+
+_numba_cache.configure()  # before any kernel module is imported
+
+from contour_gym.api import make_scenario, simulate  # noqa: E402
+from contour_gym.envs import ENV_IDS, register_envs  # noqa: E402
 
 __version__ = "0.1.0"
 
