@@ -35,7 +35,7 @@ def configure() -> None:
         target.touch()
     except OSError:
         return  # unwritable home: numba's default (next to the sources) stays in force
-    numba.config.CACHE_DIR = str(target)
+    numba.config.CACHE_DIR = str(target)  # type: ignore[attr-defined]
     _prune(base, target)
 
 
