@@ -1,84 +1,61 @@
-"""Per-axis servo controllers (PID now; the papers' SMC-DOB, 2-DOF PID and robust PD later)."""
+"""Per-axis servo controllers, batched and selected by name.
+
+=================  ===========================================================================
+``pid``            PID with velocity feed-forward (the presets' baseline).
+``two_dof_pid``    paper 003's 2-DOF PID (eqs. 26-35): main PID plus a feed-forward PD on the
+                   command with set-point weights ``alpha``, ``beta``.
+``smc_dob``        paper 001's sliding-mode control with boundary layer and disturbance
+                   observer (small switching gain).
+``smc``            the same law without observer and with the large switching gain 001 needs.
+``pd_robust``      paper 001's comparison controller: PD plus nominal-model feed-forward.
+=================  ===========================================================================
+
+Every controller takes ``friction="feedforward"`` (paper 002 section 3: a LuGre model on the
+command velocity), ``"feedback"`` (the traditional compensation: the same model on the
+measured velocity) or ``"feedback_static"`` (002 eq. 3 on the measured velocity), with
+``friction_model=`` the identified parameters (:func:`agents.identify.identify_friction`).
+
+Select a controller with ``ServoLoop(..., axis_controller=name, controller_options={...})``
+(also ``make_scenario(...).loop(...)`` and ``simulate(...)``). An optimiser tuning 003's
+five numbers per axis (Kp, TI, TD, alpha, beta) maps its population ``x`` of shape
+``(B, 5 n_axes)`` to rows with :func:`two_dof_pid_params`::
+
+    loop = scenario.loop(axis_controller="two_dof_pid", batch_size=B)
+    loop.set_controller_params(two_dof_pid_params(x.reshape(B, -1, 5), base=loop.ctrl_p))
+
+:class:`AxisControllers` runs the same compiled controllers outside the loop. Defaults and
+how they are derived: :mod:`contour_gym.servo.builders`; the laws and what was reconstructed
+from the papers: :mod:`contour_gym.servo._kernel`.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from contour_gym.servo.bank import AxisControllers
+from contour_gym.servo.builders import (
+    CONTROLLERS,
+    TWO_DOF_NAMES,
+    build_controller,
+    controller_options,
+    disturbance_bound,
+    loop_bandwidth,
+    pid_params,
+    smc_defaults,
+    two_dof_pid_params,
+    two_dof_pid_values,
+)
+from contour_gym.servo.gains import PIDGains
 
-import numpy as np
-
-from contour_gym._validate import as_finite_array, choice
-from contour_gym.servo import _kernel as K
-
-if TYPE_CHECKING:
-    from contour_gym.plant.stage import Stage
-
-__all__ = ["CONTROLLERS", "PIDGains", "build_controller", "pid_params"]
-
-
-@dataclass(frozen=True)
-class PIDGains:
-    """Gains of one axis' position PID, in control units per metre.
-
-    Attributes:
-        kp: Proportional gain (u per m).
-        ki: Integral gain (u per m s).
-        kd: Derivative gain (u s per m).
-        kff: Velocity feed-forward gain (u s per m); 0 in the papers' loops.
-    """
-
-    kp: float
-    ki: float = 0.0
-    kd: float = 0.0
-    kff: float = 0.0
-
-    def __post_init__(self) -> None:
-        vals = as_finite_array([self.kp, self.ki, self.kd, self.kff], "PID gains")
-        if vals[0] <= 0 or np.any(vals[1:3] < 0):
-            raise ValueError(f"PID gains need kp > 0 and ki, kd >= 0, got {self!r}")
-
-
-def pid_params(gains: tuple[PIDGains, ...], batch: int) -> np.ndarray:
-    """Kernel parameter rows (batch, n_axes, N_CP) for the given per-axis gains."""
-    row = np.zeros((len(gains), K.N_CP))
-    for a, g in enumerate(gains):
-        row[a, [K.CP_KP, K.CP_KI, K.CP_KD, K.CP_KFF]] = g.kp, g.ki, g.kd, g.kff
-    return np.repeat(row[None], batch, axis=0)
-
-
-def _build_pid(stage: Stage, gains: Sequence[PIDGains], batch: int, **options: object) -> np.ndarray:
-    if options:
-        raise ValueError(f"pid takes no options, got {sorted(options)}")
-    return pid_params(tuple(gains), batch)
-
-
-# name -> (kernel kind, builder(stage, default PID gains, batch, **options) -> (B, A, N_CP))
-CONTROLLERS: dict[str, tuple[int, Callable[..., np.ndarray]]] = {
-    "pid": (K.CTRL_PID, _build_pid),
-}
-
-
-def build_controller(
-    name: str, stage: Stage, gains: Sequence[PIDGains], batch: int, **options: object
-) -> tuple[int, np.ndarray]:
-    """Kernel kind and parameter rows (batch, n_axes, N_CP) of the axis controller ``name``.
-
-    Args:
-        name: A key of :data:`CONTROLLERS`.
-        stage: The machine (model-based controllers read its nominal axis parameters).
-        gains: The preset's per-axis PID gains (the baseline other designs start from).
-        batch: Batch size.
-        **options: Controller-specific settings.
-
-    Returns:
-        ``(kind, params)``.
-
-    Raises:
-        ValueError: for an unknown name or bad options.
-    """
-    kind, builder = CONTROLLERS[choice(name, "axis_controller", CONTROLLERS)]
-    params = builder(stage, gains, batch, **options)
-    if params.shape != (batch, stage.n_axes, K.N_CP) or not np.all(np.isfinite(params)):
-        raise ValueError(f"controller {name!r} built invalid parameters of shape {params.shape}")
-    return kind, params
+__all__ = [
+    "CONTROLLERS",
+    "TWO_DOF_NAMES",
+    "AxisControllers",
+    "PIDGains",
+    "build_controller",
+    "controller_options",
+    "disturbance_bound",
+    "loop_bandwidth",
+    "pid_params",
+    "smc_defaults",
+    "two_dof_pid_params",
+    "two_dof_pid_values",
+]
