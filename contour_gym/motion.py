@@ -65,7 +65,7 @@ def initial_state(batch: int) -> np.ndarray:
     return out
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def stop_speed(remaining, v, a_max, j_max, ts):  # type: ignore[no-untyped-def]
     """Highest speed for the coming tick from which the reference can still stop in time.
 
@@ -89,7 +89,7 @@ def stop_speed(remaining, v, a_max, j_max, ts):  # type: ignore[no-untyped-def]
     return -a_max * c + math.sqrt((a_max * c) ** 2 + 2.0 * a_max * room)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def interp_tick(length, ts, p, st, k):  # type: ignore[no-untyped-def]
     """Advance one member's reference by one tick; marks ``done_tick`` at the path end.
 

@@ -59,7 +59,7 @@ __all__ = [
 ]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def error_from_foot(dim, p0, p1, p2, qx, qy, qz, tx, ty):  # type: ignore[no-untyped-def]
     """Signed/unsigned contour error and coupling gains from a foot point and its tangent.
 
@@ -78,7 +78,7 @@ def error_from_foot(dim, p0, p1, p2, qx, qy, qz, tx, ty):  # type: ignore[no-unt
     return eps, vx / eps, vy / eps, vz / eps
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _exact_error_2d(kind, s0, data, p0, p1, qx, qy, tx, ty, sf):  # type: ignore[no-untyped-def]
     """2-D error of an exact foot q: ``|q - p|`` signed (+ left of travel), ``C = (q - p)/eps``.
 
@@ -104,7 +104,7 @@ def _exact_error_2d(kind, s0, data, p0, p1, qx, qy, tx, ty, sf):  # type: ignore
     return eps, vx / eps, vy / eps, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def ground_truth(kind, s0, data, bound, dim, p0, p1, p2, s):  # type: ignore[no-untyped-def]
     """Exact contour error, foot searched near the reference arc length ``s``.
 
@@ -118,6 +118,12 @@ def ground_truth(kind, s0, data, bound, dim, p0, p1, p2, s):  # type: ignore[no-
         ``(eps, c0, c1, c2, s_foot)``.
     """
     rx, ry, rz, _, _, _, _, _, _ = eval_path(kind, s0, data, s)
+    return ground_truth_from(kind, s0, data, bound, dim, p0, p1, p2, s, rx, ry, rz)
+
+
+@numba.njit(cache=True, inline="always")
+def ground_truth_from(kind, s0, data, bound, dim, p0, p1, p2, s, rx, ry, rz):  # type: ignore[no-untyped-def]
+    """:func:`ground_truth` given the reference point ``r(s)`` the caller already has."""
     w = 4.0 * math.sqrt((p0 - rx) ** 2 + (p1 - ry) ** 2 + (p2 - rz) ** 2) + 1e-9
     sf, _ = nearest_window(kind, s0, data, bound, p0, p1, p2, s - w, s + w)
     qx, qy, qz, tx, ty, _, _, _, _ = eval_path(kind, s0, data, sf)
@@ -144,8 +150,9 @@ def _foot(est_kind, est_p, kind, s0, data, bound, p0, p1, p2, s, hist):  # type:
     elif est_kind == EST_WINDOW:
         return est_window(int(est_p[0]), kind, s0, data, p0, p1, p2, s, hist)
     elif est_kind == EST_ITERATIVE:
-        return est_iterative(int(est_p[0]), int(est_p[1]), est_p[2], kind, s0, data, bound,
-                               p0, p1, p2, s)
+        return est_iterative(
+            int(est_p[0]), int(est_p[1]), est_p[2], kind, s0, data, bound, p0, p1, p2, s
+        )
     return FAIL
 
 
@@ -153,8 +160,9 @@ def _foot(est_kind, est_p, kind, s0, data, bound, p0, p1, p2, s, hist):  # type:
 def estimate_flagged(est_kind, est_p, kind, s0, data, bound, dim, p0, p1, p2, s, v, a, hist, ts):  # type: ignore[no-untyped-def]
     """:func:`estimate` plus a flag: True when it fell back to :func:`ground_truth`."""
     if est_kind != EST_GROUND_TRUTH:
-        ok, qx, qy, qz, tx, ty, tz, e2 = _foot(est_kind, est_p, kind, s0, data, bound,
-                                               p0, p1, p2, s, hist)
+        ok, qx, qy, qz, tx, ty, tz, e2 = _foot(
+            est_kind, est_p, kind, s0, data, bound, p0, p1, p2, s, hist
+        )
         if ok:
             d2 = (qx - p0) ** 2 + (qy - p1) ** 2 + (qz - p2) ** 2
             tt = tx * tx + ty * ty + (tz * tz if dim == 3 else 0.0)
@@ -169,8 +177,9 @@ def estimate_flagged(est_kind, est_p, kind, s0, data, bound, dim, p0, p1, p2, s,
 @numba.njit(cache=True)
 def estimate(est_kind, est_p, kind, s0, data, bound, dim, p0, p1, p2, s, v, a, hist, ts):  # type: ignore[no-untyped-def]
     """Dispatch to the estimator ``est_kind``; returns ``(eps, c0, c1, c2)``."""
-    eps, c0, c1, c2, _ = estimate_flagged(est_kind, est_p, kind, s0, data, bound, dim,
-                                          p0, p1, p2, s, v, a, hist, ts)
+    eps, c0, c1, c2, _ = estimate_flagged(
+        est_kind, est_p, kind, s0, data, bound, dim, p0, p1, p2, s, v, a, hist, ts
+    )
     return eps, c0, c1, c2
 
 
@@ -218,14 +227,32 @@ def estimate_many(est_kind, est_p, kind, s0, data, bound, pos, s, s_hist, ds, mo
         sb = s[b if s.shape[0] > 1 else 0]
         hrow = s_hist[b if s_hist.shape[0] > 1 else 0]
         db = ds[b if ds.shape[0] > 1 else 0]
-        if not (_row_finite(pos[b]) and math.isfinite(sb) and math.isfinite(db)
-                and (mode != 1 or _row_finite(hrow))):
+        if not (
+            _row_finite(pos[b])
+            and math.isfinite(sb)
+            and math.isfinite(db)
+            and (mode != 1 or _row_finite(hrow))
+        ):
             return b
         _fill_history(hist, sb, hrow, db, mode)
         p2 = pos[b, 2] if dim == 3 else 0.0
-        eps, c0, c1, c2, fb = estimate_flagged(est_kind, est_p, kind, s0, data, bound, dim,
-                                               pos[b, 0], pos[b, 1], p2, sb, 0.0, 0.0, hist,
-                                               1.0)
+        eps, c0, c1, c2, fb = estimate_flagged(
+            est_kind,
+            est_p,
+            kind,
+            s0,
+            data,
+            bound,
+            dim,
+            pos[b, 0],
+            pos[b, 1],
+            p2,
+            sb,
+            0.0,
+            0.0,
+            hist,
+            1.0,
+        )
         out[b, 0], out[b, 1], out[b, 2], out[b, 3] = eps, c0, c1, c2
         fell[b] = fb
     return -1

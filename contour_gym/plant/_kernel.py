@@ -30,7 +30,7 @@ ST_X, ST_V, ST_I, ST_Z, ST_D = 0, 1, 2, 3, 4
 N_ST = 5
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def ripple_force(rip, nrip, x):  # type: ignore[no-untyped-def]
     """Ripple force at position x (003 eqs. 5-6)."""
     f = 0.0
@@ -40,7 +40,7 @@ def ripple_force(rip, nrip, x):  # type: ignore[no-untyped-def]
     return f
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def disturbance_force(dist, st, t, w):  # type: ignore[no-untyped-def]
     """Advance the band-limited random state with normal ``w`` and return d(t), N."""
     d = 0.0
@@ -56,7 +56,7 @@ def disturbance_force(dist, st, t, w):  # type: ignore[no-untyped-def]
     return d
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def kinetic_friction(p, v):  # type: ignore[no-untyped-def]
     """Coulomb or Stribeck friction force opposing velocity v != 0 (003 eqs. 7-8)."""
     sgn = 1.0 if v > 0.0 else -1.0
@@ -67,7 +67,7 @@ def kinetic_friction(p, v):  # type: ignore[no-untyped-def]
     return (p[AX_FC] + stribeck + p[AX_FV] * av) * sgn
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _linear_step(ad, bd, st, u, f):  # type: ignore[no-untyped-def]
     x, v, i = st[ST_X], st[ST_V], st[ST_I]
     st[ST_X] = ad[0, 0] * x + ad[0, 1] * v + ad[0, 2] * i + bd[0, 0] * u + bd[0, 1] * f
@@ -75,7 +75,7 @@ def _linear_step(ad, bd, st, u, f):  # type: ignore[no-untyped-def]
     st[ST_I] = ad[2, 0] * x + ad[2, 1] * v + ad[2, 2] * i + bd[2, 0] * u + bd[2, 1] * f
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _lugre_substep(p, ad, bd, st, u, f_ext, h):  # type: ignore[no-untyped-def]
     # 002 eq. 1 with the standard +sigma1 sign; z advanced exactly for v frozen over h.
     v = st[ST_V]
@@ -93,7 +93,7 @@ def _lugre_substep(p, ad, bd, st, u, f_ext, h):  # type: ignore[no-untyped-def]
         st[ST_Z] = z + v * h
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _static_friction_substep(p, ad, bd, st, u, f_ext):  # type: ignore[no-untyped-def]
     # Coulomb/Stribeck with stiction: at v == 0 the axis stays put while the applied force
     # is within the break-away force; a velocity sign change inside a substep is clamped
@@ -116,7 +116,7 @@ def _static_friction_substep(p, ad, bd, st, u, f_ext):  # type: ignore[no-untype
         st[ST_V] = 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def axis_tick(p, rip, dist, ad, bd, st, u, t, ts, nsub, w):  # type: ignore[no-untyped-def]
     """Advance one axis by one servo tick ``ts`` with the control ``u`` held (ZOH).
 
@@ -151,7 +151,7 @@ def axis_tick(p, rip, dist, ad, bd, st, u, t, ts, nsub, w):  # type: ignore[no-u
         st[ST_I] = u
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def measure(p, x, w):  # type: ignore[no-untyped-def]
     """Encoder reading of true position ``x``: quantised, plus noise ``noise_std * w``."""
     q = p[AX_ENC]

@@ -46,7 +46,7 @@ CS_U1, CS_U2, CS_DHAT, CS_ZF = 6, 7, 8, 9  # applied u minus friction comp., DOB
 N_CS = 12
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def pid_output(p, s, e, r_dot, ts):  # type: ignore[no-untyped-def]
     """PID with velocity feed-forward: ``kp e + ki (I + e ts) + kd de/dt + kff r_dot``.
 
@@ -57,7 +57,7 @@ def pid_output(p, s, e, r_dot, ts):  # type: ignore[no-untyped-def]
     return p[CP_KP] * e + p[CP_KI] * integ + p[CP_KD] * de + p[CP_KFF] * r_dot
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def pid_commit(s, e, ts, u_total, u_max):  # type: ignore[no-untyped-def]
     """Store ``e`` for the next derivative and integrate unless saturated the same way."""
     if abs(u_total) < u_max or e * u_total < 0.0:
@@ -185,7 +185,7 @@ def friction_output(p, s, r_dot, y, ts):  # type: ignore[no-untyped-def]
     return force * p[CP_FR_INVK]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def axis_control(kind, p, s, r, r_dot, r_ddot, y, ts):  # type: ignore[no-untyped-def]
     """Control signal of one axis (before CCC and saturation) for controller ``kind``.
 
@@ -210,7 +210,7 @@ def axis_control(kind, p, s, r, r_dot, r_ddot, y, ts):  # type: ignore[no-untype
     return u + friction_output(p, s, r_dot, y, ts)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def axis_commit(kind, p, s, r, r_dot, r_ddot, y, ts, u_total, u_max):  # type: ignore[no-untyped-def]
     """Update the controller state once the tick's total (unsaturated) control is known."""
     if kind in (CTRL_PID, CTRL_TWO_DOF_PID):
