@@ -208,6 +208,14 @@ class ServoLoop:
         self._meas_exact = not any(x.encoder_resolution > 0 or x.noise_std > 0 for x in stage.axes)
         self._rec_width = 2 + 3 * a + 2 * c
         self._no_record = np.zeros((b, 0, self._rec_width))
+        self._no_noise = np.zeros((b, 0, 0))
+        t = path.table
+        # run_ticks' arguments that never change for this loop (built once: per-step cost)
+        self._static_args = (
+            stage.ts, stage.substeps, path.length, record, self._meas_exact, self.ctrl_kind,
+            self.est_kind, t.kind, t.s0, t.data, t.bound, self._fblob.buffer,
+            self._fblob.layout, self._iblob.buffer, self._iblob.layout,
+        )  # fmt: skip
         self._nominal = (self.ax_p.copy(), self.dist.copy())
         self._start = np.zeros(a)
         start = path.point(0.0)
@@ -436,19 +444,16 @@ class ServoLoop:
             rec = np.zeros((self.batch_size, n_ticks, self._rec_width))
         else:
             rec = self._no_record
-        noise = self._noise.take(n_ticks, self.status == LK.STATUS_OK)
+        if self._noise.active:
+            noise = self._noise.take(n_ticks, self.status == LK.STATUS_OK)
+        else:
+            noise = self._no_noise
         return n_ticks, paused, noise, rec
 
     def kernel_args(self, call: tuple[int, Any, Array, Array]) -> tuple[Any, ...]:
         """Arguments of :func:`contour_gym._loopkernel.run_ticks` for a prepared call."""
         n_ticks, _, noise, rec = call
-        t = self.path.table
-        return (
-            n_ticks, self.tick, self.stage.ts, self.stage.substeps, self.path.length,
-            self.record, self._meas_exact, self.ctrl_kind, self.est_kind, t.kind, t.s0, t.data,
-            t.bound, self._fblob.buffer, self._fblob.layout, self._iblob.buffer,
-            self._iblob.layout, noise, rec,
-        )  # fmt: skip
+        return (n_ticks, self.tick, *self._static_args, noise, rec)
 
     def complete(self, call: tuple[int, Any, Array, Array]) -> None:
         """Bookkeeping after a kernel call (clock, paused members, recording)."""

@@ -203,7 +203,13 @@ def env_step(  # type: ignore[no-untyped-def]
 
     The arguments from ``n`` on are :meth:`contour_gym.loop.ServoLoop.kernel_args` (passed
     flat: a tuple argument would send numba's dispatcher down its slow typing path).
+    Returns False, having changed nothing, when an action is NaN or infinite.
     """
+    action = view2(eb, el, E_ACTION)
+    for b in range(action.shape[0]):
+        for j in range(action.shape[1]):
+            if not math.isfinite(action[b, j]):
+                return False
     apply_actions(kind, fb, fl, eb, el, dfeed, f_lo, f_hi)
     LK.run_ticks(
         n,
@@ -229,3 +235,4 @@ def env_step(  # type: ignore[no-untyped-def]
     finish_step(
         kind, pk, s0, data, dim, length, fb, fl, ib, il, eb, el, tol, hard, penalty, nominal, f_nom
     )
+    return True

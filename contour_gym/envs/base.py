@@ -76,14 +76,14 @@ class ContourEnv(gym.Env):
         """Hold the action for ``decision_ticks`` servo ticks (see the class docstring)."""
         if self._needs_reset:
             raise ResetNeeded("call reset() before step(), also after an episode has ended")
-        a = check_actions(action, (self.task.n_actions,))[None]
-        reward, terminated, failure = self.task.step(a)
-        self._needs_reset = bool(terminated[0])
-        info = self.task.info(0, failure=bool(failure[0]), ended=bool(terminated[0]))
-        return self._obs(), float(reward[0]), bool(terminated[0]), False, info
+        self.task.step(check_actions(action, (self.task.n_actions,))[None])
+        reward, terminated, failure = self.task.member_result(0)
+        self._needs_reset = terminated
+        info = self.task.info(0, failure=failure, ended=terminated)
+        return self._obs(), reward, terminated, False, info
 
     def _obs(self) -> dict[str, NDArray[np.float32]]:
-        return {k: v[0] for k, v in self.task.observe().items()}
+        return self.task.observe(0)
 
     def render(self) -> NDArray[np.uint8] | None:
         """The contour with the error magnified 200x (rgb_array) or shown in a window."""
@@ -181,7 +181,8 @@ class ContourVectorEnv(VectorEnv):
             idx = np.flatnonzero(restart)
             self.task.reset_members(idx, [self.task.rngs[i] for i in idx])
             self._steps[restart] = 0
-        reward, terminated, failure = self.task.step(a, restart)
+        self.task.step(a, restart)
+        reward, terminated, failure = self.task.results()
         self._steps[~restart] += 1
         limit = self.max_episode_steps
         truncated = ~terminated & (self._steps >= limit) if limit else np.zeros_like(terminated)

@@ -79,19 +79,37 @@ class ContourTask:
             "failure": (batch,),
         }  # fmt: skip
         self._blob = Blob([(name, shapes[name]) for name in EK.ENV_ARRAYS])
-        self._v = self._blob.views
+        self._attach_views()
         self._v["log_lo"][...], self._v["log_hi"][...] = log_lo, log_hi
         self._v["lookahead"][...] = config.lookahead
+        # env_step's leading arguments, constant for this task (Python scalars: numba's
+        # dispatcher types them fastest)
+        self._step_args = (
+            self._kind_code, float(config.max_feedrate_change * self.f_nominal),
+            float(self.f_bounds[0]), float(self.f_bounds[1]), self._blob.buffer,
+            self._blob.layout, float(config.tolerance), float(config.hard_limit),
+            float(config.failure_penalty), float(self._nominal_progress), float(self.f_nominal),
+            int(self.path.dim),
+        )  # fmt: skip
         self._axis_map = [
             (c.axes[j], j, c.offset[j] if c.offset else 0.0)
             for c in self.stage.contours
             for j in range(c.dim)
         ]
 
+    def _attach_views(self) -> None:
+        v = self._v = self._blob.views
+        self._action, self._skip, self._reward = v["action"], v["skip"], v["reward"]
+        self._terminated, self._failure = v["terminated"], v["failure"]
+
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
-        self._v = self._blob.views  # views alias the unpickled buffer again
+        self._attach_views()  # views alias the unpickled buffer again
         self.feed = self.loop.ip_p[:, 0]
+
+    def __getstate__(self) -> dict[str, Any]:
+        views = ("_v", "_action", "_skip", "_reward", "_terminated", "_failure", "feed")
+        return {k: val for k, val in self.__dict__.items() if k not in views}
 
     # ---------------------------------------------------------------- spaces
     @property
@@ -176,35 +194,40 @@ class ContourTask:
         self.loop.set_plant_scaling([b], **factors)
 
     # ------------------------------------------------------------------ step
-    def step(
-        self, actions: Array, skip: NDArray[np.bool_] | None = None
-    ) -> tuple[Array, NDArray[np.bool_], NDArray[np.bool_]]:
+    def step(self, actions: Array, skip: NDArray[np.bool_] | None = None) -> None:
         """One decision: apply actions (B, n) (clipped), run ``decision_ticks`` ticks.
 
-        Members in ``skip`` neither act nor advance (vector env auto-reset).
-
-        Returns:
-            Rewards (B,), terminated (B,) and failure (B,) (see ``_kernel.finish_step``).
+        Members in ``skip`` neither act nor advance (vector env auto-reset). Read the
+        outcome with :meth:`results` or :meth:`member_result`.
         """
-        v, loop = self._v, self.loop
         if skip is None:
-            v["action"][...] = actions
-            v["skip"][...] = 0.0
+            self._action[...] = actions
+            self._skip[...] = 0.0
         else:
-            v["action"][~skip] = actions[~skip]
-            v["skip"][...] = skip
-        if not np.isfinite(v["action"]).all():
+            self._action[~skip] = actions[~skip]
+            self._skip[...] = skip
+        loop = self.loop
+        if loop._noise.active and not np.isfinite(self._action).all():
+            # checked before prepare(), which draws noise: a rejected action leaves no trace
             raise ValueError(f"actions must be finite, got {actions}")
-        cfg = self.config
-        call = loop.prepare(cfg.decision_ticks, None if skip is None else np.flatnonzero(skip))
-        EK.env_step(
-            self._kind_code, cfg.max_feedrate_change * self.f_nominal, self.f_bounds[0],
-            self.f_bounds[1], self._blob.buffer, self._blob.layout, cfg.tolerance,
-            cfg.hard_limit, cfg.failure_penalty, self._nominal_progress, self.f_nominal,
-            self.path.dim, *loop.kernel_args(call),
-        )  # fmt: skip
+        call = loop.prepare(
+            self.config.decision_ticks, None if skip is None else np.flatnonzero(skip)
+        )
+        if not EK.env_step(*self._step_args, *loop.kernel_args(call)):
+            raise ValueError(f"actions must be finite, got {actions}")  # nothing was run
         loop.complete(call)
-        return v["reward"].copy(), v["terminated"] != 0.0, v["failure"] != 0.0
+
+    def results(self) -> tuple[Array, NDArray[np.bool_], NDArray[np.bool_]]:
+        """Rewards (B,), terminated (B,) and failure (B,) of the last decision (copies)."""
+        return self._reward.copy(), self._terminated != 0.0, self._failure != 0.0
+
+    def member_result(self, b: int) -> tuple[float, bool, bool]:
+        """Reward, terminated and failure of member ``b`` after the last decision."""
+        return (
+            float(self._reward[b]),
+            bool(self._terminated[b] != 0.0),
+            bool(self._failure[b] != 0.0),
+        )
 
     def _finish(self) -> None:
         cfg, loop, t = self.config, self.loop, self.path.table
@@ -216,12 +239,17 @@ class ContourTask:
         )  # fmt: skip
 
     # ----------------------------------------------------------- observation
-    def observe(self) -> dict[str, NDArray[np.float32]]:
-        """Observations (B, ...) as documented in the env docstrings (fresh arrays)."""
-        flat = self._v["obs"].astype(np.float32)
+    def observe(self, member: int | None = None) -> dict[str, NDArray[np.float32]]:
+        """Observations as documented in the env docstrings (fresh arrays).
+
+        Args:
+            member: None for every member (arrays (B, n)), or one member's (arrays (n,)).
+        """
+        obs = self._v["obs"]
+        flat = (obs if member is None else obs[member]).astype(np.float32)
         out, col = {}, 0
         for key, n in self._sizes.items():
-            out[key] = flat[:, col : col + n]
+            out[key] = flat[..., col : col + n]
             col += n
         return out
 
