@@ -228,3 +228,14 @@ def test_distance_invariant_under_rigid_motion_3d(quat, shift, seed, reflect):
     _, d2 = moved.nearest(pts @ rot.T + np.array(shift))
     np.testing.assert_allclose(d2, d, atol=1e-12, rtol=0)
     np.testing.assert_allclose(moved.point(0.01), rot @ path.point(0.01) + shift, atol=1e-14)
+
+
+def test_hint_window_wraps_on_closed_paths():
+    # a tool past the end of a closed contour is near its start: the hinted search must
+    # find that, not the end point (the servo loop's ground truth uses the same search)
+    c = cgp.circle(0.02)
+    p = np.array([[0.02 + 5e-6, 1.5e-4]])  # just past s = 0 == L, 5 um outside
+    s_end, d_end = c.nearest(p, s_hint=np.array([c.length]))
+    s_glob, d_glob = c.nearest(p)
+    assert abs(d_end[0]) == pytest.approx(abs(d_glob[0]), rel=1e-9)
+    assert abs(d_end[0]) < 6e-6

@@ -33,7 +33,12 @@ from contour_gym.contour._estimators import (
     est_window,
 )
 from contour_gym.contour._history import N_HIST, history_at, history_push
-from contour_gym.paths._geom import eval_path, find_segment, nearest_window, side_2d
+from contour_gym.paths._geom import (
+    eval_path,
+    find_segment,
+    nearest_window_wrapped,
+    side_2d,
+)
 
 EST_GROUND_TRUTH = 0
 EST_EXACT = 1
@@ -125,7 +130,7 @@ def ground_truth(kind, s0, data, bound, dim, p0, p1, p2, s):  # type: ignore[no-
 def ground_truth_from(kind, s0, data, bound, dim, p0, p1, p2, s, rx, ry, rz):  # type: ignore[no-untyped-def]
     """:func:`ground_truth` given the reference point ``r(s)`` the caller already has."""
     w = 4.0 * math.sqrt((p0 - rx) ** 2 + (p1 - ry) ** 2 + (p2 - rz) ** 2) + 1e-9
-    sf, _ = nearest_window(kind, s0, data, bound, p0, p1, p2, s - w, s + w)
+    sf, _ = nearest_window_wrapped(kind, s0, data, bound, p0, p1, p2, s - w, s + w)
     qx, qy, qz, tx, ty, _, _, _, _ = eval_path(kind, s0, data, sf)
     if dim == 2:
         eps, c0, c1, c2 = _exact_error_2d(kind, s0, data, p0, p1, qx, qy, tx, ty, sf)

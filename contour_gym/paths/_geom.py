@@ -511,7 +511,37 @@ def hint_window(kind, s0, data, px, py, pz, s_hint):  # type: ignore[no-untyped-
 def nearest_hint(kind, s0, data, bound, px, py, pz, s_hint):  # type: ignore[no-untyped-def]
     """Nearest point in the window :func:`hint_window` around ``s_hint``: (s_foot, dist2)."""
     lo, hi = hint_window(kind, s0, data, px, py, pz, s_hint)
-    return nearest_window(kind, s0, data, bound, px, py, pz, lo, hi)
+    return nearest_window_wrapped(kind, s0, data, bound, px, py, pz, lo, hi)
+
+
+@numba.njit(cache=True)
+def is_closed(kind, s0, data):  # type: ignore[no-untyped-def]
+    """Whether the path ends where it starts (within 1e-9 m, as ``Path.closed``)."""
+    ax, ay, az, _, _, _, _, _, _ = eval_path(kind, s0, data, 0.0)
+    bx, by, bz, _, _, _, _, _, _ = eval_path(kind, s0, data, s0[s0.shape[0] - 1])
+    return math.sqrt((ax - bx) ** 2 + (ay - by) ** 2 + (az - bz) ** 2) <= 1e-9
+
+
+@numba.njit(cache=True)
+def nearest_window_wrapped(kind, s0, data, bound, px, py, pz, s_lo, s_hi):  # type: ignore[no-untyped-def]
+    """:func:`nearest_window`, where on a closed path the window wraps around 0 and L.
+
+    A tool that overshoots the end of a closed contour (or lags behind its start) is near
+    the other end of the arc-length range; a clamped window would report its distance to
+    the end point instead.
+    """
+    sf, d2 = nearest_window(kind, s0, data, bound, px, py, pz, s_lo, s_hi)
+    total = s0[s0.shape[0] - 1]
+    if (s_lo < 0.0 or s_hi > total) and is_closed(kind, s0, data):
+        if s_lo < 0.0:
+            s2, e2 = nearest_window(kind, s0, data, bound, px, py, pz, total + s_lo, total)
+            if e2 < d2:
+                sf, d2 = s2, e2
+        if s_hi > total:
+            s2, e2 = nearest_window(kind, s0, data, bound, px, py, pz, 0.0, s_hi - total)
+            if e2 < d2:
+                sf, d2 = s2, e2
+    return sf, d2
 
 
 @numba.njit(cache=True)
