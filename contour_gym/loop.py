@@ -405,11 +405,6 @@ class ServoLoop:
         return self.last[..., LK.LS_TRUE]
 
     @property
-    def measured_position(self) -> Array:
-        """(B, A) encoder reading of the last tick, m."""
-        return self.y_last
-
-    @property
     def contour_error_estimate(self) -> Array:
         """(B, C) contour error the CCC saw at the last tick, m."""
         return self.last[..., LK.LS_EST]

@@ -44,18 +44,6 @@ class ErrorSums:
         """Empty sums."""
         return cls(np.zeros((batch, n_contours, 4)), np.zeros((batch, n_axes, 4)))
 
-    def merge(self, other: ErrorSums) -> None:
-        """Add the sums of a later window into these, in place."""
-        for mine, theirs in ((self.contour, other.contour), (self.axis, other.axis)):
-            mine[..., :2] += theirs[..., :2]
-            np.maximum(mine[..., 2], theirs[..., 2], out=mine[..., 2])
-        self.contour[..., 3] += other.contour[..., 3]
-        self.axis[..., 3] += other.axis[..., 3]
-
-    def copy(self) -> ErrorSums:
-        """A deep copy."""
-        return ErrorSums(self.contour.copy(), self.axis.copy())
-
 
 def sums_from_trace(eps: Array, tracking: Array, u: Array, u0: Array | None = None) -> ErrorSums:
     """Build the sums from recorded arrays.

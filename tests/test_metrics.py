@@ -18,20 +18,6 @@ def test_metrics_on_known_arrays():
     assert m["cycle_time"][0] == 2.5
 
 
-def test_merging_windows_equals_one_window():
-    rng = np.random.default_rng(0)
-    eps, e, u = (
-        rng.normal(size=(2, 50, 1)),
-        rng.normal(size=(2, 50, 2)),
-        rng.normal(size=(2, 50, 2)),
-    )
-    whole = sums_from_trace(eps, e, u)
-    part = sums_from_trace(eps[:, :20], e[:, :20], u[:, :20])
-    part.merge(sums_from_trace(eps[:, 20:], e[:, 20:], u[:, 20:], u0=u[:, 19]))
-    np.testing.assert_allclose(part.contour, whole.contour, rtol=1e-12)
-    np.testing.assert_allclose(part.axis, whole.axis, rtol=1e-12)
-
-
 def test_zeros_give_zero_metrics():
     m = metrics_from_sums(ErrorSums.zeros(3, 2, 2), np.array([1.0, 2.0, np.inf]))
     assert np.all(m["max_contour_error"] == 0) and m["cycle_time"][2] == np.inf
