@@ -18,7 +18,7 @@ import math
 
 import numba
 
-from contour_gym._blob import flat, view1, view2, view3, view4
+from contour_gym._blob import borrow, flat, view1, view2, view3, view4
 from contour_gym.contour._kernel import EST_GROUND_TRUTH, estimate, ground_truth_from, history_push
 from contour_gym.motion import IS_A, IS_DONE, IS_S, IS_V, interp_tick
 from contour_gym.paths._geom import eval_path
@@ -305,6 +305,9 @@ def run_ticks(  # type: ignore[no-untyped-def]
     not depend on how an episode is cut into calls). ``k0`` is the loop's tick; member ``b``
     lives in local time ``k0 - k_start[b]`` (vector env members restart at different ticks).
     """
+    # views of borrowed arrays skip the atomic reference counting of every per-tick view
+    fb, ib, noise, rec = borrow(fb), borrow(ib), borrow(noise), borrow(rec)
+    kind, s0, data, bound = borrow(kind), borrow(s0), borrow(data), borrow(bound)
     flat(fb, fl, I_ACC_C)[:] = 0.0  # the window sums acc_c and acc_a start at zero
     flat(fb, fl, I_ACC_C + 1)[:] = 0.0
     ax_p, rip, dist = view3(fb, fl, 0), view4(fb, fl, 1), view3(fb, fl, 2)

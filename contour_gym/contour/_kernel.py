@@ -74,7 +74,7 @@ def error_from_foot(dim, p0, p1, p2, qx, qy, qz, tx, ty):  # type: ignore[no-unt
     """
     vx, vy, vz = qx - p0, qy - p1, qz - p2
     if dim == 2:
-        tn = math.hypot(tx, ty)
+        tn = math.sqrt(tx * tx + ty * ty)
         nx, ny = -ty / tn, tx / tn  # left normal
         return -(vx * nx + vy * ny), -nx, -ny, 0.0
     eps = math.sqrt(vx * vx + vy * vy + vz * vz)
@@ -103,7 +103,7 @@ def _exact_error_2d(kind, s0, data, p0, p1, qx, qy, tx, ty, sf):  # type: ignore
         sign = side_2d(kind, s0, data, closed, sf, p0, p1)
     else:
         sign = -1.0 if tx * vy - ty * vx > 0.0 else 1.0  # q - p to the left: p is right
-    eps = sign * math.hypot(vx, vy)
+    eps = sign * math.sqrt(vx * vx + vy * vy)
     if eps == 0.0:
         return error_from_foot(2, p0, p1, 0.0, qx, qy, 0.0, tx, ty)
     return eps, vx / eps, vy / eps, 0.0
