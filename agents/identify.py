@@ -118,17 +118,18 @@ def sweep_profile(h: float) -> tuple[Array, Array]:
 @numba.njit(cache=True)
 def _drive(p, rip, dist, ad, bd, v_ref, a_ref, h, kv, ki, x, v, u):  # type: ignore[no-untyped-def]
     # velocity PI with inverse-model feed-forward; friction is what the loop fights
-    st = np.zeros(PK.N_ST)
-    m, b, kf, u_max = p[PK.AX_M], p[PK.AX_B], p[PK.AX_K], p[PK.AX_UMAX]
+    # one-row tables (the plant kernel's layout)
+    st = np.zeros((1, PK.N_ST))
+    m, b, kf, u_max = p[0, PK.AX_M], p[0, PK.AX_B], p[0, PK.AX_K], p[0, PK.AX_UMAX]
     integ = 0.0
     for k in range(v_ref.shape[0]):
-        x[k], v[k] = st[PK.ST_X], st[PK.ST_V]
-        err = v_ref[k] - st[PK.ST_V]
+        x[k], v[k] = st[0, PK.ST_X], st[0, PK.ST_V]
+        err = v_ref[k] - st[0, PK.ST_V]
         integ += err * h
         uk = (m * a_ref[k] + b * v_ref[k]) / kf + kv * err + ki * integ
         u[k] = min(max(uk, -u_max), u_max)
-        PK.axis_tick(p, rip, dist, ad, bd, st, u[k], k * h, h, 1, 0.0)
-    x[-1], v[-1] = st[PK.ST_X], st[PK.ST_V]
+        PK.axis_tick(p, rip, dist, ad, bd, st, 0, u[k], k * h, h, 1, 0.0)
+    x[-1], v[-1] = st[0, PK.ST_X], st[0, PK.ST_V]
 
 
 def friction_sweep(
@@ -172,7 +173,7 @@ def friction_sweep(
     x, v, u = np.zeros(n + 1), np.zeros(n + 1), np.zeros(n)
     w = positive(bandwidth, "bandwidth")
     kv, ki = ax.mass * w / ax.force_constant, ax.mass * w * w / (4.0 * ax.force_constant)
-    _drive(p, np.zeros((6, 3)), dist, ad[0], bd[0], v_ref, a_ref, h, kv, ki, x, v, u)
+    _drive(p[None], np.zeros((1, 6, 3)), dist[None], ad, bd, v_ref, a_ref, h, kv, ki, x, v, u)
     force = ax.force_constant * u - ax.damping * np.diff(x) / h - ax.mass * np.diff(v) / h
     vel = v[:-1]
     if noise > 0:

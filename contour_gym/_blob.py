@@ -111,6 +111,28 @@ def view4(buf, lay, i):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
+def rows2(buf, lay, i):  # type: ignore[no-untyped-def]
+    """Array ``i`` of a blob as a 2-D row table: all but its last dimension merged into rows."""
+    nd = lay[i, 1]
+    n = 1
+    for d in range(nd - 1):
+        n *= lay[i, 2 + d]
+    last = lay[i, 1 + nd]
+    return buf[lay[i, 0] : lay[i, 0] + n * last].reshape((n, last))
+
+
+@numba.njit(cache=True)
+def rows3(buf, lay, i):  # type: ignore[no-untyped-def]
+    """Array ``i`` of a blob as a 3-D row table: all but its last two dimensions merged."""
+    nd = lay[i, 1]
+    n = 1
+    for d in range(nd - 2):
+        n *= lay[i, 2 + d]
+    r, c = lay[i, nd], lay[i, 1 + nd]
+    return buf[lay[i, 0] : lay[i, 0] + n * r * c].reshape((n, r, c))
+
+
+@numba.njit(cache=True)
 def flat(buf, lay, i):  # type: ignore[no-untyped-def]
     """All elements of array ``i`` of a blob as one 1-D view."""
     n = 1

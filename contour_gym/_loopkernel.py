@@ -18,7 +18,7 @@ import math
 
 import numba
 
-from contour_gym._blob import borrow, flat, view1, view2, view3, view4
+from contour_gym._blob import borrow, flat, rows2, rows3, view1, view2, view3
 from contour_gym.contour._kernel import EST_GROUND_TRUTH, estimate, ground_truth_from, history_push
 from contour_gym.motion import IS_A, IS_DONE, IS_S, IS_V, interp_tick
 from contour_gym.paths._geom import eval_path
@@ -31,9 +31,9 @@ AC_ABS, AC_SQ, AC_MAX, AC_N = 0, 1, 2, 3
 AA_ABS, AA_SQ, AA_MAX, AA_TV = 0, 1, 2, 3
 # last[b, c, :]: the last tick's true and estimated contour error
 LS_TRUE, LS_EST = 0, 1
-# work rows (per axis)
-W_R, W_RDOT, W_RDDOT, W_Y, W_U = 0, 1, 2, 3, 4
-N_W = 5
+# work rows (per axis): reference, its derivatives, true and measured position, control
+W_R, W_RDOT, W_RDDOT, W_X, W_Y, W_U = 0, 1, 2, 3, 4, 5
+N_W = 6
 
 STATUS_OK, STATUS_FAILED, STATUS_PAUSED = 0, 1, 2
 STATE_LIMIT = 1e3  # |x| in m or |v| in m/s beyond this is a diverged member
@@ -56,51 +56,54 @@ def _reference(kind, s0, data, c_axes, c_off, s, v, acc, work):  # type: ignore[
 
 
 @numba.njit(cache=True, inline="always")
-def _contour_coords(c_axes, c_off, c, pos):  # type: ignore[no-untyped-def]
+def _contour_coords(c_axes, c_off, c, pos, row):  # type: ignore[no-untyped-def]
+    # contour c's coordinates of the axis positions pos[row, :], its offset removed
     dim = 2 if c_axes[c, 2] < 0 else 3
-    p0 = pos[c_axes[c, 0]] - c_off[c, 0]
-    p1 = pos[c_axes[c, 1]] - c_off[c, 1]
-    p2 = pos[c_axes[c, 2]] - c_off[c, 2] if dim == 3 else 0.0
+    p0 = pos[row, c_axes[c, 0]] - c_off[c, 0]
+    p1 = pos[row, c_axes[c, 1]] - c_off[c, 1]
+    p2 = pos[row, c_axes[c, 2]] - c_off[c, 2] if dim == 3 else 0.0
     return dim, p0, p1, p2
 
 
 @numba.njit(cache=True, inline="always")
-def _accumulate_axes(acc_a, u_last, work, x, n_axes):  # type: ignore[no-untyped-def]
+def _accumulate_axes(acc, b, u_last, work, n_axes):  # type: ignore[no-untyped-def]
     for a in range(n_axes):
-        e = work[W_R, a] - x[a]
-        acc_a[a, AA_ABS] += abs(e)
-        acc_a[a, AA_SQ] += e * e
-        acc_a[a, AA_MAX] = max(acc_a[a, AA_MAX], abs(e))
-        acc_a[a, AA_TV] += abs(work[W_U, a] - u_last[a])
+        i = b * n_axes + a
+        e = work[W_R, a] - work[W_X, a]
+        acc[i, AA_ABS] += abs(e)
+        acc[i, AA_SQ] += e * e
+        acc[i, AA_MAX] = max(acc[i, AA_MAX], abs(e))
+        acc[i, AA_TV] += abs(work[W_U, a] - u_last[b, a])
 
 
 @numba.njit(cache=True, inline="always")
-def _accumulate_contour(acc, eps):  # type: ignore[no-untyped-def]
-    acc[AC_ABS] += abs(eps)
-    acc[AC_SQ] += eps * eps
-    acc[AC_MAX] = max(acc[AC_MAX], abs(eps))
-    acc[AC_N] += 1.0
+def _accumulate_contour(acc, q, eps):  # type: ignore[no-untyped-def]
+    acc[q, AC_ABS] += abs(eps)
+    acc[q, AC_SQ] += eps * eps
+    acc[q, AC_MAX] = max(acc[q, AC_MAX], abs(eps))
+    acc[q, AC_N] += 1.0
 
 
 @numba.njit(cache=True, inline="always")
-def _ccc(p, w, st, axes, dim, eps, g0, g1, g2, ts, work):  # type: ignore[no-untyped-def]
-    # 2-D: the papers' scalar PID on the signed eps, distributed by C (one state, st[0]).
+def _ccc(p, w, st, q, axes, c, dim, eps, g0, g1, g2, ts, work):  # type: ignore[no-untyped-def]
+    # Contour row q = b * C + c; its PID state rows are 3 q + i.
+    # 2-D: the papers' scalar PID on the signed eps, distributed by C (one state, row 3 q).
     # 3-D: eps = |eps_vec| >= 0 cannot carry integral action, so a PID acts on each signed
-    # component eps_vec_i = C_i eps (one state per coordinate, st[i]).
+    # component eps_vec_i = C_i eps (one state per coordinate, row 3 q + i).
     if dim == 2:
-        big_u = pid_output(p, st[0], eps, 0.0, ts)
-        work[W_U, axes[0]] += w[0] * g0 * big_u
-        work[W_U, axes[1]] += w[1] * g1 * big_u
-        pid_commit(st[0], eps, ts, big_u, math.inf)
+        big_u = pid_output(p, q, st, 3 * q, eps, 0.0, ts)
+        work[W_U, axes[c, 0]] += w[q, 0] * g0 * big_u
+        work[W_U, axes[c, 1]] += w[q, 1] * g1 * big_u
+        pid_commit(st, 3 * q, eps, ts, big_u, math.inf)
         return
     for i in range(3):
         e_i = (g0 if i == 0 else (g1 if i == 1 else g2)) * eps
-        u_i = pid_output(p, st[i], e_i, 0.0, ts)
-        work[W_U, axes[i]] += w[i] * u_i
-        pid_commit(st[i], e_i, ts, u_i, math.inf)
+        u_i = pid_output(p, q, st, 3 * q + i, e_i, 0.0, ts)
+        work[W_U, axes[c, i]] += w[q, i] * u_i
+        pid_commit(st, 3 * q + i, e_i, ts, u_i, math.inf)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def _member_run(  # type: ignore[no-untyped-def]  # noqa: C901
     b,
     n,
@@ -143,41 +146,46 @@ def _member_run(  # type: ignore[no-untyped-def]  # noqa: C901
     rec,
     record,
     work,
-    xbuf,
     meas_exact,
 ):
     """Run ``n`` servo ticks of batch member ``b`` from its local tick ``k0``.
 
-    Returns False when its state diverged.
+    Returns False when its state diverged. Per-axis and per-contour arrays come as row
+    tables (row ``b * A + a``, ``b * C + c``; see :func:`run_ticks`).
 
     The tick body is written inline here: a call per tick with this many array arguments
     cost more than the tick itself.
     """
-    n_axes = ax_p.shape[1]
+    n_axes = work.shape[1]
+    n_c = c_axes.shape[0]
     has_noise = noise.shape[1] > 0
+    hb = hist[b]
     for j in range(n):
         k = k0 + j
         active = ip_s[b, IS_DONE] < 0.0
-        interp_tick(length, ts, ip_p[b], ip_s[b], k)
+        interp_tick(length, ts, ip_p, ip_s, b, k)
         s, v = ip_s[b, IS_S], ip_s[b, IS_V]
         rx, ry, rz = _reference(kind, s0, data, c_axes, c_off, s, v, ip_s[b, IS_A], work)
         for a in range(n_axes):
-            xbuf[a] = ax_s[b, a, ST_X]
+            i = b * n_axes + a
+            work[W_X, a] = ax_s[i, ST_X]
             w = noise[b, j, n_axes + a] if has_noise else 0.0
-            work[W_Y, a] = measure(ax_p[b, a], xbuf[a], w)
+            work[W_Y, a] = measure(ax_p, i, work[W_X, a], w)
             y_last[b, a] = work[W_Y, a]
             work[W_U, a] = axis_control(
                 ctrl_kind,
-                ctrl_p[b, a],
-                ctrl_s[b, a],
+                ctrl_p,
+                ctrl_s,
+                i,
                 work[W_R, a],
                 work[W_RDOT, a],
                 work[W_RDDOT, a],
                 work[W_Y, a],
                 ts,
             )
-        for c in range(c_axes.shape[0]):
-            dim, p0, p1, p2 = _contour_coords(c_axes, c_off, c, xbuf)
+        for c in range(n_c):
+            q = b * n_c + c
+            dim, p0, p1, p2 = _contour_coords(c_axes, c_off, c, work, W_X)
             eps, g0, g1, g2, sf = ground_truth_from(
                 kind, s0, data, bound, dim, p0, p1, p2, s, rx, ry, rz
             )
@@ -185,7 +193,7 @@ def _member_run(  # type: ignore[no-untyped-def]  # noqa: C901
             eh = eps
             if not (meas_exact and est_kind == EST_GROUND_TRUTH):  # else: already computed
                 if not meas_exact:
-                    dim, p0, p1, p2 = _contour_coords(c_axes, c_off, c, work[W_Y])
+                    dim, p0, p1, p2 = _contour_coords(c_axes, c_off, c, work, W_Y)
                 eh, g0, g1, g2 = estimate(
                     est_kind,
                     est_p,
@@ -200,24 +208,26 @@ def _member_run(  # type: ignore[no-untyped-def]  # noqa: C901
                     s,
                     v,
                     ip_s[b, IS_A],
-                    hist[b],
+                    hb,
                     ts,
                 )
-            _ccc(ccc_p[b, c], ccc_w[b, c], ccc_s[b, c], c_axes[c], dim, eh, g0, g1, g2, ts, work)
+            _ccc(ccc_p, ccc_w, ccc_s, q, c_axes, c, dim, eh, g0, g1, g2, ts, work)
             last[b, c, LS_TRUE], last[b, c, LS_EST] = eps, eh
             if active:
-                _accumulate_contour(acc_c[b, c], eps)
-                _accumulate_contour(ep_c[b, c], eps)
+                _accumulate_contour(acc_c, q, eps)
+                _accumulate_contour(ep_c, q, eps)
             if record:
                 rec[b, j, 2 + 3 * n_axes + 2 * c] = eps
                 rec[b, j, 3 + 3 * n_axes + 2 * c] = eh
-        history_push(hist[b], s)
+        history_push(hb, s)
         for a in range(n_axes):
-            u_max = ax_p[b, a, AX_UMAX]
+            i = b * n_axes + a
+            u_max = ax_p[i, AX_UMAX]
             axis_commit(
                 ctrl_kind,
-                ctrl_p[b, a],
-                ctrl_s[b, a],
+                ctrl_p,
+                ctrl_s,
+                i,
                 work[W_R, a],
                 work[W_RDOT, a],
                 work[W_RDDOT, a],
@@ -228,32 +238,21 @@ def _member_run(  # type: ignore[no-untyped-def]  # noqa: C901
             )
             work[W_U, a] = min(max(work[W_U, a], -u_max), u_max)
         if active:
-            _accumulate_axes(acc_a[b], u_last[b], work, xbuf, n_axes)
-            _accumulate_axes(ep_a[b], u_last[b], work, xbuf, n_axes)
+            _accumulate_axes(acc_a, b, u_last, work, n_axes)
+            _accumulate_axes(ep_a, b, u_last, work, n_axes)
         if record:
             rec[b, j, 0], rec[b, j, 1] = s, v
             for a in range(n_axes):
                 rec[b, j, 2 + a] = work[W_R, a]
-                rec[b, j, 2 + n_axes + a] = xbuf[a]
+                rec[b, j, 2 + n_axes + a] = work[W_X, a]
                 rec[b, j, 2 + 2 * n_axes + a] = work[W_U, a]
         ok = True
         for a in range(n_axes):
+            i = b * n_axes + a
             u_last[b, a] = work[W_U, a]
             w = noise[b, j, a] if has_noise else 0.0
-            axis_tick(
-                ax_p[b, a],
-                rip[b, a],
-                dist[b, a],
-                ad[b, a],
-                bd[b, a],
-                ax_s[b, a],
-                work[W_U, a],
-                k * ts,
-                ts,
-                nsub,
-                w,
-            )
-            if not (abs(ax_s[b, a, ST_X]) < STATE_LIMIT and abs(ax_s[b, a, ST_V]) < STATE_LIMIT):
+            axis_tick(ax_p, rip, dist, ad, bd, ax_s, i, work[W_U, a], k * ts, ts, nsub, w)
+            if not (abs(ax_s[i, ST_X]) < STATE_LIMIT and abs(ax_s[i, ST_V]) < STATE_LIMIT):
                 ok = False
         if not ok:
             return False
@@ -264,10 +263,10 @@ def _member_run(  # type: ignore[no-untyped-def]  # noqa: C901
 FLOAT_ARRAYS = (
     "ax_p", "rip", "dist", "ad", "bd", "ax_s", "ctrl_p", "ctrl_s", "ccc_p", "ccc_w", "ccc_s",
     "est_p", "hist", "ip_p", "ip_s", "foot", "last", "acc_c", "acc_a", "ep_c", "ep_a",
-    "u_last", "y_last", "work", "xbuf", "c_off",
+    "u_last", "y_last", "work", "c_off",
 )  # fmt: skip
 I_CCC_P, I_EST_P, I_IP_P, I_IP_S = 8, 11, 13, 14
-I_LAST, I_ACC_C, I_Y_LAST, I_C_OFF = 16, 17, 22, 25
+I_LAST, I_ACC_C, I_Y_LAST, I_C_OFF = 16, 17, 22, 24
 I_C_AXES, I_STATUS = 0, 1
 assert FLOAT_ARRAYS.index("ccc_p") == I_CCC_P and FLOAT_ARRAYS.index("ip_s") == I_IP_S
 assert FLOAT_ARRAYS.index("last") == I_LAST and FLOAT_ARRAYS.index("acc_c") == I_ACC_C
@@ -310,17 +309,18 @@ def run_ticks(  # type: ignore[no-untyped-def]
     kind, s0, data, bound = borrow(kind), borrow(s0), borrow(data), borrow(bound)
     flat(fb, fl, I_ACC_C)[:] = 0.0  # the window sums acc_c and acc_a start at zero
     flat(fb, fl, I_ACC_C + 1)[:] = 0.0
-    ax_p, rip, dist = view3(fb, fl, 0), view4(fb, fl, 1), view3(fb, fl, 2)
-    ad, bd, ax_s = view4(fb, fl, 3), view4(fb, fl, 4), view3(fb, fl, 5)
-    ctrl_p, ctrl_s, ccc_p = view3(fb, fl, 6), view3(fb, fl, 7), view3(fb, fl, 8)
-    ccc_w, ccc_s, est_p = view3(fb, fl, 9), view4(fb, fl, 10), view1(fb, fl, 11)
+    # per-axis and per-contour arrays as row tables: the kernels index rows, never take views
+    ax_p, rip, dist = rows2(fb, fl, 0), rows3(fb, fl, 1), rows2(fb, fl, 2)
+    ad, bd, ax_s = rows3(fb, fl, 3), rows3(fb, fl, 4), rows2(fb, fl, 5)
+    ctrl_p, ctrl_s, ccc_p = rows2(fb, fl, 6), rows2(fb, fl, 7), rows2(fb, fl, 8)
+    ccc_w, ccc_s, est_p = rows2(fb, fl, 9), rows2(fb, fl, 10), view1(fb, fl, 11)
     hist, ip_p, ip_s = view2(fb, fl, 12), view2(fb, fl, 13), view2(fb, fl, 14)
-    foot, last, acc_c = view2(fb, fl, 15), view3(fb, fl, 16), view3(fb, fl, 17)
-    acc_a, ep_c, ep_a = view3(fb, fl, 18), view3(fb, fl, 19), view3(fb, fl, 20)
+    foot, last, acc_c = view2(fb, fl, 15), view3(fb, fl, 16), rows2(fb, fl, 17)
+    acc_a, ep_c, ep_a = rows2(fb, fl, 18), rows2(fb, fl, 19), rows2(fb, fl, 20)
     u_last, y_last, work = view2(fb, fl, 21), view2(fb, fl, 22), view2(fb, fl, 23)
-    xbuf, c_off = view1(fb, fl, 24), view2(fb, fl, 25)
+    c_off = view2(fb, fl, 24)
     c_axes, status, k_start = view2(ib, il, 0), view1(ib, il, 1), view1(ib, il, 2)
-    for b in range(ax_p.shape[0]):
+    for b in range(ip_s.shape[0]):
         if status[b] != STATUS_OK:
             continue
         ok = _member_run(
@@ -365,7 +365,6 @@ def run_ticks(  # type: ignore[no-untyped-def]
             rec,
             record,
             work,
-            xbuf,
             meas_exact,
         )
         if not ok:

@@ -145,7 +145,6 @@ class ServoLoop:
     u_last: Array
     y_last: Array
     work: Array
-    xbuf: Array
     c_off: Array
     c_axes: NDArray[np.int64]
     status: NDArray[np.int64]
@@ -233,7 +232,6 @@ class ServoLoop:
             "hist": (b, CK.N_HIST + 1), "ip_s": (b, motion.N_IS), "foot": (b, c),
             "last": (b, c, 2), "acc_c": (b, c, 4), "acc_a": (b, a, 4), "ep_c": (b, c, 4),
             "ep_a": (b, a, 4), "u_last": (b, a), "y_last": (b, a), "work": (LK.N_W, a),
-            "xbuf": (a,),
         }  # fmt: skip
         shapes = {**{k: v.shape for k, v in params.items()}, **state_shapes}
         self._fblob = Blob([(name, shapes[name]) for name in LK.FLOAT_ARRAYS])

@@ -90,21 +90,22 @@ def stop_speed(remaining, v, a_max, j_max, ts):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def interp_tick(length, ts, p, st, k):  # type: ignore[no-untyped-def]
-    """Advance one member's reference by one tick; marks ``done_tick`` at the path end.
+def interp_tick(length, ts, p, st, b, k):  # type: ignore[no-untyped-def]
+    """Advance member ``b``'s reference by one tick; marks ``done_tick`` at the path end.
 
     Args:
         length: Path length, m.
         ts: Tick, s.
-        p: (N_IP,) feedrate and limits.
-        st: (N_IS,) state, updated in place.
+        p: (B, N_IP) feedrate and limits.
+        st: (B, N_IS) state; row ``b`` is updated in place.
+        b: The member.
         k: Index of the tick being produced (``s`` after this call is the reference at k).
     """
-    if st[IS_DONE] >= 0.0:
+    if st[b, IS_DONE] >= 0.0:
         return
-    s, v, a = st[IS_S], st[IS_V], st[IS_A]
-    a_max, j_max = p[IP_AMAX], p[IP_JMAX]
-    target = min(max(p[IP_F], 0.0), stop_speed(length - s, v, a_max, j_max, ts))
+    s, v, a = st[b, IS_S], st[b, IS_V], st[b, IS_A]
+    a_max, j_max = p[b, IP_AMAX], p[b, IP_JMAX]
+    target = min(max(p[b, IP_F], 0.0), stop_speed(length - s, v, a_max, j_max, ts))
     if math.isinf(a_max):
         v_new, a_new = target, 0.0
         s_new = s + v_new * ts
@@ -120,5 +121,5 @@ def interp_tick(length, ts, p, st, k):  # type: ignore[no-untyped-def]
         s_new = s + 0.5 * (v + v_new) * ts
     if s_new >= length - 1e-12 or (v_new == 0.0 and length - s_new < 1e-9):
         s_new, v_new, a_new = length, 0.0, 0.0
-        st[IS_DONE] = k
-    st[IS_S], st[IS_V], st[IS_A] = s_new, v_new, a_new
+        st[b, IS_DONE] = k
+    st[b, IS_S], st[b, IS_V], st[b, IS_A] = s_new, v_new, a_new

@@ -9,20 +9,20 @@ from contour_gym.motion import Interpolator, interp_tick
 
 def profile(length, interp, ts=1e-3, n=None, changes=None):
     """Run the interpolator kernel; returns arrays s, v, a per tick and the done tick."""
-    p = interp.params(1)[0]
-    st = motion.initial_state(1)[0]
+    p = interp.params(1)
+    st = motion.initial_state(1)
     n = n or int(10 * length / interp.feedrate / ts) + 1000
     s, v, a = [], [], []
     for k in range(n):
         if changes and k in changes:
-            p[motion.IP_F] = changes[k]
-        interp_tick(length, ts, p, st, k)
-        s.append(st[motion.IS_S])
-        v.append(st[motion.IS_V])
-        a.append(st[motion.IS_A])
-        if st[motion.IS_DONE] >= 0:
+            p[0, motion.IP_F] = changes[k]
+        interp_tick(length, ts, p, st, 0, k)
+        s.append(st[0, motion.IS_S])
+        v.append(st[0, motion.IS_V])
+        a.append(st[0, motion.IS_A])
+        if st[0, motion.IS_DONE] >= 0:
             break
-    return np.array(s), np.array(v), np.array(a), st[motion.IS_DONE]
+    return np.array(s), np.array(v), np.array(a), st[0, motion.IS_DONE]
 
 
 def test_constant_feedrate_reproduces_time_parameterised_circle():

@@ -25,14 +25,14 @@ def run_axis(axis: AxisParams, u, ts=1e-3, nsub=1, n=1000, x0=0.0, v0=0.0, seed=
     rip = np.zeros((6, 3)) if axis.ripple is None else axis.ripple.as_array()
     dist = disturbance_row(axis, ts)
     ad, bd = zoh_matrices(p[None], ts / nsub)
-    st = np.zeros(K.N_ST)
-    st[K.ST_X], st[K.ST_V] = x0, v0
+    st = np.zeros((1, K.N_ST))
+    st[0, K.ST_X], st[0, K.ST_V] = x0, v0
     rng = np.random.default_rng(seed)
     xs, vs = np.empty(n), np.empty(n)
     for k in range(n):
         w = rng.standard_normal() if seed is not None else 0.0
-        K.axis_tick(p, rip, dist, ad[0], bd[0], st, u(k), k * ts, ts, nsub, w)
-        xs[k], vs[k] = st[K.ST_X], st[K.ST_V]
+        K.axis_tick(p[None], rip[None], dist[None], ad, bd, st, 0, u(k), k * ts, ts, nsub, w)
+        xs[k], vs[k] = st[0, K.ST_X], st[0, K.ST_V]
     return xs, vs
 
 
@@ -63,22 +63,23 @@ def test_current_loop_is_first_order_lag():
     axis = AxisParams("x", mass=1.0, damping=0.0, force_constant=1.0, u_max=10.0, current_tau=0.01)
     p = axis_row(axis)
     ad, bd = zoh_matrices(p[None], 1e-3)
-    st = np.zeros(K.N_ST)
+    st = np.zeros((1, K.N_ST))
     for k in range(10):
         K.axis_tick(
-            p,
-            np.zeros((6, 3)),
-            disturbance_row(axis, 1e-3),
-            ad[0],
-            bd[0],
+            p[None],
+            np.zeros((1, 6, 3)),
+            disturbance_row(axis, 1e-3)[None],
+            ad,
+            bd,
             st,
+            0,
             1.0,
             k * 1e-3,
             1e-3,
             1,
             0.0,
         )
-    assert st[K.ST_I] == pytest.approx(1.0 - math.exp(-0.01 / 0.01), rel=1e-12)
+    assert st[0, K.ST_I] == pytest.approx(1.0 - math.exp(-0.01 / 0.01), rel=1e-12)
 
 
 def test_coulomb_stiction_holds_below_breakaway_and_moves_above():
@@ -111,7 +112,7 @@ def test_stribeck_curve_matches_003_form():
     p = axis_row(AxisParams("x", mass=1, damping=0, force_constant=1, u_max=1, friction=fr))
     for v in (-0.3, -0.05, 0.02, 0.5):
         want = (1.0 + 1.0 * math.exp(-((abs(v) / 0.1) ** 2)) + 3.0 * abs(v)) * math.copysign(1, v)
-        assert K.kinetic_friction(p, v) == pytest.approx(want, rel=1e-12)
+        assert K.kinetic_friction(p[None], 0, v) == pytest.approx(want, rel=1e-12)
 
 
 def test_lugre_reaches_stribeck_steady_state():
@@ -123,33 +124,34 @@ def test_lugre_reaches_stribeck_steady_state():
     ts = 1e-3
     ad, bd = zoh_matrices(p[None], ts / 4)
     for v0 in (0.1, -0.4, 1.0):
-        st = np.zeros(K.N_ST)
-        st[K.ST_V] = v0
+        st = np.zeros((1, K.N_ST))
+        st[0, K.ST_V] = v0
         for k in range(20000):  # 20 s: > 35 bristle time constants g/(sigma0 |v|)
             K.axis_tick(
-                p,
-                np.zeros((6, 3)),
-                disturbance_row(axis, ts),
-                ad[0],
-                bd[0],
+                p[None],
+                np.zeros((1, 6, 3)),
+                disturbance_row(axis, ts)[None],
+                ad,
+                bd,
                 st,
+                0,
                 0.0,
                 k * ts,
                 ts,
                 4,
                 0.0,
             )
-        v = st[K.ST_V]
+        v = st[0, K.ST_V]
         assert v == pytest.approx(v0, rel=1e-4)
         g = 20.0 + 10.0 * math.exp(-((v / 0.5) ** 2))
-        assert st[K.ST_Z] == pytest.approx(math.copysign(g / 560.0, v), rel=1e-6)
+        assert st[0, K.ST_Z] == pytest.approx(math.copysign(g / 560.0, v), rel=1e-6)
 
 
 def test_ripple_force_formula():
     rip = Ripple(sin_amp=(1.0, 0.5), cos_amp=(0.2, 0.0), wavenumber=(10.0, 20.0))
     x = 0.123
     want = math.sin(1.23) + 0.2 * math.cos(1.23) + 0.5 * math.sin(2.46)
-    assert K.ripple_force(rip.as_array(), 2, x) == pytest.approx(want, rel=1e-12)
+    assert K.ripple_force(rip.as_array()[None], 0, 2, x) == pytest.approx(want, rel=1e-12)
 
 
 def test_random_disturbance_is_seeded_and_has_the_given_std():
@@ -157,10 +159,11 @@ def test_random_disturbance_is_seeded_and_has_the_given_std():
     row = disturbance_row(AxisParams("x", 1, 0, 1, 1, disturbance=d), 1e-3)
 
     def draw(seed):
-        st = np.zeros(K.N_ST)
+        st = np.zeros((1, K.N_ST))
         rng = np.random.default_rng(seed)
+        rows, n = row[None], 40000
         return np.array(
-            [K.disturbance_force(row, st, k * 1e-3, rng.standard_normal()) for k in range(40000)]
+            [K.disturbance_force(rows, st, 0, k * 1e-3, rng.standard_normal()) for k in range(n)]
         )
 
     a, b, c = draw(1), draw(1), draw(2)

@@ -27,22 +27,23 @@ Array = NDArray[np.float64]
 
 @numba.njit(cache=True)
 def _control_all(kind, p, s, ins, ts, out):  # type: ignore[no-untyped-def]
-    # ins: (4, B, A) reference position, velocity, acceleration and measured position
-    for b in range(p.shape[0]):
-        for a in range(p.shape[1]):
-            out[b, a] = K.axis_control(
-                kind, p[b, a], s[b, a], ins[0, b, a], ins[1, b, a], ins[2, b, a], ins[3, b, a], ts
-            )
+    # p, s: (B * A, N) row tables; ins: (4, B, A) reference position, velocity,
+    # acceleration and measured position
+    n_axes = ins.shape[2]
+    for b in range(ins.shape[1]):
+        for a in range(n_axes):
+            r, r_dot, r_ddot, y = ins[0, b, a], ins[1, b, a], ins[2, b, a], ins[3, b, a]
+            out[b, a] = K.axis_control(kind, p, s, b * n_axes + a, r, r_dot, r_ddot, y, ts)
 
 
 @numba.njit(cache=True)
 def _commit_all(kind, p, s, ins, ts, u_total, u_max):  # type: ignore[no-untyped-def]
-    for b in range(p.shape[0]):
-        for a in range(p.shape[1]):
-            K.axis_commit(
-                kind, p[b, a], s[b, a], ins[0, b, a], ins[1, b, a], ins[2, b, a], ins[3, b, a],
-                ts, u_total[b, a], u_max[a],
-            )  # fmt: skip
+    n_axes = ins.shape[2]
+    for b in range(ins.shape[1]):
+        for a in range(n_axes):
+            r, r_dot, r_ddot, y = ins[0, b, a], ins[1, b, a], ins[2, b, a], ins[3, b, a]
+            i = b * n_axes + a
+            K.axis_commit(kind, p, s, i, r, r_dot, r_ddot, y, ts, u_total[b, a], u_max[a])
 
 
 class AxisControllers:
@@ -80,6 +81,13 @@ class AxisControllers:
         """Zero every member's state (integrators, observer, bristle state, history)."""
         self.state[:] = 0.0
 
+    def _tables(self) -> tuple[Array, Array]:
+        # the kernels' (B * A, N) row tables; the state's is a view, written in place
+        params = np.ascontiguousarray(self.params, dtype=np.float64).reshape(-1, K.N_CP)
+        if not self.state.flags.c_contiguous:
+            self.state = np.ascontiguousarray(self.state)
+        return params, self.state.reshape(-1, K.N_CS)
+
     def _input(self, value: ArrayLike, name: str) -> Array:
         arr = as_finite_array(value, name)
         shape = self.params.shape[:2]
@@ -110,9 +118,7 @@ class AxisControllers:
             ValueError: for a non-finite (NaN) input or a shape that does not broadcast.
         """
         out = np.zeros(self.params.shape[:2])
-        _control_all(
-            self.kind, self.params, self.state, self._inputs(r, r_dot, r_ddot, y), self.ts, out
-        )
+        _control_all(self.kind, *self._tables(), self._inputs(r, r_dot, r_ddot, y), self.ts, out)
         return out
 
     def step(
@@ -141,7 +147,8 @@ class AxisControllers:
         """
         ins = self._inputs(r, r_dot, r_ddot, y)
         total = np.zeros(self.params.shape[:2])
-        _control_all(self.kind, self.params, self.state, ins, self.ts, total)
+        params, state = self._tables()
+        _control_all(self.kind, params, state, ins, self.ts, total)
         total += self._input(u_extra, "u_extra")
-        _commit_all(self.kind, self.params, self.state, ins, self.ts, total, self.u_max)
+        _commit_all(self.kind, params, state, ins, self.ts, total, self.u_max)
         return np.clip(total, -self.u_max, self.u_max)
