@@ -3,6 +3,9 @@
 Default scenario: 000's X-Y DC servo on its 10 mm circle with PID CCC (the `contour-gym
 simulate` job). One core (numba runs single-threaded here). Prints medians of 5 repeats.
 Targets (issue 2): >= 2e4 ticks/s at B = 1 and >= 3e6 env-ticks/s at B = 1024.
+
+A second table (no target) gives B = 1024 for every preset on its paper path, with its
+friction, ripple, disturbances, encoder and substeps.
 """
 
 from __future__ import annotations
@@ -14,10 +17,11 @@ import time
 import numpy as np
 
 from contour_gym.api import make_scenario
+from contour_gym.plant.presets import PRESETS
 
 
-def measure(batch: int, ticks: int, repeats: int = 5) -> float:
-    sc = make_scenario("xy_dc_servo")
+def measure(batch: int, ticks: int, repeats: int = 5, preset: str = "xy_dc_servo") -> float:
+    sc = make_scenario(preset)
     loop = sc.loop(batch_size=batch, ccc_gains=sc.preset.ccc_gains.as_tuple())
     loop.step(5)  # compile / warm up
     times = []
@@ -37,6 +41,9 @@ def main() -> None:
         print(
             f"{batch:>6} {ticks:>10} {rate:>14.3g} {'' if target is None else f'{target:.0e}':>10}"
         )
+    print(f"\n{'preset (B = 1024, 1000 ticks)':<32} {'env-ticks/s':>14}")
+    for preset in PRESETS:
+        print(f"{preset:<32} {measure(1024, 1000, preset=preset):>14.3g}")
 
 
 if __name__ == "__main__":

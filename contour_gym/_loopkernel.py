@@ -23,6 +23,9 @@ them, together ~2.6e6 -> ~4.3e6 member-ticks/s:
 * :func:`_member_run` is compiled without numba's reference counting (its private
   ``_nrt=False`` option; numba refuses to compile a function that then allocates). It
   allocates nothing, and no array it makes outlives it.
+
+Inlining the windowed nearest-point search into the tick (one call site of
+``nearest_window``) then gave ~4.3e6 -> ~4.6e6.
 """
 
 from __future__ import annotations
