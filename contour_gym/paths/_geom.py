@@ -436,7 +436,7 @@ def _visit(kind, s0, data, bound, j, px, py, pz, s_lo, s_hi, best_s, best_d2):  
     return best_s, best_d2
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def nearest_window(kind, s0, data, bound, px, py, pz, s_lo, s_hi):  # type: ignore[no-untyped-def]
     """Exact nearest point with arc length in [s_lo, s_hi] (clamped to [0, L]): (s_foot, dist2).
 
@@ -522,15 +522,14 @@ def is_closed(kind, s0, data):  # type: ignore[no-untyped-def]
     return math.sqrt((ax - bx) ** 2 + (ay - by) ** 2 + (az - bz) ** 2) <= 1e-9
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def nearest_window_wrapped(kind, s0, data, bound, px, py, pz, s_lo, s_hi):  # type: ignore[no-untyped-def]
     """:func:`nearest_window`, where on a closed path the window wraps around 0 and L.
 
     A tool that overshoots the end of a closed contour (or lags behind its start) is near
     the other end of the arc-length range; a clamped window would report its distance to
     the end point instead. The wrapped parts are searched after the window itself and win
-    only when strictly nearer. (Inlined into the servo tick, so :func:`nearest_window` is
-    called from one site.)
+    only when strictly nearer.
     """
     total = s0[s0.shape[0] - 1]
     wrap = (s_lo < 0.0 or s_hi > total) and is_closed(kind, s0, data)
