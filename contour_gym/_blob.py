@@ -3,7 +3,8 @@
 Unboxing each array argument of a numba call costs ~0.2 us; the servo loop has ~30 arrays and
 is called once per env step. The Python side keeps ordinary numpy views into the buffer (so
 code reads and writes ``loop.ax_s`` as usual, in place); the compiled side rebuilds the same
-views from the layout table with :func:`view1` .. :func:`view4`.
+views from the layout table with :func:`view1` .. :func:`view3`, or as row tables (leading
+dimensions merged) with :func:`rows2` and :func:`rows3`.
 """
 
 from __future__ import annotations
@@ -101,13 +102,6 @@ def view3(buf, lay, i):  # type: ignore[no-untyped-def]
     """3-D view number ``i`` of a blob."""
     o, a, b, c = lay[i, 0], lay[i, 2], lay[i, 3], lay[i, 4]
     return buf[o : o + a * b * c].reshape((a, b, c))
-
-
-@numba.njit(cache=True)
-def view4(buf, lay, i):  # type: ignore[no-untyped-def]
-    """4-D view number ``i`` of a blob."""
-    o, a, b, c, d = lay[i, 0], lay[i, 2], lay[i, 3], lay[i, 4], lay[i, 5]
-    return buf[o : o + a * b * c * d].reshape((a, b, c, d))
 
 
 @numba.njit(cache=True)

@@ -528,26 +528,20 @@ def nearest_window_wrapped(kind, s0, data, bound, px, py, pz, s_lo, s_hi):  # ty
 
     A tool that overshoots the end of a closed contour (or lags behind its start) is near
     the other end of the arc-length range; a clamped window would report its distance to
-    the end point instead. The wrapped parts are searched after the window itself and win
-    only when strictly nearer.
+    the end point instead.
     """
+    sf, d2 = nearest_window(kind, s0, data, bound, px, py, pz, s_lo, s_hi)
     total = s0[s0.shape[0] - 1]
-    wrap = (s_lo < 0.0 or s_hi > total) and is_closed(kind, s0, data)
-    best_s, best_d2 = s_lo, np.inf
-    for part in range(3 if wrap else 1):
-        lo, hi = s_lo, s_hi
-        if part == 1:
-            if not s_lo < 0.0:
-                continue
-            lo, hi = total + s_lo, total
-        elif part == 2:
-            if not s_hi > total:
-                continue
-            lo, hi = 0.0, s_hi - total
-        sf, d2 = nearest_window(kind, s0, data, bound, px, py, pz, lo, hi)
-        if part == 0 or d2 < best_d2:
-            best_s, best_d2 = sf, d2
-    return best_s, best_d2
+    if (s_lo < 0.0 or s_hi > total) and is_closed(kind, s0, data):
+        if s_lo < 0.0:
+            s2, e2 = nearest_window(kind, s0, data, bound, px, py, pz, total + s_lo, total)
+            if e2 < d2:
+                sf, d2 = s2, e2
+        if s_hi > total:
+            s2, e2 = nearest_window(kind, s0, data, bound, px, py, pz, 0.0, s_hi - total)
+            if e2 < d2:
+                sf, d2 = s2, e2
+    return sf, d2
 
 
 @numba.njit(cache=True)
