@@ -104,14 +104,20 @@ def view3(buf, lay, i):  # type: ignore[no-untyped-def]
     return buf[o : o + a * b * c].reshape((a, b, c))
 
 
+@numba.njit(cache=True, inline="always")
+def _size(lay, i, ndim):  # type: ignore[no-untyped-def]
+    """Product of the first ``ndim`` dimensions of array ``i`` of a blob."""
+    n = 1
+    for d in range(ndim):
+        n *= lay[i, 2 + d]
+    return n
+
+
 @numba.njit(cache=True)
 def rows2(buf, lay, i):  # type: ignore[no-untyped-def]
     """Array ``i`` of a blob as a 2-D row table: all but its last dimension merged into rows."""
     nd = lay[i, 1]
-    n = 1
-    for d in range(nd - 1):
-        n *= lay[i, 2 + d]
-    last = lay[i, 1 + nd]
+    n, last = _size(lay, i, nd - 1), lay[i, 1 + nd]
     return buf[lay[i, 0] : lay[i, 0] + n * last].reshape((n, last))
 
 
@@ -119,17 +125,11 @@ def rows2(buf, lay, i):  # type: ignore[no-untyped-def]
 def rows3(buf, lay, i):  # type: ignore[no-untyped-def]
     """Array ``i`` of a blob as a 3-D row table: all but its last two dimensions merged."""
     nd = lay[i, 1]
-    n = 1
-    for d in range(nd - 2):
-        n *= lay[i, 2 + d]
-    r, c = lay[i, nd], lay[i, 1 + nd]
+    n, r, c = _size(lay, i, nd - 2), lay[i, nd], lay[i, 1 + nd]
     return buf[lay[i, 0] : lay[i, 0] + n * r * c].reshape((n, r, c))
 
 
 @numba.njit(cache=True)
 def flat(buf, lay, i):  # type: ignore[no-untyped-def]
     """All elements of array ``i`` of a blob as one 1-D view."""
-    n = 1
-    for d in range(lay[i, 1]):
-        n *= lay[i, 2 + d]
-    return buf[lay[i, 0] : lay[i, 0] + n]
+    return buf[lay[i, 0] : lay[i, 0] + _size(lay, i, lay[i, 1])]
