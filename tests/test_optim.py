@@ -12,7 +12,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from agents.optim import OPTIMIZERS, OptimResult, minimize, options_of
-from agents.optim.abc import quality
+from agents.optim.abc import abc_probabilities, iabc_probabilities, rank_fitness
 from agents.optim.foa import crossover_probability, dynamic_step
 from agents.optim.pso import improved_coefficients
 
@@ -76,7 +76,10 @@ TOLERANCE: dict[str, tuple[float, float, float, float]] = {
     #               sphere5  rosenbrock2 rosenbrock5 rastrigin5
     "pso": (1e-5, 1e-4, 3.0, 3.0),
     "improved_pso": (1e-10, 1e-6, 4.0, 10.0),
-    "abc": (1e-7, 1e-2, 1.0, 0.05),
+    # abc rosenbrock2 was 1e-2 with Karaboga's 1 / (1 + f); with the rank fitness seeds 0-2
+    # give 0.009, 0.020, 0.015 (seeds 0-39: median 0.0055, with 1 / (1 + f) 0.0032): the
+    # one-coordinate move crawls along the curved valley and the final value scatters widely
+    "abc": (1e-7, 1.8e-2, 1.0, 0.05),
     "improved_abc": (1e-3, 1e-2, 1.0, 0.5),
     "foa": (0.3, 5e-3, 4.0, 15.0),
     "improved_foa": (1e-6, 1e-5, 3.0, 20.0),
@@ -399,6 +402,111 @@ def test_improved_foa_step_shrinks() -> None:
     assert late.mean() / early.mean() == pytest.approx(0.01 ** (2.0 - math.cos(1.0)), rel=0.05)
 
 
-def test_abc_quality() -> None:
-    f = np.array([0.0, 1.0, -2.0, np.inf])
-    assert quality(f).tolist() == [1.0, 0.5, 3.0, 0.0]
+def test_abc_rank_fitness() -> None:
+    # 1 / (1 + rank), rank = number of strictly better sources; failed sources get 0
+    f = np.array([0.0, 1.0, -2.0, np.inf, 1.0])
+    assert rank_fitness(f).tolist() == [1 / 2, 1 / 3, 1.0, 0.0, 1 / 3]
+    assert rank_fitness(np.full(3, np.inf)).tolist() == [0.0, 0.0, 0.0]
+
+
+# ---------------------------------------------------------------------------------------------
+# Units: every optimiser takes the same path on f and on 1e-9 * f
+
+
+def contour_like(scale: float) -> Callable[[np.ndarray], np.ndarray]:
+    """A multimodal 3-D objective whose values are of order ``scale`` (1e-5: errors in metres)."""
+    centre = np.array([0.3, -0.2, 0.1])
+
+    def fn(x: np.ndarray) -> np.ndarray:
+        bowl = np.sum((x - centre) ** 2, axis=1)
+        return scale * (bowl + 0.1 * np.sum(np.sin(5.0 * x) ** 2, axis=1))
+
+    return fn
+
+
+# improved_foa's eq. 5 is a ratio of smell differences, scale-free but computed from rounded
+# smells, and the same number is eq. 6's crossover weight: offspring may differ by an ulp
+ROUNDED = {"improved_foa"}
+UNIT_CASES = [pytest.param(name, {}, id=name) for name in NAMES] + [
+    pytest.param("cma", {"boundary": "BoundPenalty"}, id="cma-BoundPenalty")
+]
+
+
+def _same_path(name: str, ref: OptimResult, other: OptimResult, factor: float) -> None:
+    assert other.nfev == ref.nfev
+    assert ref.population_history is not None and other.population_history is not None
+    if name in ROUNDED:
+        assert np.allclose(other.x, ref.x, rtol=1e-12, atol=1e-14)
+        assert np.allclose(other.population_history, ref.population_history, rtol=1e-12, atol=1e-14)
+        assert np.allclose(other.history, factor * ref.history, rtol=1e-12, atol=0.0)
+    else:
+        assert other.x.tobytes() == ref.x.tobytes()
+        assert other.population_history.tobytes() == ref.population_history.tobytes()
+        assert np.array_equal(other.history, factor * ref.history)
+
+
+@pytest.mark.parametrize("scale", [1e-5, 1e3])
+@pytest.mark.parametrize(("name", "options"), UNIT_CASES)
+def test_same_path_on_a_scaled_objective(name: str, options: dict[str, Any], scale: float) -> None:
+    fn, bounds = contour_like(scale), [[-1.0, 1.0]] * 3
+    kw: dict[str, Any] = {"population": 12, "iterations": 25, "seed": 7, "keep_population": True}
+    ref = minimize(name, fn, bounds, **kw, **options)
+    scaled = minimize(name, lambda x: 1e-9 * fn(x), bounds, **kw, **options)
+    _same_path(name, ref, scaled, 1e-9)
+
+
+@pytest.mark.parametrize("name", [n for n in NAMES if n != "improved_foa"])
+def test_same_path_with_an_offset(name: str) -> None:
+    # improved_foa is left out: its trapped test var <= delta * mean^2 is not offset-free
+    fn, bounds = contour_like(1e-5), [[-1.0, 1.0]] * 3
+    kw: dict[str, Any] = {"population": 12, "iterations": 25, "seed": 7, "keep_population": True}
+    ref = minimize(name, fn, bounds, **kw)
+    shifted = minimize(name, lambda x: fn(x) + 3e-5, bounds, **kw)
+    assert shifted.x.tobytes() == ref.x.tobytes()
+    assert ref.population_history is not None and shifted.population_history is not None
+    assert shifted.population_history.tobytes() == ref.population_history.tobytes()
+
+
+# std of five copies of FLAT rounds to 4e-16, of five copies of 1e-9 * FLAT to exactly 0: with
+# scipy's convergence test on, DE ran the flat objective's budget at one scale and not the other
+FLAT = 3.2155563455066574
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e-9])
+@pytest.mark.parametrize("name", NAMES)
+def test_flat_objective_spends_the_budget(name: str, scale: float) -> None:
+    assert np.std(np.full(5, FLAT)) > 0.0 and np.std(np.full(5, 1e-9 * FLAT)) == 0.0
+    bounds = [[0.0, 1.0]] * 2
+    checked = Checked(lambda x: np.full(x.shape[0], scale * FLAT), bounds)
+    res = minimize(name, checked, bounds, population=5, iterations=10, seed=0)
+    assert checked.evals == res.nfev == 5 * 11
+    assert res.fun == scale * FLAT and res.history.shape == (10,)
+
+
+def test_abc_onlookers_prefer_better_sources_in_si_units() -> None:
+    f = 1e-5 * np.array([0.3, 0.8, 1.0, 2.0, 4.0, 7.5])  # contour errors in metres
+    karaboga = 1.0 / (1.0 + f)  # the printed fitness: the same for every source to 4 digits
+    assert karaboga.max() / karaboga.min() < 1.0 + 1e-4
+    for probabilities in (abc_probabilities, iabc_probabilities):
+        p = probabilities(f)
+        assert p.sum() == pytest.approx(1.0, abs=1e-15)
+        assert np.all(np.diff(p) < 0.0)  # a better source is strictly more likely
+        assert p[0] > 2.0 * p[-1]
+        for other in (1e-9 * f, 1e8 * f, f + 1.0):
+            assert np.array_equal(probabilities(other), p)
+    # the best gets 1 / H_6 of Karaboga's roulette; eq. 25 gives the worst 0.9 / 6 + 0.1
+    assert abc_probabilities(f)[0] == pytest.approx(1.0 / sum(1.0 / k for k in range(1, 7)))
+    q = iabc_probabilities(f)
+    assert q[0] / q[-1] == pytest.approx(1.0 / (0.9 / 6.0 + 0.1))
+
+
+def test_abc_onlooker_probabilities_with_failed_sources() -> None:
+    f = np.array([2.0, np.inf, 1.0, np.inf, 2.0])
+    p = abc_probabilities(f)
+    assert p[1] == p[3] == 0.0 and p[2] > p[0] == p[4] > 0.0  # ties share a probability
+    q = iabc_probabilities(f)
+    assert 0.0 < q[1] == q[3] < q[0] == q[4] < q[2]  # eq. 25's floor, never preferred
+    for probabilities in (abc_probabilities, iabc_probabilities):
+        assert probabilities(f).sum() == pytest.approx(1.0, abs=1e-15)
+        uniform = probabilities(np.full(4, np.inf))  # every source failed
+        assert np.all(np.isfinite(uniform)) and np.all(uniform == 0.25)

@@ -55,6 +55,8 @@ def minimize(
             ``improved_abc``, ``foa``, ``improved_foa``, ``de`` or ``cma``.
         objective: Maps a ``(n, dim)`` float array to ``(n,)`` fitness, lower is better; called
             with a whole generation (or phase) at once. Non-finite fitness counts as ``+inf``.
+            Its units do not matter: ``c * objective`` (``c > 0``) gives the same run (see
+            :mod:`agents.optim`).
         bounds: ``(dim, 2)`` array-like of finite ``[low, high]`` with ``low < high``. Every
             point the objective sees is inside.
         population: Evaluations per generation (a positive int; some optimisers need more,

@@ -4,7 +4,15 @@ Both run in unit coordinates on ``[0, 1]^dim`` and evaluate through the shared
 :class:`~agents.optim._base.Problem`, so bounds, failure handling, history and budget are the
 same as for the swarm algorithms: generation 0 evaluates ``population`` uniform points, then
 ``iterations`` generations of ``population`` points each; ``nfev = population * (iterations +
-1)``.
+1)``, always: neither library's convergence test can end a run early.
+
+Units: both take the same path on ``c * f + d`` for any ``c > 0`` and ``d``. DE compares
+fitness values only, once scipy's convergence test (a standard deviation against absolute and
+relative tolerances, where rounding decides whether equal fitness values have zero spread) is
+switched off. CMA-ES is told each generation's ranks, not its fitness values, so the values
+can reach cma neither through its absolute termination tolerances (``tolfun``,
+``tolfunhist``, ``tolflatfitness``; not consulted anyway) nor through ``BoundPenalty``, whose
+penalty weight is set from the spread of the told values.
 """
 
 from __future__ import annotations
@@ -17,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import differential_evolution
 
-from agents.optim._base import FloatArray, Objective, OptimResult, Problem, in_range, run
+from agents.optim._base import FloatArray, Objective, OptimResult, Problem, in_range, ranks, run
 from contour_gym._validate import choice, positive
 
 
@@ -37,11 +45,16 @@ def de(
 
     Called with ``vectorized=True`` (one objective call per generation), ``init`` set to the
     generation-0 uniform sample (so the population is exactly ``population``; scipy's
-    ``popsize`` multiplier cannot give every size), ``maxiter=iterations``, ``polish=False``,
-    ``tol=0`` and ``atol=0`` (run all generations; scipy stops early only if every member has
-    the same fitness, after which ``history`` repeats its last value), and the run's generator
-    as ``rng``. Scipy's own bounds handling applies: a trial coordinate outside ``[0, 1]`` is
-    resampled uniformly.
+    ``popsize`` multiplier cannot give every size), ``maxiter=iterations``, ``polish=False`` (no
+    extra evaluations), the run's generator as ``rng``, and ``tol=0``, ``atol=-inf``: scipy's
+    convergence test ``std(f) <= atol + tol * |mean(f)|`` can then never pass, so every
+    generation is run. (``atol=0`` would stop the run once every member has the same fitness,
+    and whether ``std`` of equal values rounds to exactly 0 depends on their scale: a flat
+    objective would run its budget at one scale and stop after one generation at another.)
+    The run then compares fitness values only and takes the same path on ``c * f + d``,
+    ``c > 0``.
+    Scipy's own bounds handling applies: a trial coordinate outside ``[0, 1]`` is resampled
+    uniformly.
 
     Args:
         objective: Batch objective ``(n, dim) -> (n,)``, lower is better.
@@ -95,11 +108,11 @@ def _de(
         polish=False,
         init=rng.random((population, problem.dim)),
         tol=0.0,
-        atol=0.0,
+        atol=-np.inf,  # std(f) <= -inf never holds: scipy's convergence stop is off
         updating="deferred",
         vectorized=True,
     )
-    problem.pad_history(iterations)
+    problem.pad_history(iterations)  # a no-op unless scipy stops for another reason
 
 
 def cma(
@@ -118,12 +131,18 @@ def cma(
     Runs in unit coordinates with ``bounds=[0, 1]``, ``popsize=population``, ``sigma0`` as a
     fraction of the box width (default 0.3) and the mean started at the best point of the
     generation-0 sample. ``iterations`` ask/tell rounds are made whatever cma's own
-    termination criteria say. Randomness: cma's ``randn`` option draws from the run's
-    generator and its ``seed`` option is NaN, so cma never touches ``numpy.random``'s global
-    state. CMA-ES is rank based; a failed member (``inf``) is told to cma as one more than the
-    worst finite fitness of its generation (0 if all failed), which ranks it last. In one
-    dimension cma's cap of the std at a third of the box is switched off (cma 4.5 raises
-    there).
+    termination criteria (``tolfun``, ``tolx``, ``tolflatfitness``, ...) say: ``es.stop()`` is
+    never consulted. Randomness: cma's ``randn`` option draws from the run's generator and its
+    ``seed`` option is NaN, so cma never touches ``numpy.random``'s global state.
+
+    Told values: cma is told each member's rank in its generation (the number of strictly
+    better members), not its fitness. CMA-ES's update uses only the order, so with
+    ``BoundTransform`` the path is the one the raw values would give; what changes is that no
+    value-based part of cma (its absolute tolerances, ``BoundPenalty``'s penalty weight, set
+    from the spread of the told values) can see the objective's units, so the run is the same
+    on ``c * f + d`` for any ``c > 0``. A failed member (``inf``) ranks after every finite one,
+    tied with the other failures. In one dimension cma's cap of the std at a third of the box
+    is switched off (cma 4.5 raises there).
 
     Args:
         objective: Batch objective ``(n, dim) -> (n,)``, lower is better.
@@ -141,9 +160,17 @@ def cma(
     core = partial(
         _cma_es,
         sigma0=positive(sigma0, "sigma0"),
-        boundary=choice(boundary, "boundary", ("BoundTransform", "BoundPenalty")),
+        boundary=_BOUNDARY[choice(boundary, "boundary", tuple(_BOUNDARY))],
     )
     return run("cma", core, objective, bounds, population, iterations, seed, keep_population, 2)
+
+
+# cma's BoundaryHandler option must be the class: cma 4.5 cannot parse the string
+# "BoundPenalty" ("'str' object has no attribute 'has_bounds'")
+_BOUNDARY: dict[str, type] = {
+    "BoundTransform": _cma.BoundTransform,
+    "BoundPenalty": _cma.BoundPenalty,
+}
 
 
 def _cma_es(
@@ -152,7 +179,7 @@ def _cma_es(
     population: int,
     iterations: int,
     sigma0: float,
-    boundary: str,
+    boundary: type,
 ) -> None:
     u0, f0 = problem.initial(rng, population)
 
@@ -176,10 +203,7 @@ def _cma_es(
     for _ in range(iterations):
         asked = es.ask()
         f = problem.evaluate(np.clip(np.asarray(asked, dtype=np.float64), 0.0, 1.0))
-        failed = ~np.isfinite(f)
-        ok = f[~failed]
-        f[failed] = ok.max() + 1.0 if ok.size else 0.0
-        es.tell(asked, f.tolist())
+        es.tell(asked, ranks(f).tolist())
         problem.end_generation()
 
 
