@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path as FilePath
 
 from contour_gym.api import make_scenario, run_trace
-from contour_gym.plant import PRESETS
+from contour_gym.presets import PRESETS
 
 ROWS = (
     ("max_contour_error", "max |contour error| (um)", 1e6),

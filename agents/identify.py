@@ -9,8 +9,9 @@ friction is the Stribeck curve ``g(v) + sigma2 v`` of 002 eq. 3, which fixes ``v
 plateaus, keeps the large ``sigma1 dz/dt`` transients of a reversal (with 002's table-1 values
 the bristles take ~5 cm of travel to settle) from swamping the Stribeck curve in eq. 4: the
 fitness' Hessian condition number drops from ~300 (sinusoids of rising amplitude) to ~30. The
-plant is advanced by :func:`contour_gym.plant._kernel.axis_tick` at the servo tick with one
-substep (the LuGre rates stay below 40 1/s, well resolved) and the friction of each step is
+plant is advanced by the LuGre law's own substep (:func:`contour_gym.plant.friction.lugre.substep`)
+at the servo tick with one substep (the LuGre rates stay below 40 1/s, well resolved) and the
+friction of each step is
 recovered exactly from the mechanics, ``F = K u - b dx/h - m dv/h`` (the ZOH step holds the
 friction over the step). Measured: the velocity at the start of each step and that friction;
 ``noise`` adds Gaussian noise of ``noise`` times each signal's RMS to both.
@@ -41,17 +42,18 @@ from scipy.optimize import least_squares
 
 from agents.optim import minimize
 from contour_gym._validate import as_finite_array, choice, non_negative, positive
-from contour_gym.plant import _kernel as PK  # noqa: N812
-from contour_gym.plant import get_preset
-from contour_gym.plant.params import LuGreFriction
-from contour_gym.plant.stage import axis_row, zoh_matrices
-from contour_gym.servo import _friction as F  # noqa: N812
+from contour_gym.plant._kernel import AX, ST, STATE
+from contour_gym.plant.friction import lugre
+from contour_gym.plant.friction.lugre import LuGreFriction
+from contour_gym.plant.stage import axis_row, friction_row, zoh_matrices
+from contour_gym.presets import get_preset
 
 if TYPE_CHECKING:
     from contour_gym.plant.params import AxisParams
 
 Array = NDArray[np.float64]
 
+N_STATE = STATE.size  # numba reads a module constant, not the schema object
 PARAM_NAMES = ("sigma0", "sigma1", "vs", "fs")
 # search box: about a factor 3 either side of 002's design values (fs above the known F_c)
 DEFAULT_BOUNDS = ((150.0, 1500.0), (100.0, 900.0), (0.15, 1.5), (20.0, 90.0))
@@ -116,20 +118,22 @@ def sweep_profile(h: float) -> tuple[Array, Array]:
 
 
 @numba.njit(cache=True)
-def _drive(p, rip, dist, ad, bd, v_ref, a_ref, h, kv, ki, x, v, u):  # type: ignore[no-untyped-def]
-    # velocity PI with inverse-model feed-forward; friction is what the loop fights
-    # one-row tables (the plant kernel's layout)
-    st = np.zeros((1, PK.N_ST))
-    m, b, kf, u_max = p[0, PK.AX_M], p[0, PK.AX_B], p[0, PK.AX_K], p[0, PK.AX_UMAX]
+def _drive(p, fr, ad, bd, v_ref, a_ref, h, kv, ki, x, v, u):
+    # velocity PI with inverse-model feed-forward; friction is what the loop fights. One-row
+    # tables (the plant kernel's layout); the plant is the LuGre law's own substep.
+    st = np.zeros((1, N_STATE))
+    m, b, kf, u_max = p[0, AX.m], p[0, AX.b], p[0, AX.k], p[0, AX.u_max]
     integ = 0.0
     for k in range(v_ref.shape[0]):
-        x[k], v[k] = st[0, PK.ST_X], st[0, PK.ST_V]
-        err = v_ref[k] - st[0, PK.ST_V]
+        x[k], v[k] = st[0, ST.x], st[0, ST.v]
+        err = v_ref[k] - st[0, ST.v]
         integ += err * h
         uk = (m * a_ref[k] + b * v_ref[k]) / kf + kv * err + ki * integ
         u[k] = min(max(uk, -u_max), u_max)
-        PK.axis_tick(p, rip, dist, ad, bd, st, 0, u[k], k * h, h, 1, 0.0)
-    x[-1], v[-1] = st[0, PK.ST_X], st[0, PK.ST_V]
+        lugre.substep(p, fr, ad, bd, st, 0, u[k], 0.0, h)
+        if p[0, AX.tau] == 0.0:
+            st[0, ST.i] = u[k]
+    x[-1], v[-1] = st[0, ST.x], st[0, ST.v]
 
 
 def friction_sweep(
@@ -164,16 +168,14 @@ def friction_sweep(
     if non_negative(noise, "noise") > 0 and seed is None:
         raise ValueError("a noisy sweep needs a seed")
     h = stage.ts
-    p = axis_row(ax)
+    p = axis_row(ax, ideal=True)
     ad, bd = zoh_matrices(p[None], h)
-    dist = np.zeros(PK.N_DS)
-    dist[PK.DS_STEP_T] = math.inf
     v_ref, a_ref = sweep_profile(h)
     n = v_ref.size
     x, v, u = np.zeros(n + 1), np.zeros(n + 1), np.zeros(n)
     w = positive(bandwidth, "bandwidth")
     kv, ki = ax.mass * w / ax.force_constant, ax.mass * w * w / (4.0 * ax.force_constant)
-    _drive(p[None], np.zeros((1, 6, 3)), dist[None], ad, bd, v_ref, a_ref, h, kv, ki, x, v, u)
+    _drive(p[None], friction_row(ax)[None], ad, bd, v_ref, a_ref, h, kv, ki, x, v, u)
     force = ax.force_constant * u - ax.damping * np.diff(x) / h - ax.mass * np.diff(v) / h
     vel = v[:-1]
     if noise > 0:
@@ -190,11 +192,12 @@ def with_params(known: LuGreFriction, theta: ArrayLike) -> LuGreFriction:
 
 
 def _thetas(known: LuGreFriction, points: Array) -> Array:
-    # identified (sigma0, sigma1, vs, fs) rows -> full LG_* rows with the known sigma2, fc
-    out = np.empty((points.shape[0], F.N_LG))
-    out[:, F.LG_S0], out[:, F.LG_S1] = points[:, 0], points[:, 1]
-    out[:, F.LG_VS], out[:, F.LG_FS] = points[:, 2], points[:, 3]
-    out[:, F.LG_S2], out[:, F.LG_FC] = known.sigma2, known.fc
+    # identified (sigma0, sigma1, vs, fs) rows -> full LuGre rows with the known sigma2, fc
+    c = lugre.C
+    out = np.empty((points.shape[0], lugre.PARAMS.size))
+    out[:, c.sigma0], out[:, c.sigma1] = points[:, 0], points[:, 1]
+    out[:, c.vs], out[:, c.fs] = points[:, 2], points[:, 3]
+    out[:, c.sigma2], out[:, c.fc] = known.sigma2, known.fc
     return out
 
 
@@ -210,9 +213,8 @@ def lugre_response(params: LuGreFriction, velocity: ArrayLike, h: float) -> Arra
         (T,) friction, N.
     """
     v = as_finite_array(velocity, "velocity", ndim=1)
-    th = np.array([params.sigma0, params.sigma1, params.sigma2, params.fc, params.fs, params.vs])
     out = np.empty_like(v)
-    F.lugre_response(th, v, positive(h, "h"), out)
+    lugre.lugre_response(params.as_array(), v, positive(h, "h"), out)
     return out
 
 
@@ -231,7 +233,7 @@ class FrictionFitness:
     def __call__(self, points: Array) -> Array:
         """Normalised squared error of each row (``inf`` where ``fs < F_c``: no LuGre model)."""
         pts = np.atleast_2d(np.asarray(points, dtype=np.float64))
-        sse = F.lugre_sse(
+        sse = lugre.lugre_sse(
             _thetas(self.known, pts), self.data.velocity, self.data.force, self.data.h
         )
         return np.where(pts[:, 3] >= self.known.fc, sse / self.scale, np.inf)

@@ -30,7 +30,7 @@ import numpy as np
 
 from contour_gym.contour import ESTIMATORS, Estimator
 from contour_gym.paths import Path, load
-from contour_gym.plant import get_preset
+from contour_gym.presets import get_preset
 
 PATHS = (
     ("circle", "xy_dc_servo"),

@@ -1,8 +1,9 @@
 """Closed-loop throughput: env-ticks per second at B = 1, 64, 1024 on the default circle.
 
 Default scenario: 000's X-Y DC servo on its 10 mm circle with PID CCC (the `contour-gym
-simulate` job). One core (numba runs single-threaded here). Prints medians of 5 repeats.
-Targets (issue 2): >= 2e4 ticks/s at B = 1 and >= 3e6 env-ticks/s at B = 1024.
+simulate` job), on the rig (encoder, one-tick delay: the default) and with ``ideal=True``.
+One core (numba runs single-threaded here). Prints medians of 5 repeats. Targets (issue 2):
+>= 2e4 ticks/s at B = 1 and >= 3e6 env-ticks/s at B = 1024.
 
 A second table (no target) gives B = 1024 for every preset on its paper path, with its
 friction, ripple, disturbances, encoder and substeps.
@@ -17,11 +18,13 @@ import time
 import numpy as np
 
 from contour_gym.api import make_scenario
-from contour_gym.plant.presets import PRESETS
+from contour_gym.presets import PRESETS
 
 
-def measure(batch: int, ticks: int, repeats: int = 5, preset: str = "xy_dc_servo") -> float:
-    sc = make_scenario(preset)
+def measure(
+    batch: int, ticks: int, repeats: int = 5, preset: str = "xy_dc_servo", ideal: bool = False
+) -> float:
+    sc = make_scenario(preset, ideal=ideal)
     loop = sc.loop(batch_size=batch, ccc_gains=sc.preset.ccc_gains.as_tuple())
     loop.step(5)  # compile / warm up
     times = []
@@ -35,12 +38,11 @@ def measure(batch: int, ticks: int, repeats: int = 5, preset: str = "xy_dc_servo
 
 def main() -> None:
     print(f"# loop throughput, {platform.machine()}, {os.cpu_count()} cores visible, one used")
-    print(f"{'B':>6} {'ticks/call':>10} {'env-ticks/s':>14} {'target':>10}")
+    print(f"{'B':>6} {'ticks/call':>10} {'rig ticks/s':>14} {'ideal ticks/s':>14} {'target':>10}")
     for batch, ticks, target in ((1, 2000, 2e4), (64, 2000, None), (1024, 1000, 3e6)):
-        rate = measure(batch, ticks)
-        print(
-            f"{batch:>6} {ticks:>10} {rate:>14.3g} {'' if target is None else f'{target:.0e}':>10}"
-        )
+        rate, ideal = measure(batch, ticks), measure(batch, ticks, ideal=True)
+        want = "" if target is None else f"{target:.0e}"
+        print(f"{batch:>6} {ticks:>10} {rate:>14.3g} {ideal:>14.3g} {want:>10}")
     print(f"\n{'preset (B = 1024, 1000 ticks)':<32} {'env-ticks/s':>14}")
     for preset in PRESETS:
         print(f"{preset:<32} {measure(1024, 1000, preset=preset):>14.3g}")

@@ -1,14 +1,14 @@
 """contour-gym: Gymnasium environments for multi-axis CNC servo contouring.
 
-``import contour_gym`` registers the environment ids (``contour_gym.envs.ENV_IDS``) and
-never imports torch.
+``import contour_gym`` registers the environment ids (``contour_gym.ENV_IDS``) and never
+imports torch.
 """
 
 from __future__ import annotations
 
-from contour_gym import _numba_cache
+from contour_gym import _compile
 
-_numba_cache.configure()  # before any kernel module is imported
+_compile.configure()  # before any kernel module is imported
 
 from contour_gym.api import make_scenario, simulate  # noqa: E402
 from contour_gym.envs import ENV_IDS, register_envs  # noqa: E402

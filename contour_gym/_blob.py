@@ -60,7 +60,7 @@ class Blob:
 
 
 @intrinsic
-def borrow(typingctx, arr):  # type: ignore[no-untyped-def]
+def borrow(typingctx, arr):
     """The array ``arr`` without its reference-counted owner (compiled code only).
 
     Every view numba makes (``a[b]``, ``a[b, i]``) increments and later decrements its
@@ -72,7 +72,7 @@ def borrow(typingctx, arr):  # type: ignore[no-untyped-def]
     if not isinstance(arr, types.Array):
         return None
 
-    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+    def codegen(context, builder, signature, args):
         src = context.make_array(arr)(context, builder, value=args[0])
         out = context.make_array(arr)(context, builder)
         cgutils.copy_struct(out, src)
@@ -84,28 +84,28 @@ def borrow(typingctx, arr):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def view1(buf, lay, i):  # type: ignore[no-untyped-def]
+def view1(buf, lay, i):
     """1-D view number ``i`` of a blob."""
     o = lay[i, 0]
     return buf[o : o + lay[i, 2]]
 
 
 @numba.njit(cache=True)
-def view2(buf, lay, i):  # type: ignore[no-untyped-def]
+def view2(buf, lay, i):
     """2-D view number ``i`` of a blob."""
     o, a, b = lay[i, 0], lay[i, 2], lay[i, 3]
     return buf[o : o + a * b].reshape((a, b))
 
 
 @numba.njit(cache=True)
-def view3(buf, lay, i):  # type: ignore[no-untyped-def]
+def view3(buf, lay, i):
     """3-D view number ``i`` of a blob."""
     o, a, b, c = lay[i, 0], lay[i, 2], lay[i, 3], lay[i, 4]
     return buf[o : o + a * b * c].reshape((a, b, c))
 
 
 @numba.njit(cache=True, inline="always")
-def _size(lay, i, ndim):  # type: ignore[no-untyped-def]
+def _size(lay, i, ndim):
     """Product of the first ``ndim`` dimensions of array ``i`` of a blob."""
     n = 1
     for d in range(ndim):
@@ -114,7 +114,7 @@ def _size(lay, i, ndim):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def rows2(buf, lay, i):  # type: ignore[no-untyped-def]
+def rows2(buf, lay, i):
     """Array ``i`` of a blob as a 2-D row table: all but its last dimension merged into rows."""
     nd = lay[i, 1]
     n, last = _size(lay, i, nd - 1), lay[i, 1 + nd]
@@ -122,7 +122,7 @@ def rows2(buf, lay, i):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def rows3(buf, lay, i):  # type: ignore[no-untyped-def]
+def rows3(buf, lay, i):
     """Array ``i`` of a blob as a 3-D row table: all but its last two dimensions merged."""
     nd = lay[i, 1]
     n, r, c = _size(lay, i, nd - 2), lay[i, nd], lay[i, 1 + nd]
@@ -130,6 +130,6 @@ def rows3(buf, lay, i):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def flat(buf, lay, i):  # type: ignore[no-untyped-def]
+def flat(buf, lay, i):
     """All elements of array ``i`` of a blob as one 1-D view."""
     return buf[lay[i, 0] : lay[i, 0] + _size(lay, i, lay[i, 1])]

@@ -1,124 +1,338 @@
-"""The compiled closed loop: servo ticks for every batch member (DESIGN.md data flow).
+"""Kernel template: the compiled closed loop, servo ticks for every batch member (DESIGN.md).
 
-interpolator -> path -> reference r; plant -> measured p; axis controllers; contour error
-estimator -> CCC -> coupling gains; u = sat(u_axis + u_ccc) -> plant. One copy of this loop
-serves the convenience API, the environments and the optimisers.
+One tick of member b (local tick k)::
 
-Small kernels called every tick (here and in plant, servo, contour, motion and paths) are
-compiled with ``inline="always"``: numba does not inline one njit function into another at
-the LLVM level, and the calls (9-float tuple returns, array arguments) cost more than the
-work. With one segment-visit site in nearest_window and the reference point reused by the
-ground truth, inlining took the loop from 1.2e6 to ~2.6e6 member-ticks/s (measured with
-benchmarks/loop_throughput.py), at the price of a longer first compile.
+    interpolator -> s, reference r (per axis, contour offsets added)
+    encoder: y = quantise(x) + noise                        (rig; exact with ideal=True)
+    per contour: true error eps (exact search hinted by the machine's own foot point),
+                 estimate from y (the registered estimator), CCC law -> U,
+                 distributed by the coupling gains: into the control (u += w C U) or into the
+                 commanded position (r += w C U, 002's pre-compensation)
+    per axis: u = controller(r, y) + friction compensation + CCC share, saturated
+    plant: driven by the command of tick k - 1 on the rig (one-tick computation delay), of
+           tick k with ideal=True
+    metrics: sums while the member runs and its foot is on a cutting segment
+    end: in position at the path end (reference done, foot at the end, axes within the band
+         and slow) -> ARRIVED; diverged, or not in position ``settle_ticks`` after the
+         reference ended -> FAILED
 
-Reference counting. Every array value numba makes in compiled code (a view ``a[b]``, an
-array handed to an inlined function) calls ``NRT_incref``/``NRT_decref``; on an owned array
-those are atomic instructions, and perf put ~30 % of the tick there. Three measures remove
-them, together ~2.6e6 -> ~4.3e6 member-ticks/s:
-
-* :func:`run_ticks` borrows its arrays (:func:`contour_gym._blob.borrow`): views without an
-  owner, whose reference counting does nothing;
-* the per-tick kernels index row tables (``p[i, AX_M]`` with ``i = b * A + a``) instead of
-  taking row views;
-* :func:`_member_run` is compiled without numba's reference counting (its private
-  ``_nrt=False`` option; numba refuses to compile a function that then allocates). It
-  allocates nothing, and no array it makes outlives it.
-
-Inlining the windowed nearest-point search into the tick as well was measured at ~4.6e6,
-but it added ~30 s to the first compile and ~2.5 min to the test suite's compiles, so the
-search stays a call.
+This module is a template (:mod:`contour_gym._compile`): its slots (the axis controller, the
+estimator, the friction laws, the friction compensation, the CCC law) are bound per run to the
+registered components, so numba compiles and inlines exactly what the run uses. The exact
+nearest-point search and the estimators' foot functions are called, not inlined: compiled
+once, they are shared by every specialised kernel. Per-tick helpers are ``inline="always"``
+(a call per tick with this many arguments cost more than the tick), and :func:`member_run` is
+compiled without numba's reference counting (its private ``_nrt=False`` option): the arrays
+are borrowed views (:func:`contour_gym._blob.borrow`), nothing allocates, nothing escapes.
+Measured on the default scenario before these measures: ~30 % of the tick went to atomic
+reference counts (see the README's benchmark section).
 """
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numba
 
-from contour_gym._blob import borrow, flat, rows2, rows3, view1, view2, view3
-from contour_gym.contour._kernel import EST_GROUND_TRUTH, estimate, ground_truth_from, history_push
-from contour_gym.motion import IS_A, IS_DONE, IS_S, IS_V, interp_tick
-from contour_gym.paths._geom import eval_path
-from contour_gym.plant._kernel import AX_UMAX, ST_V, ST_X, axis_tick, measure
-from contour_gym.servo._kernel import axis_commit, axis_control, pid_commit, pid_output
-
-# acc_c[b, c, :]: contour error sums over the window's active ticks
-AC_ABS, AC_SQ, AC_MAX, AC_N = 0, 1, 2, 3
-# acc_a[b, a, :]: tracking error sums and control total variation
-AA_ABS, AA_SQ, AA_MAX, AA_TV = 0, 1, 2, 3
-# last[b, c, :]: the last tick's true and estimated contour error
-LS_TRUE, LS_EST = 0, 1
-# work rows (per axis): reference, its derivatives, true and measured position, control
-W_R, W_RDOT, W_RDDOT, W_X, W_Y, W_U = 0, 1, 2, 3, 4, 5
-N_W = 6
-
-STATUS_OK, STATUS_FAILED, STATUS_PAUSED = 0, 1, 2
-STATE_LIMIT = 1e3  # |x| in m or |v| in m/s beyond this is a diverged member
+from contour_gym._blob import borrow
+from contour_gym._loopstate import (
+    AA,
+    AC,
+    FT,
+    LS,
+    REASON_DIVERGED,
+    REASON_NOT_IN_POSITION,
+    STATE_LIMIT,
+    STATUS_ARRIVED,
+    STATUS_FAILED,
+    STATUS_OK,
+    M,
+    W,
+    config,
+    loop_arrays,
+    path_arrays,
+)
+from contour_gym._slots import (
+    CCC_COMMIT,
+    CCC_OUTPUT,
+    COMP_COMMIT,
+    COMP_OUTPUT,
+    CTRL_COMMIT,
+    CTRL_CONTROL,
+    EST_FOOT,
+    EST_SEARCH,
+    FRICTION_0,
+    FRICTION_1,
+    FRICTION_2,
+    FRICTION_3,
+)
+from contour_gym.contour._kernel import ground_truth_from, history_push, resolve
+from contour_gym.motion import CUTTING, IS, interp_tick
+from contour_gym.paths._geom import eval_path, find_segment
+from contour_gym.plant._kernel import AX, ST, disturbance_force, measure, ripple_force
 
 
 @numba.njit(cache=True, inline="always")
-def _reference(kind, s0, data, c_axes, c_off, s, v, acc, work):  # type: ignore[no-untyped-def]
+def axis_tick(ax, fr, rip, dist, ad, bd, st, i, u, t, ts, nsub, w):
+    """Advance axis row ``i`` by one tick ``ts`` with the control ``u`` held (ZOH).
+
+    The disturbance (random part advanced with normal ``w``) is held over the tick; the
+    ripple and the axis' friction law (its slot ``AX.law``) act every substep.
+    """
+    d = disturbance_force(dist, st, i, t, w)
+    h = ts / nsub
+    law = int(ax[i, AX.law])
+    nrip = int(ax[i, AX.nrip])
+    for _ in range(nsub):
+        f_ext = d
+        if nrip > 0:
+            f_ext -= ripple_force(rip, i, nrip, st[i, ST.x])
+        if law == 0:
+            FRICTION_0(ax, fr, ad, bd, st, i, u, f_ext, h)
+        elif law == 1:
+            FRICTION_1(ax, fr, ad, bd, st, i, u, f_ext, h)
+        elif law == 2:
+            FRICTION_2(ax, fr, ad, bd, st, i, u, f_ext, h)
+        else:
+            FRICTION_3(ax, fr, ad, bd, st, i, u, f_ext, h)
+    if ax[i, AX.tau] == 0.0:
+        st[i, ST.i] = u
+
+
+@numba.njit(cache=True)
+def drive_axis(ax, fr, rip, dist, ad, bd, st, u, t0, ts, nsub, w, xs, vs):
+    """Drive axis row 0 with the control sequence ``u`` (open loop); positions, velocities."""
+    for k in range(u.shape[0]):
+        axis_tick(ax, fr, rip, dist, ad, bd, st, 0, u[k], t0 + k * ts, ts, nsub, w[k])
+        xs[k], vs[k] = st[0, ST.x], st[0, ST.v]
+
+
+@numba.njit(cache=True, inline="always")
+def _reference(A, P, s, v, acc):
     # r = P(s) + offset, r' = P'(s) v, r'' = P''(s) v^2 + P'(s) a, written per axis
-    px, py, pz, tx, ty, tz, kx, ky, kz = eval_path(kind, s0, data, s)
+    px, py, pz, tx, ty, tz, kx, ky, kz = eval_path(P.kind, P.s0, P.data, s)
+    work, c_axes = A.work, A.c_axes
     for c in range(c_axes.shape[0]):
         for j in range(3):
             a = c_axes[c, j]
             if a < 0:
                 continue
             p, t, k = (px, tx, kx) if j == 0 else ((py, ty, ky) if j == 1 else (pz, tz, kz))
-            work[W_R, a] = p + c_off[c, j]
-            work[W_RDOT, a] = t * v
-            work[W_RDDOT, a] = k * v * v + t * acc
-    return px, py, pz
+            work[W.r0, a] = p + A.c_off[c, j]
+            work[W.r, a] = work[W.r0, a]
+            work[W.rdot, a] = t * v
+            work[W.rddot, a] = k * v * v + t * acc
 
 
 @numba.njit(cache=True, inline="always")
-def _contour_coords(c_axes, c_off, c, pos, row):  # type: ignore[no-untyped-def]
-    # contour c's coordinates of the axis positions pos[row, :], its offset removed
+def _coords(A, c, row):
+    # contour c's coordinates of the axis values in work row ``row``, offset removed
+    c_axes, c_off, work = A.c_axes, A.c_off, A.work
     dim = 2 if c_axes[c, 2] < 0 else 3
-    p0 = pos[row, c_axes[c, 0]] - c_off[c, 0]
-    p1 = pos[row, c_axes[c, 1]] - c_off[c, 1]
-    p2 = pos[row, c_axes[c, 2]] - c_off[c, 2] if dim == 3 else 0.0
+    p0 = work[row, c_axes[c, 0]] - c_off[c, 0]
+    p1 = work[row, c_axes[c, 1]] - c_off[c, 1]
+    p2 = work[row, c_axes[c, 2]] - c_off[c, 2] if dim == 3 else 0.0
     return dim, p0, p1, p2
 
 
 @numba.njit(cache=True, inline="always")
-def _accumulate_axes(acc, b, u_last, work, n_axes):  # type: ignore[no-untyped-def]
+def _track_foot(A, P, cfg, q, p0, p1, p2):
+    # the true error, searched around the machine's previous foot point; the foot's progress
+    # is kept unwrapped on closed paths (a lap past the end continues beyond the length)
+    foot = A.foot
+    sf_prev = foot[q, FT.s]
+    eps, g0, g1, g2, sf, qx, qy, qz = ground_truth_from(
+        P.kind, P.s0, P.data, P.bound, cfg.dim, p0, p1, p2, sf_prev,
+        foot[q, FT.qx], foot[q, FT.qy], foot[q, FT.qz],
+    )  # fmt: skip
+    step = sf - sf_prev
+    if cfg.closed and step < -0.5 * cfg.length:
+        step += cfg.length
+    elif cfg.closed and step > 0.5 * cfg.length:
+        step -= cfg.length
+    foot[q, FT.progress] += step
+    foot[q, FT.s], foot[q, FT.qx], foot[q, FT.qy], foot[q, FT.qz] = sf, qx, qy, qz
+    foot[q, FT.seg] = find_segment(P.s0, sf)
+    return eps, g0, g1, g2
+
+
+@numba.njit(cache=True, inline="always")
+def _estimate(A, P, cfg, q, c, s, eps, g0, g1, g2):
+    # the contour error the CCC sees: from the encoder readings, by the run's estimator
+    if cfg.meas_exact and EST_SEARCH:
+        return eps, g0, g1, g2  # the exact search on the exact position: already known
+    dim, p0, p1, p2 = _coords(A, c, W.y)
+    b = q // A.c_axes.shape[0]
+    if EST_SEARCH:
+        # an exact-search estimator tracks its own foot point from tick to tick (the reading's,
+        # never the truth's): its search window is the reading's distance from that point
+        f = A.foot
+        e, c0, c1, c2, sf, qx, qy, qz = ground_truth_from(
+            P.kind, P.s0, P.data, P.bound, dim, p0, p1, p2, f[q, FT.e_s], f[q, FT.e_qx],
+            f[q, FT.e_qy], f[q, FT.e_qz],
+        )  # fmt: skip
+        f[q, FT.e_s], f[q, FT.e_qx], f[q, FT.e_qy], f[q, FT.e_qz] = sf, qx, qy, qz
+        return e, c0, c1, c2
+    foot = EST_FOOT(A.est_p, P.kind, P.s0, P.data, P.bound, p0, p1, p2, s, A.hist[b])
+    e, c0, c1, c2, _ = resolve(foot, P.kind, P.s0, P.data, P.bound, dim, p0, p1, p2, s)
+    return e, c0, c1, c2
+
+
+@numba.njit(cache=True, inline="always")
+def _ccc(A, cfg, q, c, dim, eps, g0, g1, g2):
+    # Contour row q = b * C + c; its state rows are 3 q + i. 2-D: the law on the signed eps,
+    # distributed by C (state row 3 q). 3-D: the law on each signed component C_i eps.
+    row = W.r if cfg.inj_ref else W.uccc
+    axes, w, work = A.c_axes, A.ccc_w, A.work
+    for i in range(1 if dim == 2 else 3):
+        g = g0 if i == 0 else (g1 if i == 1 else g2)
+        e_i = eps if dim == 2 else g * eps
+        out = CCC_OUTPUT(A.ccc_p, A.ccc_s, A.ccc_data, q, 3 * q + i, e_i, cfg.ts)
+        if dim == 2:
+            work[row, axes[c, 0]] += w[q, 0] * g0 * out
+            work[row, axes[c, 1]] += w[q, 1] * g1 * out
+        else:
+            work[row, axes[c, i]] += w[q, i] * out
+        CCC_COMMIT(A.ccc_p, A.ccc_s, A.ccc_data, q, 3 * q + i, e_i, cfg.ts, out, False)
+
+
+@numba.njit(cache=True, inline="always")
+def _contours(A, P, cfg, b, s, n_axes):
+    n_c = A.c_axes.shape[0]
+    for a in range(n_axes):
+        A.work[W.uccc, a] = 0.0
+    for c in range(n_c):
+        q = b * n_c + c
+        dim, p0, p1, p2 = _coords(A, c, W.x)
+        eps, g0, g1, g2 = _track_foot(A, P, cfg, q, p0, p1, p2)
+        eh, h0, h1, h2 = _estimate(A, P, cfg, q, c, s, eps, g0, g1, g2)
+        _ccc(A, cfg, q, c, dim, eh, h0, h1, h2)
+        A.last[q, LS.true], A.last[q, LS.est] = eps, eh
+    history_push(A.hist[b], s)
+
+
+@numba.njit(cache=True, inline="always")
+def _axes(A, cfg, b, n_axes):
+    # control, compensation and CCC share; saturate; the command that drives the plant
+    work, ts = A.work, cfg.ts
     for a in range(n_axes):
         i = b * n_axes + a
-        e = work[W_R, a] - work[W_X, a]
-        acc[i, AA_ABS] += abs(e)
-        acc[i, AA_SQ] += e * e
-        acc[i, AA_MAX] = max(acc[i, AA_MAX], abs(e))
-        acc[i, AA_TV] += abs(work[W_U, a] - u_last[b, a])
+        r, rd, rdd, y = work[W.r, a], work[W.rdot, a], work[W.rddot, a], work[W.y, a]
+        u_comp = COMP_OUTPUT(A.comp_p, A.comp_s, i, rd, y, ts)
+        u = CTRL_CONTROL(A.ctrl_p, A.ctrl_s, i, r, rd, rdd, y, ts) + u_comp + work[W.uccc, a]
+        u_max = A.ax_p[i, AX.u_max]
+        u_sat = min(max(u, -u_max), u_max)
+        applied = A.u_cmd[b, a] if cfg.delay else u_sat
+        CTRL_COMMIT(A.ctrl_p, A.ctrl_s, i, r, rd, rdd, y, ts, u, applied, u_comp, u_max)
+        COMP_COMMIT(A.comp_p, A.comp_s, i, rd, y, ts)
+        work[W.u, a], work[W.ua, a] = u_sat, applied
 
 
 @numba.njit(cache=True, inline="always")
-def _accumulate_contour(acc, q, eps):  # type: ignore[no-untyped-def]
-    acc[q, AC_ABS] += abs(eps)
-    acc[q, AC_SQ] += eps * eps
-    acc[q, AC_MAX] = max(acc[q, AC_MAX], abs(eps))
-    acc[q, AC_N] += 1.0
+def _sums_contour(acc, q, eps, sampled):
+    acc[q, AC.abs] += abs(eps)
+    acc[q, AC.sq] += eps * eps
+    acc[q, AC.max] = max(acc[q, AC.max], abs(eps))
+    acc[q, AC.n] += 1.0
+    if sampled:
+        acc[q, AC.s_abs] += abs(eps)
+        acc[q, AC.s_n] += 1.0
 
 
 @numba.njit(cache=True, inline="always")
-def _ccc(p, w, st, q, axes, c, dim, eps, g0, g1, g2, ts, work):  # type: ignore[no-untyped-def]
-    # Contour row q = b * C + c; its PID state rows are 3 q + i.
-    # 2-D: the papers' scalar PID on the signed eps, distributed by C (one state, row 3 q).
-    # 3-D: eps = |eps_vec| >= 0 cannot carry integral action, so a PID acts on each signed
-    # component eps_vec_i = C_i eps (one state per coordinate, row 3 q + i).
-    if dim == 2:
-        big_u = pid_output(p, q, st, 3 * q, eps, 0.0, ts)
-        work[W_U, axes[c, 0]] += w[q, 0] * g0 * big_u
-        work[W_U, axes[c, 1]] += w[q, 1] * g1 * big_u
-        pid_commit(st, 3 * q, eps, ts, big_u, math.inf)
+def _sums_axis(acc, i, e, du, sampled):
+    acc[i, AA.abs] += abs(e)
+    acc[i, AA.sq] += e * e
+    acc[i, AA.max] = max(acc[i, AA.max], abs(e))
+    acc[i, AA.tv] += abs(du)
+    if sampled:
+        acc[i, AA.s_abs] += abs(e)
+
+
+@numba.njit(cache=True, inline="always")
+def _accumulate(A, P, cfg, b, k, n_axes):
+    # metrics count the ticks whose foot lies on a cutting segment (rapids do not count)
+    n_c = A.c_axes.shape[0]
+    if (int(P.flags[int(A.foot[b * n_c, FT.seg])]) & CUTTING) == 0:
         return
-    for i in range(3):
-        e_i = (g0 if i == 0 else (g1 if i == 1 else g2)) * eps
-        u_i = pid_output(p, q, st, 3 * q + i, e_i, 0.0, ts)
-        work[W_U, axes[c, i]] += w[q, i] * u_i
-        pid_commit(st, 3 * q + i, e_i, ts, u_i, math.inf)
+    sampled = k % cfg.sample_every == 0
+    for c in range(n_c):
+        q = b * n_c + c
+        _sums_contour(A.acc_c, q, A.last[q, LS.true], sampled)
+        _sums_contour(A.ep_c, q, A.last[q, LS.true], sampled)
+    for a in range(n_axes):
+        i = b * n_axes + a
+        e = A.work[W.r0, a] - A.work[W.x, a]
+        du = A.work[W.u, a] - A.u_cmd[b, a]
+        _sums_axis(A.acc_a, i, e, du, sampled)
+        _sums_axis(A.ep_a, i, e, du, sampled)
+
+
+@numba.njit(cache=True, inline="always")
+def _record(A, b, j, s, v, rec, n_axes):
+    work = A.work
+    rec[b, j, 0], rec[b, j, 1] = s, v
+    for a in range(n_axes):
+        rec[b, j, 2 + a] = work[W.r0, a]
+        rec[b, j, 2 + n_axes + a] = work[W.x, a]
+        rec[b, j, 2 + 2 * n_axes + a] = work[W.u, a]
+    base = 2 + 3 * n_axes
+    n_c = A.c_axes.shape[0]
+    for c in range(n_c):
+        rec[b, j, base + 2 * c] = A.last[b * n_c + c, LS.true]
+        rec[b, j, base + 1 + 2 * c] = A.last[b * n_c + c, LS.est]
+
+
+@numba.njit(cache=True, inline="always")
+def _plant(A, cfg, b, k, noise, j, n_axes, has_noise):
+    # advance every axis with the applied command; False if the state left the physical range
+    ok = True
+    for a in range(n_axes):
+        i = b * n_axes + a
+        A.u_cmd[b, a] = A.work[W.u, a]
+        w = noise[b, j, a] if has_noise else 0.0
+        axis_tick(A.ax_p, A.fr_p, A.rip, A.dist, A.ad, A.bd, A.ax_s, i, A.work[W.ua, a],
+                  k * cfg.ts, cfg.ts, cfg.nsub, w)  # fmt: skip
+        x, v = A.ax_s[i, ST.x], A.ax_s[i, ST.v]
+        if not (abs(x) < STATE_LIMIT and abs(v) < STATE_LIMIT):
+            ok = False
+    return ok
+
+
+@numba.njit(cache=True, inline="always")
+def _in_position(A, cfg, b, n_axes):
+    # a CNC's in-position check on the encoder: following error within the band, and slow
+    inpos = True
+    for a in range(n_axes):
+        i = b * n_axes + a
+        y = measure(A.ax_p, i, A.ax_s[i, ST.x], 0.0)
+        speed = abs(y - A.y_last[b, a]) / cfg.ts
+        inpos = inpos and abs(A.work[W.r0, a] - y) <= cfg.in_band and speed <= cfg.in_speed
+    return inpos
+
+
+@numba.njit(cache=True, inline="always")
+def _arrived(A, cfg, b, inpos):
+    if not (inpos and A.ip_s[b, IS.done] >= 0.0):
+        return False
+    n_c = A.c_axes.shape[0]
+    for c in range(n_c):
+        if A.foot[b * n_c + c, FT.progress] < cfg.length - 2.0 * cfg.in_band - 1e-9:
+            return False
+    return True
+
+
+@numba.njit(cache=True, inline="always")
+def _sense(A, cfg, b, noise, j, n_axes, has_noise):
+    work = A.work
+    for a in range(n_axes):
+        i = b * n_axes + a
+        work[W.x, a], work[W.v, a] = A.ax_s[i, ST.x], A.ax_s[i, ST.v]
+        if cfg.meas_exact:
+            work[W.y, a] = work[W.x, a]
+        else:
+            w = noise[b, j, n_axes + a] if has_noise else 0.0
+            work[W.y, a] = measure(A.ax_p, i, work[W.x, a], w)
 
 
 # numba's private ``_nrt`` option: compiled without reference counting (module docstring)
@@ -126,268 +340,60 @@ _NO_REFCOUNT: dict[str, Any] = {"cache": True, "_nrt": False}
 
 
 @numba.njit(**_NO_REFCOUNT)
-def _member_run(  # type: ignore[no-untyped-def]  # noqa: C901
-    b,
-    n,
-    k0,
-    ts,
-    nsub,
-    kind,
-    s0,
-    data,
-    bound,
-    c_axes,
-    c_off,
-    ax_p,
-    rip,
-    dist,
-    ad,
-    bd,
-    ax_s,
-    ctrl_kind,
-    ctrl_p,
-    ctrl_s,
-    ccc_p,
-    ccc_w,
-    ccc_s,
-    est_kind,
-    est_p,
-    hist,
-    ip_p,
-    ip_s,
-    length,
-    foot,
-    last,
-    noise,
-    acc_c,
-    acc_a,
-    ep_c,
-    ep_a,
-    u_last,
-    y_last,
-    rec,
-    record,
-    work,
-    meas_exact,
-):
-    """Run ``n`` servo ticks of batch member ``b`` from its local tick ``k0``.
-
-    Returns False when its state diverged. Per-axis and per-contour arrays come as row
-    tables (row ``b * A + a``, ``b * C + c``; see :func:`run_ticks`).
-
-    The tick body is written inline here: a call per tick with this many array arguments
-    cost more than the tick itself.
-    """
-    n_axes = work.shape[1]
-    n_c = c_axes.shape[0]
+def member_run(b, n, k0, cfg, A, P, noise, rec):
+    """Run ``n`` servo ticks of member ``b`` from its local tick ``k0``; returns its status."""
+    n_axes = A.work.shape[1]
     has_noise = noise.shape[1] > 0
-    hb = hist[b]
+    prog = (P.feed, P.flags, P.vcap, P.vj, P.wait, P.dwell)
+    law = (P.law_s, P.law_v)
     for j in range(n):
         k = k0 + j
-        active = ip_s[b, IS_DONE] < 0.0
-        interp_tick(length, ts, ip_p, ip_s, b, k)
-        s, v = ip_s[b, IS_S], ip_s[b, IS_V]
-        rx, ry, rz = _reference(kind, s0, data, c_axes, c_off, s, v, ip_s[b, IS_A], work)
+        in_pos = A.mem[b, M.in_pos] > 0.0
+        interp_tick(A.ip_p, A.ip_s, b, k, cfg.ts, P.s0, prog, law, cfg.law_dt, in_pos)
+        s = A.ip_s[b, IS.s]
+        _reference(A, P, s, A.ip_s[b, IS.v], A.ip_s[b, IS.a])
+        _sense(A, cfg, b, noise, j, n_axes, has_noise)
+        _contours(A, P, cfg, b, s, n_axes)
+        _axes(A, cfg, b, n_axes)
+        _accumulate(A, P, cfg, b, k, n_axes)
+        if cfg.record:
+            _record(A, b, j, s, A.ip_s[b, IS.v], rec, n_axes)
+        if not _plant(A, cfg, b, k, noise, j, n_axes, has_noise):
+            A.mem[b, M.reason], A.mem[b, M.end] = REASON_DIVERGED, k + 1
+            return STATUS_FAILED
+        inpos = _in_position(A, cfg, b, n_axes)
         for a in range(n_axes):
-            i = b * n_axes + a
-            work[W_X, a] = ax_s[i, ST_X]
-            w = noise[b, j, n_axes + a] if has_noise else 0.0
-            work[W_Y, a] = measure(ax_p, i, work[W_X, a], w)
-            y_last[b, a] = work[W_Y, a]
-            work[W_U, a] = axis_control(
-                ctrl_kind,
-                ctrl_p,
-                ctrl_s,
-                i,
-                work[W_R, a],
-                work[W_RDOT, a],
-                work[W_RDDOT, a],
-                work[W_Y, a],
-                ts,
-            )
-        for c in range(n_c):
-            q = b * n_c + c
-            dim, p0, p1, p2 = _contour_coords(c_axes, c_off, c, work, W_X)
-            eps, g0, g1, g2, sf = ground_truth_from(
-                kind, s0, data, bound, dim, p0, p1, p2, s, rx, ry, rz
-            )
-            foot[b, c] = sf
-            eh = eps
-            if not (meas_exact and est_kind == EST_GROUND_TRUTH):  # else: already computed
-                if not meas_exact:
-                    dim, p0, p1, p2 = _contour_coords(c_axes, c_off, c, work, W_Y)
-                eh, g0, g1, g2 = estimate(
-                    est_kind,
-                    est_p,
-                    kind,
-                    s0,
-                    data,
-                    bound,
-                    dim,
-                    p0,
-                    p1,
-                    p2,
-                    s,
-                    v,
-                    ip_s[b, IS_A],
-                    hb,
-                    ts,
-                )
-            _ccc(ccc_p, ccc_w, ccc_s, q, c_axes, c, dim, eh, g0, g1, g2, ts, work)
-            last[b, c, LS_TRUE], last[b, c, LS_EST] = eps, eh
-            if active:
-                _accumulate_contour(acc_c, q, eps)
-                _accumulate_contour(ep_c, q, eps)
-            if record:
-                rec[b, j, 2 + 3 * n_axes + 2 * c] = eps
-                rec[b, j, 3 + 3 * n_axes + 2 * c] = eh
-        history_push(hb, s)
-        for a in range(n_axes):
-            i = b * n_axes + a
-            u_max = ax_p[i, AX_UMAX]
-            axis_commit(
-                ctrl_kind,
-                ctrl_p,
-                ctrl_s,
-                i,
-                work[W_R, a],
-                work[W_RDOT, a],
-                work[W_RDDOT, a],
-                work[W_Y, a],
-                ts,
-                work[W_U, a],
-                u_max,
-            )
-            work[W_U, a] = min(max(work[W_U, a], -u_max), u_max)
-        if active:
-            _accumulate_axes(acc_a, b, u_last, work, n_axes)
-            _accumulate_axes(ep_a, b, u_last, work, n_axes)
-        if record:
-            rec[b, j, 0], rec[b, j, 1] = s, v
-            for a in range(n_axes):
-                rec[b, j, 2 + a] = work[W_R, a]
-                rec[b, j, 2 + n_axes + a] = work[W_X, a]
-                rec[b, j, 2 + 2 * n_axes + a] = work[W_U, a]
-        ok = True
-        for a in range(n_axes):
-            i = b * n_axes + a
-            u_last[b, a] = work[W_U, a]
-            w = noise[b, j, a] if has_noise else 0.0
-            axis_tick(ax_p, rip, dist, ad, bd, ax_s, i, work[W_U, a], k * ts, ts, nsub, w)
-            if not (abs(ax_s[i, ST_X]) < STATE_LIMIT and abs(ax_s[i, ST_V]) < STATE_LIMIT):
-                ok = False
-        if not ok:
-            return False
-    return True
-
-
-# The arrays of a ServoLoop's float and int blobs, in layout order (contour_gym._blob).
-FLOAT_ARRAYS = (
-    "ax_p", "rip", "dist", "ad", "bd", "ax_s", "ctrl_p", "ctrl_s", "ccc_p", "ccc_w", "ccc_s",
-    "est_p", "hist", "ip_p", "ip_s", "foot", "last", "acc_c", "acc_a", "ep_c", "ep_a",
-    "u_last", "y_last", "work", "c_off",
-)  # fmt: skip
-I_CCC_P, I_EST_P, I_IP_P, I_IP_S = 8, 11, 13, 14
-I_LAST, I_ACC_C, I_Y_LAST, I_C_OFF = 16, 17, 22, 24
-I_C_AXES, I_STATUS = 0, 1
-assert FLOAT_ARRAYS.index("ccc_p") == I_CCC_P and FLOAT_ARRAYS.index("ip_s") == I_IP_S
-assert FLOAT_ARRAYS.index("last") == I_LAST and FLOAT_ARRAYS.index("acc_c") == I_ACC_C
-assert FLOAT_ARRAYS.index("y_last") == I_Y_LAST and FLOAT_ARRAYS.index("c_off") == I_C_OFF
-assert FLOAT_ARRAYS.index("ip_p") == I_IP_P and FLOAT_ARRAYS.index("est_p") == I_EST_P
+            A.y_last[b, a] = A.work[W.y, a]
+        A.mem[b, M.in_pos] = 1.0 if inpos else 0.0
+        if _arrived(A, cfg, b, inpos):
+            A.mem[b, M.arrival], A.mem[b, M.end] = k + 1, k + 1
+            return STATUS_ARRIVED
+        done = A.ip_s[b, IS.done]
+        if done >= 0.0 and k - done > cfg.settle_ticks:
+            A.mem[b, M.reason], A.mem[b, M.end] = REASON_NOT_IN_POSITION, k + 1
+            return STATUS_FAILED
+    return STATUS_OK
 
 
 @numba.njit(cache=True)
-def run_ticks(  # type: ignore[no-untyped-def]
-    n,
-    k0,
-    ts,
-    nsub,
-    length,
-    record,
-    meas_exact,
-    ctrl_kind,
-    est_kind,
-    kind,
-    s0,
-    data,
-    bound,
-    fb,
-    fl,
-    ib,
-    il,
-    noise,
-    rec,
-):
-    """Run ``n`` ticks for every member whose status is OK; a diverging member is flagged.
+def run_ticks(n, k0, cf, fb, fl, ib, il, pk, pb, pl, noise, rec):
+    """Run ``n`` ticks for every member whose status is OK; ends are flagged in ``status``.
 
-    ``fb``/``fl`` and ``ib``/``il`` are the float and int blobs and their layouts (arrays in
-    the order of ``FLOAT_ARRAYS`` and (c_axes, status, k_start)). ``acc_*`` receive the sums
-    of just these ticks, ``ep_*`` the episode's running sums (kept in the kernel so they do
-    not depend on how an episode is cut into calls). ``k0`` is the loop's tick; member ``b``
-    lives in local time ``k0 - k_start[b]`` (vector env members restart at different ticks).
+    ``cf`` is the run's :data:`~contour_gym._loopstate.CONFIG` row; ``fb``/``fl`` and
+    ``ib``/``il`` the float and int blobs and their layouts; ``pk``, ``pb``/``pl`` the path's
+    segment kinds and float blob (:mod:`contour_gym._loopstate`). ``acc_*`` receive the sums of
+    just these ticks, ``ep_*`` the episode's running sums (kept in the kernel so they do not
+    depend on how an episode is cut into calls). ``k0`` is the loop's tick; member ``b`` lives
+    in local time ``k0 - k_start[b]`` (vector env members restart at different ticks).
     """
     # borrowed: the views made here and in the callees carry no owner to count
-    fb, ib, noise, rec = borrow(fb), borrow(ib), borrow(noise), borrow(rec)  # type: ignore[call-arg]
-    kind, s0, data, bound = borrow(kind), borrow(s0), borrow(data), borrow(bound)
-    flat(fb, fl, I_ACC_C)[:] = 0.0  # the window sums acc_c and acc_a start at zero
-    flat(fb, fl, I_ACC_C + 1)[:] = 0.0
-    # per-axis and per-contour arrays as row tables: the kernels index rows, never take views
-    ax_p, rip, dist = rows2(fb, fl, 0), rows3(fb, fl, 1), rows2(fb, fl, 2)
-    ad, bd, ax_s = rows3(fb, fl, 3), rows3(fb, fl, 4), rows2(fb, fl, 5)
-    ctrl_p, ctrl_s, ccc_p = rows2(fb, fl, 6), rows2(fb, fl, 7), rows2(fb, fl, 8)
-    ccc_w, ccc_s, est_p = rows2(fb, fl, 9), rows2(fb, fl, 10), view1(fb, fl, 11)
-    hist, ip_p, ip_s = view2(fb, fl, 12), view2(fb, fl, 13), view2(fb, fl, 14)
-    foot, last, acc_c = view2(fb, fl, 15), view3(fb, fl, 16), rows2(fb, fl, 17)
-    acc_a, ep_c, ep_a = rows2(fb, fl, 18), rows2(fb, fl, 19), rows2(fb, fl, 20)
-    u_last, y_last, work = view2(fb, fl, 21), view2(fb, fl, 22), view2(fb, fl, 23)
-    c_off = view2(fb, fl, 24)
-    c_axes, status, k_start = view2(ib, il, 0), view1(ib, il, 1), view1(ib, il, 2)
-    for b in range(ip_s.shape[0]):
-        if status[b] != STATUS_OK:
+    fb, ib, noise, rec = borrow(fb), borrow(ib), borrow(noise), borrow(rec)
+    P = path_arrays(borrow(pk), borrow(pb), pl)
+    A = loop_arrays(fb, fl, ib, il)
+    cfg = config(cf)
+    A.acc_c[:] = 0.0  # the window sums start at zero
+    A.acc_a[:] = 0.0
+    for b in range(A.ip_s.shape[0]):
+        if A.status[b] != STATUS_OK:
             continue
-        ok = _member_run(
-            b,
-            n,
-            k0 - k_start[b],
-            ts,
-            nsub,
-            kind,
-            s0,
-            data,
-            bound,
-            c_axes,
-            c_off,
-            ax_p,
-            rip,
-            dist,
-            ad,
-            bd,
-            ax_s,
-            ctrl_kind,
-            ctrl_p,
-            ctrl_s,
-            ccc_p,
-            ccc_w,
-            ccc_s,
-            est_kind,
-            est_p,
-            hist,
-            ip_p,
-            ip_s,
-            length,
-            foot,
-            last,
-            noise,
-            acc_c,
-            acc_a,
-            ep_c,
-            ep_a,
-            u_last,
-            y_last,
-            rec,
-            record,
-            work,
-            meas_exact,
-        )
-        if not ok:
-            status[b] = STATUS_FAILED
+        A.status[b] = member_run(b, n, k0 - A.k_start[b], cfg, A, P, noise, rec)

@@ -61,6 +61,25 @@ def finite(value: Any, name: str) -> float:
     return out
 
 
+def number(value: Any, name: str) -> float:
+    """Return ``value`` as a float that is not NaN (``inf`` allowed) or raise ValueError."""
+    try:
+        out = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a number, got {value!r}") from exc
+    if out != out:
+        raise ValueError(f"{name} must not be NaN, got {value!r}")
+    return out
+
+
+def positive_or_inf(value: Any, name: str) -> float:
+    """Return ``value`` as a float > 0 (``inf`` allowed) or raise ValueError naming it."""
+    out = number(value, name)
+    if out <= 0.0:
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    return out
+
+
 def positive(value: Any, name: str) -> float:
     """Return ``value`` as a finite float > 0 or raise ValueError naming it."""
     out = finite(value, name)

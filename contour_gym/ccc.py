@@ -1,36 +1,55 @@
-"""Cross-coupled controller (Koren 1980; papers 000-003): a PID on the contour error.
+"""Cross-coupled controller (Koren 1980; papers 000-003): a control law on the contour error.
 
-The CCC output ``U = kp eps + ki int(eps) + kd d(eps)/dt`` of each contour is distributed to
-that contour's axes by the coupling gains ``C_i`` (the unit direction in which axis ``i``
-must move to reduce the error, from the estimator) times optional per-axis weights ``w_i``
-(003's separate compensator gains K_cix, K_ciy): ``u_i += w_i C_i U``.
+The CCC output ``U`` of each contour is distributed to that contour's axes by the coupling gains
+``C_i`` (the unit direction in which axis ``i`` must move to reduce the error, from the
+estimator) times optional per-axis weights ``w_i`` (003's separate compensator gains K_cix,
+K_ciy). Where it acts (``ccc_injection``):
 
-Sign convention (DESIGN.md glossary): in 2-D ``eps`` is positive when the tool is to the
-left of the direction of travel and ``C = -n_left``; in 3-D ``eps = |eps_vec| >= 0`` and
+* ``"control"`` (000, 001, 003): ``u_i += w_i C_i U`` is added to axis i's control signal, after
+  the axis controller (``U`` in control units: A, V or N per metre of error);
+* ``"reference"`` (002 section 4.3, pre-compensation: "decoupled to each axis in proportion and
+  superimposed with the theoretical point R_d"): ``r_i += w_i C_i U`` shifts axis i's
+  commanded position before its controller (``U`` in metres; the gains are dimensionless). It
+  is also the only injection a commercial CNC's closed drives allow.
+
+Sign convention (DESIGN.md glossary): in 2-D ``eps`` is positive when the tool is to the left of
+the direction of travel and ``C = -n_left``; in 3-D ``eps = |eps_vec| >= 0`` and
 ``C = eps_vec / |eps_vec|``. Either way the contour error vector (tool -> foot point) is
-``eps_vec = C eps``, so a positive gain always pushes the tool back onto the path.
+``eps_vec = C eps``, so a positive gain always pushes the tool back onto the path. In 3-D the
+unsigned ``eps`` cannot carry integral action (its integral only grows), so the law acts on
+each signed component ``eps_vec_i = C_i eps`` with its own state row.
 
-In 3-D the unsigned ``eps`` cannot carry integral action (its integral only grows), so the
-PID acts on each signed component ``eps_vec_i`` with the same gains:
-``u_i += w_i PID(eps_vec_i)``; in 2-D this would differ from the papers' scalar form only
-through the frame's rotation, and the scalar form is kept there.
+The law is a registered component (:data:`CCC_LAWS`): ``output(p, s, data, q, row, e, ts)``
+returns U for parameter row ``q`` (``b * C + c``) on error ``e`` with state row ``row``;
+``commit(p, s, data, q, row, e, ts, out, saturated)`` updates the state. ``pid`` (PID on eps) is
+built in; register others with :func:`register_ccc_law`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from contour_gym._validate import as_finite_array
-from contour_gym.servo import _kernel as SK
+from contour_gym._registry import Registry
+from contour_gym._schema import Param, Schema
+from contour_gym._validate import as_finite_array, non_negative
+from contour_gym.servo.pid import STATE as PID_STATE
+from contour_gym.servo.pid import pid_terms
+
+INJECTIONS = ("control", "reference")
 
 
 @dataclass(frozen=True)
 class CCCGains:
-    """PID gains of one contour's cross-coupled controller (control units per metre).
+    """PID gains of one contour's cross-coupled controller.
+
+    Units per metre of contour error: control units (``ccc_injection="control"``) or metres
+    (``"reference"``: dimensionless).
 
     Attributes:
         kp: Proportional gain.
@@ -51,26 +70,110 @@ class CCCGains:
         """Return ``(kp, ki, kd)``."""
         return (self.kp, self.ki, self.kd)
 
+    def scaled(self, factor: float) -> CCCGains:
+        """All three gains times ``factor``."""
+        return CCCGains(self.kp * factor, self.ki * factor, self.kd * factor)
+
 
 OFF = CCCGains(0.0, 0.0, 0.0)
 
 
+@dataclass(frozen=True)
+class CCCLaw:
+    """A registered CCC law.
+
+    Attributes:
+        name: Registry name.
+        params: Parameter schema per contour; the first three columns are ``kp, ki, kd``
+            (the base gains the CCC env's action sets).
+        state: State schema per error row.
+        output: Compiled output (module docstring).
+        commit: Compiled state update.
+        data: ``data()`` -> constant (n,) float table the law reads (fuzzy surfaces), or None.
+        doc: One line on the law and its source.
+    """
+
+    name: str
+    params: Schema
+    state: Schema
+    output: Any = field(repr=False)
+    commit: Any = field(repr=False)
+    data: Callable[[], np.ndarray] | None = field(default=None, repr=False)
+    doc: str = ""
+
+    def table(self) -> np.ndarray:
+        """The law's constant data table (a one-element placeholder when it has none)."""
+        if self.data is None:
+            return np.zeros(1)
+        return np.ascontiguousarray(self.data(), dtype=np.float64).reshape(-1)
+
+
+CCC_LAWS: Registry[CCCLaw] = Registry("ccc_law")
+
+
+def register_ccc_law(law: CCCLaw, *, replace: bool = False) -> CCCLaw:
+    """Register a CCC law (see the module docstring); returns it.
+
+    Raises:
+        ValueError: if the law's first three parameters are not ``kp, ki, kd``.
+    """
+    if law.params.names[:3] != ("kp", "ki", "kd"):
+        raise ValueError(f"CCC law {law.name!r} must start its parameters with kp, ki, kd")
+    return CCC_LAWS.register(law, replace=replace)
+
+
+PID_PARAMS = Schema(
+    "ccc pid",
+    kp=Param(0.0, non_negative, "proportional gain per m of contour error"),
+    ki=Param(0.0, non_negative, "integral gain per m s"),
+    kd=Param(0.0, non_negative, "derivative gain, s per m"),
+)
+_C, _S = PID_PARAMS.col, PID_STATE.col
+
+
+@numba.njit(cache=True, inline="always")
+def pid_output(p, s, data, q, row, e, ts):
+    """PID on the contour error (the classic CCC)."""
+    return pid_terms(p[q, _C.kp], p[q, _C.ki], p[q, _C.kd], s, row, e, ts)
+
+
+@numba.njit(cache=True, inline="always")
+def pid_commit(p, s, data, q, row, e, ts, out, saturated):
+    """Integrate (always: the axis controllers handle saturation) and keep e."""
+    s[row, _S.integral] += e * ts
+    s[row, _S.e_prev] = e
+    s[row, _S.started] = 1.0
+
+
+PID = register_ccc_law(
+    CCCLaw("pid", PID_PARAMS, PID_STATE, pid_output, pid_commit,
+           doc="PID on the contour error (Koren 1980)")
+)
+
+
 def ccc_params(
-    gains: ArrayLike | CCCGains | Sequence[float] | None, batch: int, n_contours: int
+    gains: ArrayLike | CCCGains | Sequence[float] | None,
+    batch: int,
+    n_contours: int,
+    law: CCCLaw = PID,
+    **law_params: Any,
 ) -> np.ndarray:
-    """Kernel rows (batch, n_contours, N_CP) from gains given as any broadcastable form.
+    """Parameter rows (batch, n_contours, law.params.size) of a CCC law.
 
     Args:
         gains: ``None`` (CCC off), a :class:`CCCGains`, a ``(kp, ki, kd)`` triple, or an
             array broadcastable to (batch, n_contours, 3).
         batch: Batch size.
         n_contours: Contours of the stage.
+        law: The CCC law (default PID).
+        **law_params: The law's other parameters (scalars, every member and contour).
 
     Returns:
         The parameter rows.
 
     Raises:
-        ValueError: on non-finite or negative gains, or a shape that does not broadcast.
+        ValueError: on non-finite or negative gains, a shape that does not broadcast, or an
+            unknown law parameter.
     """
     if gains is None:
         gains = OFF
@@ -86,10 +189,7 @@ def ccc_params(
         ) from exc
     if np.any(arr < 0):
         raise ValueError(f"ccc_gains must be >= 0, got {arr.min()}")
-    out = np.zeros((batch, n_contours, SK.N_CP))
-    out[..., SK.CP_KP], out[..., SK.CP_KI], out[..., SK.CP_KD] = (
-        arr[..., 0],
-        arr[..., 1],
-        arr[..., 2],
-    )
+    base = law.params.row(kp=0.0, ki=0.0, kd=0.0, **law_params)
+    out = np.repeat(np.repeat(base[None, None], batch, 0), n_contours, 1)
+    out[..., :3] = arr
     return out

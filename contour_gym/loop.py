@@ -1,39 +1,75 @@
 """ServoLoop: the batched closed loop of DESIGN.md, one servo tick at a time.
 
-It packs a stage, a path, per-axis PIDs, the CCC and the interpolator into arrays with a
-leading batch dimension ``B`` and runs the compiled kernel of :mod:`contour_gym._loopkernel`.
-Parameters that optimisers and agents search (CCC gains, axis gains, feedrate) may differ per
-batch member. Random numbers come only from one ``numpy.random.Generator`` per member, spawned
-from the seed given to :meth:`ServoLoop.reset`, so a member's result depends only on its own
-seed and parameters, never on ``B``.
+It packs a stage, a path, the axis controllers, the estimator, the CCC and the interpolator
+into arrays with a leading batch dimension ``B`` and runs the compiled kernel of
+:mod:`contour_gym._loopkernel`, specialised to the components the loop uses
+(:mod:`contour_gym._compile`). Parameters that optimisers and agents search (CCC gains, axis
+gains, feed override) may differ per batch member. Random numbers come only from one
+``numpy.random.Generator`` per member, spawned from the seed given to :meth:`ServoLoop.reset`,
+so a member's result depends only on its own seed and parameters, never on ``B``.
+
+The machine is a rig by default: the encoder quantises, noise is added where the axes have it,
+and the command computed from sample k drives the plant from tick k + 1. ``ideal=True`` drops
+all three (the papers' pure simulations).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from contour_gym import _loopkernel as LK
-from contour_gym import motion
+from contour_gym import _compile, _slots, motion
 from contour_gym._blob import Blob
-from contour_gym._validate import as_finite_array
-from contour_gym.ccc import ccc_params
-from contour_gym.contour import _kernel as CK
-from contour_gym.contour import build_estimator
+from contour_gym._loopstate import ACC_A as ACC_A_SCHEMA
+from contour_gym._loopstate import ACC_C as ACC_C_SCHEMA
+from contour_gym._loopstate import (
+    CONFIG,
+    FLOAT_NAMES,
+    FOOT,
+    FT,
+    INT_NAMES,
+    LS,
+    MEM,
+    PATH_FLOATS,
+    REASON_DIVERGED,
+    STATUS_ARRIVED,
+    STATUS_FAILED,
+    STATUS_OK,
+    STATUS_PAUSED,
+    WORK,
+    M,
+)
+from contour_gym._loopstate import LAST as LAST_SCHEMA
+from contour_gym._validate import as_finite_array, choice, non_negative, positive
+from contour_gym.ccc import CCC_LAWS, INJECTIONS, ccc_params
+from contour_gym.contour import ESTIMATORS, Estimator, get_estimator
+from contour_gym.contour._history import N_HIST
 from contour_gym.metrics import ErrorSums, metrics_from_sums
+from contour_gym.motion import IP, IS, TimeLaw, build_program
 from contour_gym.paths import Path
-from contour_gym.plant import _kernel as PK
-from contour_gym.plant.params import MAX_HARMONICS
-from contour_gym.plant.stage import Stage, axis_row, disturbance_row, zoh_matrices
-from contour_gym.servo import PIDGains, build_controller
-from contour_gym.servo import _kernel as SK
+from contour_gym.plant._kernel import AX, DISTURBANCE, ST, STATE
+from contour_gym.plant.friction import FRICTION_LAWS, law_for
+from contour_gym.plant.params import AxisParams
+from contour_gym.plant.stage import (
+    Stage,
+    axis_row,
+    disturbance_row,
+    friction_laws,
+    friction_row,
+    ripple_rows,
+    zoh_matrices,
+)
+from contour_gym.servo import CONTROLLERS, PIDGains, build_controller, compensation
+from contour_gym.servo.compensation import STATE as COMP_STATE
 
 Array = NDArray[np.float64]
 NOISE_CHUNK = 256  # ticks of normals drawn per member at a time
+DEFAULT_SETTLE = 1.0  # s the machine may take to get in position after the reference ends
 
 
 @dataclass
@@ -46,7 +82,7 @@ class Trace:
         v: (B, T) reference path speed, m/s.
         r: (B, T, A) reference per axis, m.
         x: (B, T, A) true axis positions, m.
-        u: (B, T, A) saturated control.
+        u: (B, T, A) saturated control command.
         eps: (B, T, C) true contour error (signed in 2-D), m.
         eps_est: (B, T, C) contour error seen by the CCC, m.
     """
@@ -101,27 +137,63 @@ class _NoiseSource:
         return out
 
 
+@dataclass(frozen=True)
+class LoopOptions:
+    """The loop's settings beyond the stage, path, gains and interpolator (see ServoLoop).
+
+    Attributes:
+        axis_controller: Name in :data:`contour_gym.servo.CONTROLLERS`.
+        controller_options: Its options.
+        estimator: Name in :data:`contour_gym.contour.ESTIMATORS`.
+        estimator_options: Its options.
+        ccc_law: Name in :data:`contour_gym.ccc.CCC_LAWS`.
+        ccc_law_params: The law's parameters beyond kp, ki, kd.
+        ccc_injection: ``"control"`` or ``"reference"`` (:mod:`contour_gym.ccc`).
+        ideal: Drop the rig's encoder, noise and computation delay.
+        path_control: ``"none"``, ``"G61"``, ``"G61.1"``, ``"G64"`` or None (the path's own).
+        path_tolerance: G64 tolerance, m (None: the path's own or the default).
+        use_program_feeds: Run a G-code part at its own F words.
+        time_law: A prescribed reference ``s(t)``, or None.
+        settle_time: Time allowed to get in position after the reference ends, s.
+        sample_period: Sampling of P_e and P_eps, s (None: every tick).
+    """
+
+    axis_controller: str = "pid"
+    controller_options: dict[str, Any] | None = None
+    estimator: str = "ground_truth"
+    estimator_options: dict[str, Any] | None = None
+    ccc_law: str = "pid"
+    ccc_law_params: dict[str, Any] | None = None
+    ccc_injection: str = "control"
+    ideal: bool = False
+    path_control: str | None = None
+    path_tolerance: float | None = None
+    use_program_feeds: bool = True
+    time_law: TimeLaw | None = None
+    settle_time: float = DEFAULT_SETTLE
+    sample_period: float | None = None
+
+
 class ServoLoop:
     """Batched closed loop over one stage and one path.
 
     Args:
         stage: The machine.
         path: The contour; its dimension must match the stage's contours.
-        axis_gains: One :class:`PIDGains` per axis.
-        interpolator: Feedrate settings (the initial commanded feedrate for every member).
+        axis_gains: One :class:`PIDGains` per axis (the baseline other controllers derive from).
+        interpolator: Feedrate settings (the nominal feedrate and the machine's limits).
         batch_size: Number of members B.
-        ccc_gains: Initial CCC gains, anything :func:`contour_gym.ccc.ccc_params` accepts.
+        ccc_gains: Initial CCC gains (kp, ki, kd), anything :func:`contour_gym.ccc.ccc_params`
+            accepts (None: no CCC).
         ccc_weights: Per-coordinate weights of the CCC output, broadcastable to (B, C, 3).
         record: Keep a per-tick :class:`Trace`.
-        axis_controller: Name in :data:`contour_gym.servo.CONTROLLERS`.
-        controller_options: Options of that controller.
-        estimator: Contour error estimator feeding the CCC
-            (:data:`contour_gym.contour.ESTIMATORS`); metrics always use the exact error.
-        estimator_options: Options of that estimator.
+        **options: The fields of :class:`LoopOptions` (axis controller, estimator, CCC law and
+            injection, ``ideal``, path control, time law, settle time, sample period).
     """
 
-    # views into the float and int blobs (set by _attach_views; always written in place)
+    # views into the float and int blobs (contour_gym._loopstate; always written in place)
     ax_p: Array
+    fr_p: Array
     rip: Array
     dist: Array
     ad: Array
@@ -129,9 +201,12 @@ class ServoLoop:
     ax_s: Array
     ctrl_p: Array
     ctrl_s: Array
+    comp_p: Array
+    comp_s: Array
     ccc_p: Array
     ccc_w: Array
     ccc_s: Array
+    ccc_data: Array
     est_p: Array
     hist: Array
     ip_p: Array
@@ -142,8 +217,9 @@ class ServoLoop:
     acc_a: Array
     ep_c: Array
     ep_a: Array
-    u_last: Array
+    u_cmd: Array
     y_last: Array
+    mem: Array
     work: Array
     c_off: Array
     c_axes: NDArray[np.int64]
@@ -161,10 +237,7 @@ class ServoLoop:
         ccc_gains: ArrayLike | None = None,
         ccc_weights: ArrayLike = 1.0,
         record: bool = False,
-        axis_controller: str = "pid",
-        controller_options: dict[str, object] | None = None,
-        estimator: str = "ground_truth",
-        estimator_options: dict[str, object] | None = None,
+        **options: Any,
     ) -> None:
         if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
             raise ValueError(f"batch_size must be a positive int, got {batch_size!r}")
@@ -175,73 +248,149 @@ class ServoLoop:
             )
         if len(axis_gains) != stage.n_axes:
             raise ValueError(f"need {stage.n_axes} axis gains, got {len(axis_gains)}")
+        self.opts = _options(options)
         self.stage, self.path, self.batch_size, self.record = stage, path, int(batch_size), record
-        self.interpolator = interpolator
-        b, c, a = self.batch_size, len(stage.contours), stage.n_axes
-        c_axes = np.full((c, 3), -1, dtype=np.int64)
-        c_off = np.zeros((c, 3))
-        for i, con in enumerate(stage.contours):
-            c_axes[i, : con.dim] = con.axes
-            if con.offset:
-                c_off[i, : con.dim] = con.offset
-        ax_p = np.repeat(np.stack([axis_row(x) for x in stage.axes])[None], b, axis=0)
-        rip = np.zeros((b, a, MAX_HARMONICS, 3))
-        for i, x in enumerate(stage.axes):
-            if x.ripple is not None:
-                rip[:, i] = x.ripple.as_array()
-        dist = np.repeat(
-            np.stack([disturbance_row(x, stage.ts) for x in stage.axes])[None], b, axis=0
-        )
-        ad, bd = zoh_matrices(ax_p, stage.ts / stage.substeps)
-        self.ctrl_kind, ctrl_p = build_controller(
-            axis_controller, stage, tuple(axis_gains), b, **(controller_options or {})
-        )
-        self.est_kind, est_p = build_estimator(estimator, **(estimator_options or {}))
-        ccc_w = np.broadcast_to(as_finite_array(ccc_weights, "ccc_weights"), (b, c, 3))
-        params = {
-            "ax_p": ax_p, "rip": rip, "dist": dist, "ad": ad, "bd": bd, "ctrl_p": ctrl_p,
-            "ccc_p": ccc_params(ccc_gains, b, c), "ccc_w": ccc_w, "est_p": est_p,
-            "ip_p": interpolator.params(b), "c_off": c_off,
-        }  # fmt: skip
-        self._build_blobs(params, c_axes)
-        self._meas_exact = not any(x.encoder_resolution > 0 or x.noise_std > 0 for x in stage.axes)
-        self._rec_width = 2 + 3 * a + 2 * c
+        self.axis_gains, self.interpolator = tuple(axis_gains), interpolator
+        b = self.batch_size
+        self.controller, ctrl_p, comp_p = build_controller(
+            self.opts.axis_controller, stage, self.axis_gains, b,
+            **(self.opts.controller_options or {}),
+        )  # fmt: skip
+        self.estimator = get_estimator(self.opts.estimator, **(self.opts.estimator_options or {}))
+        self.ccc_law = CCC_LAWS.get(self.opts.ccc_law)
+        self.law_names = friction_laws(stage)
+        self.program = build_program(
+            path, interpolator, stage.ts, path_control=self.opts.path_control,
+            path_tolerance=self.opts.path_tolerance,
+            use_program_feeds=self.opts.use_program_feeds,
+        )  # fmt: skip
+        params = self._parameter_arrays(ctrl_p, comp_p, ccc_gains, ccc_weights)
+        self._build_blobs(params)
+        self._build_path_blob()
+        self._config = self._config_row()
+        self.kernel = self._specialise()
+        self._rec_width = 2 + 3 * stage.n_axes + 2 * len(stage.contours)
         self._no_record = np.zeros((b, 0, self._rec_width))
         self._no_noise = np.zeros((b, 0, 0))
-        t = path.table
-        # run_ticks' arguments that never change for this loop (built once: per-step cost)
-        self._static_args = (
-            stage.ts, stage.substeps, path.length, record, self._meas_exact, self.ctrl_kind,
-            self.est_kind, t.kind, t.s0, t.data, t.bound, self._fblob.buffer,
-            self._fblob.layout, self._iblob.buffer, self._iblob.layout,
-        )  # fmt: skip
-        self._nominal = (self.ax_p.copy(), self.dist.copy())
-        self._start = np.zeros(a)
-        start = path.point(0.0)
-        for i in range(c):
-            for j in range(stage.dim):
-                self._start[c_axes[i, j]] = start[j] + c_off[i, j]
+        self._nominal = (self.ax_p.copy(), self.fr_p.copy(), self.dist.copy())
         self.reset(0)
 
-    def _build_blobs(self, params: dict[str, Array], c_axes: NDArray[np.int64]) -> None:
-        # every array the kernel touches lives in one of two blobs (see contour_gym._blob);
-        # the attributes below are views, always written in place
-        b, c, a = self.batch_size, len(self.stage.contours), self.stage.n_axes
-        state_shapes = {
-            "ax_s": (b, a, PK.N_ST), "ctrl_s": (b, a, SK.N_CS), "ccc_s": (b, c, 3, SK.N_CS),
-            "hist": (b, CK.N_HIST + 1), "ip_s": (b, motion.N_IS), "foot": (b, c),
-            "last": (b, c, 2), "acc_c": (b, c, 4), "acc_a": (b, a, 4), "ep_c": (b, c, 4),
-            "ep_a": (b, a, 4), "u_last": (b, a), "y_last": (b, a), "work": (LK.N_W, a),
-        }  # fmt: skip
-        shapes = {**{k: v.shape for k, v in params.items()}, **state_shapes}
-        self._fblob = Blob([(name, shapes[name]) for name in LK.FLOAT_ARRAYS])
-        self._iblob = Blob(
-            [("c_axes", c_axes.shape), ("status", (b,)), ("k_start", (b,))], np.int64
+    # --------------------------------------------------------------- building
+    def _parameter_arrays(
+        self, ctrl_p: Array, comp_p: Array, ccc_gains: ArrayLike | None, ccc_weights: ArrayLike
+    ) -> dict[str, Array]:
+        stage, b, ideal = self.stage, self.batch_size, self.opts.ideal
+        c = len(stage.contours)
+        slot = {name: i for i, name in enumerate(self.law_names)}
+        ax_p = np.stack(
+            [axis_row(x, slot[law_for(x.friction).name], ideal=ideal) for x in stage.axes]
         )
+        ax_p = np.repeat(ax_p[None], b, axis=0)
+        ad, bd = zoh_matrices(ax_p, stage.ts / stage.substeps)
+        each = {
+            "fr_p": np.stack([friction_row(x) for x in stage.axes]),
+            "rip": np.stack([ripple_rows(x) for x in stage.axes]),
+            "dist": np.stack([disturbance_row(x, stage.ts) for x in stage.axes]),
+        }
+        law_params = self.opts.ccc_law_params or {}
+        ccc_w = np.broadcast_to(as_finite_array(ccc_weights, "ccc_weights"), (b, c, 3))
+        params = {
+            "ax_p": ax_p, "ad": ad, "bd": bd, "ctrl_p": ctrl_p, "comp_p": comp_p,
+            "ccc_p": ccc_params(ccc_gains, b, c, self.ccc_law, **law_params), "ccc_w": ccc_w,
+            "ccc_data": self.ccc_law.table(), "est_p": self.estimator.params,
+            "ip_p": self.interpolator.params(b), "c_off": self._contour_offsets(),
+            **{k: np.repeat(v[None], b, axis=0) for k, v in each.items()},
+        }  # fmt: skip
+        return params
+
+    def _contour_offsets(self) -> Array:
+        out = np.zeros((len(self.stage.contours), 3))
+        for i, con in enumerate(self.stage.contours):
+            if con.offset:
+                out[i, : con.dim] = con.offset
+        return out
+
+    def _build_blobs(self, params: dict[str, Array]) -> None:
+        # every array the kernel touches lives in one of two blobs (contour_gym._blob); the
+        # attributes named in FLOAT_NAMES / INT_NAMES are views, always written in place
+        stage, b = self.stage, self.batch_size
+        c, a = len(stage.contours), stage.n_axes
+        state = {
+            "ax_s": (b, a, STATE.size), "ctrl_s": (b, a, self.controller.state.size),
+            "comp_s": (b, a, COMP_STATE.size), "ccc_s": (b, c, 3, self.ccc_law.state.size),
+            "hist": (b, N_HIST + 1), "ip_s": (b, motion.IP_STATE.size), "foot": (b, c, FOOT.size),
+            "last": (b, c, LAST_SCHEMA.size), "acc_c": (b, c, ACC_C_SCHEMA.size),
+            "acc_a": (b, a, ACC_A_SCHEMA.size), "ep_c": (b, c, ACC_C_SCHEMA.size),
+            "ep_a": (b, a, ACC_A_SCHEMA.size), "u_cmd": (b, a), "y_last": (b, a),
+            "mem": (b, MEM.size), "work": (WORK.size, a),
+        }  # fmt: skip
+        shapes = {**{k: v.shape for k, v in params.items()}, **state}
+        self._fblob = Blob([(name, shapes[name]) for name in FLOAT_NAMES])
+        c_axes = np.full((c, 3), -1, dtype=np.int64)
+        for i, con in enumerate(stage.contours):
+            c_axes[i, : con.dim] = con.axes
+        int_shapes = {"c_axes": c_axes.shape, "status": (b,), "k_start": (b,)}
+        self._iblob = Blob([(name, int_shapes[name]) for name in INT_NAMES], np.int64)
         self._attach_views()
         for name, value in params.items():
             getattr(self, name)[...] = value
         self.c_axes[...] = c_axes
+
+    def _build_path_blob(self) -> None:
+        t, law = self.path.table, self.opts.time_law
+        length = self.path.length
+        if law is not None and abs(law.s[-1] - length) > 1e-9 * max(1.0, length):
+            raise ValueError(
+                f"time law ends at s = {law.s[-1]:.9g} m but path {self.path.name!r} is "
+                f"{self.path.length:.9g} m long"
+            )
+        names = ("feed", "flags", "vcap", "vj", "wait", "dwell")
+        values = dict(zip(names, self.program.arrays(), strict=True))
+        values.update(s0=t.s0, data=t.data, bound=t.bound)
+        values["law_s"] = law.s if law is not None else np.zeros(1)
+        values["law_v"] = law.v if law is not None else np.zeros(1)
+        self._pblob = Blob([(name, values[name].shape) for name, _ in PATH_FLOATS])
+        for name, _ in PATH_FLOATS:
+            self._pblob.views[name][...] = values[name]
+        self._kind = np.ascontiguousarray(t.kind, dtype=np.int64)
+
+    def _config_row(self) -> Array:
+        stage, o = self.stage, self.opts
+        exact = o.ideal or not any(x.encoder_resolution > 0 or x.noise_std > 0 for x in stage.axes)
+        every = 1 if o.sample_period is None else max(1, round(o.sample_period / stage.ts))
+        return CONFIG.row(
+            ts=stage.ts, nsub=stage.substeps, dim=self.path.dim, length=self.path.length,
+            closed=float(self.path.closed), meas_exact=float(exact),
+            delay=0.0 if o.ideal else float(stage.delay_ticks),
+            inj_ref=float(o.ccc_injection == "reference"), record=float(self.record),
+            settle_ticks=math.ceil(o.settle_time / stage.ts), in_band=stage.in_position,
+            in_speed=stage.in_position_speed,
+            law_dt=o.time_law.dt if o.time_law is not None else 1.0, sample_every=every,
+        )  # fmt: skip
+
+    def slots(self) -> dict[str, Any]:
+        """The kernel slots of this loop: its controller, estimator, friction laws, CCC law."""
+        laws = [FRICTION_LAWS.get(n).substep for n in self.law_names]
+        laws += [_slots.unused_law] * (4 - len(laws))
+        compensates = bool(np.any(self.comp_p[..., compensation.C.mode] != compensation.NONE))
+        comp = (compensation.output, compensation.commit) if compensates else (
+            _slots.no_compensation, _slots.no_compensation)  # fmt: skip
+        return {
+            "CTRL_CONTROL": self.controller.control, "CTRL_COMMIT": self.controller.commit,
+            **self.estimator.slots(), "CCC_OUTPUT": self.ccc_law.output,
+            "CCC_COMMIT": self.ccc_law.commit, "COMP_OUTPUT": comp[0], "COMP_COMMIT": comp[1],
+            **{f"FRICTION_{i}": law for i, law in enumerate(laws)},
+        }  # fmt: skip
+
+    def describe(self) -> str:
+        """The components of this loop, in one line."""
+        return (
+            f"{self.controller.name} axes, {self.estimator.name} estimator, "
+            f"{self.ccc_law.name} CCC, friction {'+'.join(self.law_names)}"
+        )
+
+    def _specialise(self) -> Any:
+        return _compile.specialise("contour_gym._loopkernel", self.slots(), self.describe())
 
     def _attach_views(self) -> None:
         for name, view in {**self._fblob.views, **self._iblob.views}.items():
@@ -249,18 +398,41 @@ class ServoLoop:
         self.sums = ErrorSums(self.ep_c, self.ep_a)
 
     def __getstate__(self) -> dict[str, object]:
-        names = set(self._fblob.views) | set(self._iblob.views) | {"sums"}
-        return {k: v for k, v in self.__dict__.items() if k not in names}
+        # components are pickled by name (and the estimator with its option row) and looked
+        # up in their registries again on load
+        names = set(self._fblob.views) | set(self._iblob.views) | {"sums", "kernel"}
+        state = {k: v for k, v in self.__dict__.items() if k not in names}
+        state["controller"] = self.controller.name
+        state["ccc_law"] = self.ccc_law.name
+        state["estimator"] = (self.estimator.name, self.estimator.params)
+        return state
 
     def __setstate__(self, state: dict[str, object]) -> None:
         self.__dict__.update(state)
+        self.controller = CONTROLLERS.get(state["controller"])  # type: ignore[arg-type]
+        self.ccc_law = CCC_LAWS.get(state["ccc_law"])  # type: ignore[arg-type]
+        est_name, est_params = cast(tuple[str, Array], state["estimator"])
+        self.estimator = Estimator(ESTIMATORS.get(est_name), est_params)
         self._attach_views()
+        self.kernel = self._specialise()
 
     # ----------------------------------------------------------------- state
     def _restart_clock(self) -> None:
         self.tick = 0
         self._records: list[Array] = []
-        self._noise = _NoiseSource(self.batch_size, 2 * self.stage.n_axes, self.stage.is_random)
+        active = self.stage.is_random if not self.opts.ideal else any(
+            x.disturbance is not None and x.disturbance.is_random for x in self.stage.axes
+        )  # fmt: skip
+        self._noise = _NoiseSource(self.batch_size, 2 * self.stage.n_axes, active)
+
+    def start_positions(self) -> Array:
+        """(A,) axis positions at the path start (contour offsets included), m."""
+        out = np.zeros(self.stage.n_axes)
+        start = self.path.point(0.0)
+        for i, con in enumerate(self.stage.contours):
+            for j in range(con.dim):
+                out[con.axes[j]] = start[j] + self.c_off[i, j]
+        return out
 
     def reset(
         self, seed: int | Sequence[int] | None = None, members: ArrayLike | None = None
@@ -278,21 +450,17 @@ class ServoLoop:
             idx = np.arange(self.batch_size)
         else:
             idx = np.arange(self.batch_size)[np.asarray(members)].reshape(-1)
-        for arr in (
-            self.ctrl_s,
-            self.ccc_s,
-            self.foot,
-            self.hist,
-            self.last,
-            self.u_last,
-            self.y_last,
-        ):
+        start = self.start_positions()
+        for arr in (self.ctrl_s, self.comp_s, self.ccc_s, self.hist, self.last, self.u_cmd,
+                    self.mem, self.ax_s, self.foot):  # fmt: skip
             arr[idx] = 0.0
-        self.ax_s[idx] = 0.0
-        self.ax_s[idx, :, PK.ST_X] = self._start
-        self.y_last[idx] = self._start
+        self.ax_s[idx, :, ST.x] = start
+        self.y_last[idx] = start
+        q0 = self.path.point(0.0)
+        self.foot[idx, :, FT.qx : FT.qx + self.path.dim] = q0
+        self.foot[idx, :, FT.e_qx : FT.e_qx + self.path.dim] = q0
         self.ip_s[idx] = motion.initial_state(len(idx))
-        self.status[idx] = LK.STATUS_OK
+        self.status[idx] = STATUS_OK
         self.k_start[idx] = self.tick
         self.sums.contour[idx] = 0.0
         self.sums.axis[idx] = 0.0
@@ -311,21 +479,48 @@ class ServoLoop:
 
     # ------------------------------------------------------------ parameters
     def set_ccc_gains(self, gains: ArrayLike | None) -> None:
-        """Set the CCC PID gains, broadcastable to (B, C, 3); None switches the CCC off."""
-        self.ccc_p[...] = ccc_params(gains, self.batch_size, len(self.stage.contours))
+        """Set the CCC gains (kp, ki, kd), broadcastable to (B, C, 3); None switches it off."""
+        rows = ccc_params(gains, self.batch_size, len(self.stage.contours))
+        self.ccc_p[..., :3] = rows[..., :3]
+
+    def set_ccc_params(self, **params: ArrayLike) -> None:
+        """Set the CCC law's named parameters, each broadcastable to (B, C)."""
+        schema = self.ccc_law.params
+        schema.check_names(params)
+        for name, value in params.items():
+            arr = np.broadcast_to(as_finite_array(value, name), self.ccc_p.shape[:2])
+            for x in np.unique(arr):
+                schema.value(name, x)
+            self.ccc_p[..., schema.names.index(name)] = arr
+
+    @property
+    def nominal_feedrate(self) -> float:
+        """The programmed cutting feedrate the override refers to, m/s."""
+        return self.program.nominal
 
     def set_feedrate(self, feedrate: ArrayLike) -> None:
-        """Command a feedrate (m/s), scalar or (B,); the interpolator ramps to it."""
+        """Command a feedrate (m/s), scalar or (B,): the override ``F / nominal_feedrate``."""
         f = as_finite_array(feedrate, "feedrate")
         if np.any(f < 0):
             raise ValueError(f"feedrate must be >= 0, got {f.min()}")
-        self.ip_p[:, motion.IP_F] = np.broadcast_to(f, (self.batch_size,))
+        self.set_feed_override(f / self.nominal_feedrate)
+
+    def set_feed_override(self, override: ArrayLike) -> None:
+        """Set the feed override (fraction of the programmed feeds), scalar or (B,)."""
+        o = as_finite_array(override, "feed override")
+        if np.any(o < 0):
+            raise ValueError(f"feed override must be >= 0, got {o.min()}")
+        self.ip_p[:, IP.ovr] = np.broadcast_to(o, (self.batch_size,))
+
+    @property
+    def feedrate(self) -> Array:
+        """(B,) commanded feedrate of the cutting moves, m/s (before the machine's cap)."""
+        return self.ip_p[:, IP.ovr] * self.nominal_feedrate
 
     def set_controller_params(self, params: ArrayLike) -> None:
-        """Set per-member axis controller parameters, broadcastable to (B, A, N_CP).
+        """Set per-member axis controller parameters, broadcastable to (B, A, P).
 
-        The layout is the controller's (see :mod:`contour_gym.servo`); for ``pid`` the first
-        four columns are (kp, ki, kd, kff).
+        The columns are the controller's schema (``loop.controller.params.col``).
         """
         p = as_finite_array(params, "controller params")
         try:
@@ -349,7 +544,8 @@ class ServoLoop:
 
         Domain randomisation (axis mismatch, friction and disturbance levels; 002 section 4.2
         analyses gain and time-constant mismatch). Each factor broadcasts to (len(members),
-        n_axes) and must be finite and > 0 (friction/disturbance >= 0).
+        n_axes) and must be finite and > 0 (friction/disturbance >= 0); friction scales the
+        parameters each law names in its ``scale``.
         """
         idx = np.arange(self.batch_size)[np.asarray(members)].reshape(-1)
         shape = (len(idx), self.stage.n_axes)
@@ -364,48 +560,73 @@ class ServoLoop:
         for k in ("friction", "disturbance"):
             if np.any(f[k] < 0):
                 raise ValueError(f"{k} scale must be >= 0, got {f[k].min()}")
-        ax_p, dist = self._nominal[0][idx].copy(), self._nominal[1][idx].copy()
-        ax_p[..., PK.AX_M] *= f["mass"]
-        ax_p[..., PK.AX_B] *= f["damping"]
-        ax_p[..., PK.AX_K] *= f["force_constant"]
-        for col in (PK.AX_FC, PK.AX_FS, PK.AX_FV, PK.AX_S0, PK.AX_S2):
-            ax_p[..., col] *= f["friction"]
-        for col in (PK.DS_STEP_A, PK.DS_SIN_A, PK.DS_RND_STD):
-            dist[..., col] *= f["disturbance"]
-        self.ax_p[idx], self.dist[idx] = ax_p, dist
+        ax_p, fr_p, dist = (arr[idx].copy() for arr in self._nominal)
+        ax_p[..., AX.m] *= f["mass"]
+        ax_p[..., AX.b] *= f["damping"]
+        ax_p[..., AX.k] *= f["force_constant"]
+        for a, axis in enumerate(self.stage.axes):
+            law = law_for(axis.friction)
+            for name in law.scale:
+                fr_p[:, a, law.params.names.index(name)] *= f["friction"][:, a]
+        for name in ("step_a", "sin_a", "rnd_std"):
+            dist[..., DISTURBANCE.names.index(name)] *= f["disturbance"]
+        self.ax_p[idx], self.fr_p[idx], self.dist[idx] = ax_p, fr_p, dist
         self.ad[idx], self.bd[idx] = zoh_matrices(ax_p, self.stage.ts / self.stage.substeps)
 
     # ----------------------------------------------------------------- views
     @property
     def s(self) -> Array:
         """(B,) reference arc length, m."""
-        return self.ip_s[:, motion.IS_S]
+        return self.ip_s[:, IS.s]
+
+    @property
+    def reference_done(self) -> NDArray[np.bool_]:
+        """(B,) whether the reference has reached the end of the path."""
+        return self.ip_s[:, IS.done] >= 0
 
     @property
     def done(self) -> NDArray[np.bool_]:
-        """(B,) whether the reference has reached the end of the path."""
-        return self.ip_s[:, motion.IS_DONE] >= 0
+        """(B,) whether a member has finished the contour: in position at the path end."""
+        return self.status == STATUS_ARRIVED
 
     @property
     def failed(self) -> NDArray[np.bool_]:
-        """(B,) whether a member diverged (its state left the physical range)."""
-        return self.status != LK.STATUS_OK
+        """(B,) whether a member failed: diverged, or never got in position at the end."""
+        return self.status == STATUS_FAILED
+
+    @property
+    def failure_reason(self) -> NDArray[np.float64]:
+        """(B,) 0 none, 1 diverged, 2 not in position after the settle time."""
+        return self.mem[:, M.reason].copy()
+
+    @property
+    def running(self) -> NDArray[np.bool_]:
+        """(B,) members still on their way."""
+        return (self.status == STATUS_OK) | (self.status == STATUS_PAUSED)
 
     @property
     def cycle_time(self) -> Array:
-        """(B,) time at which the reference reached the path end, s (inf if not yet)."""
-        done = self.ip_s[:, motion.IS_DONE]
-        return np.where(done >= 0, done * self.stage.ts, np.inf)
+        """(B,) time from the start to the arrival in position at the end, s (inf if not)."""
+        return np.where(self.done, self.mem[:, M.arrival] * self.stage.ts, np.inf)
 
     @property
     def contour_error(self) -> Array:
         """(B, C) true contour error at the last tick, m."""
-        return self.last[..., LK.LS_TRUE]
+        return self.last[..., LS.true]
 
     @property
     def contour_error_estimate(self) -> Array:
         """(B, C) contour error the CCC saw at the last tick, m."""
-        return self.last[..., LK.LS_EST]
+        return self.last[..., LS.est]
+
+    @property
+    def progress(self) -> Array:
+        """(B, C) arc length of the machine's foot point along the path (unwrapped), m."""
+        return self.foot[..., FT.progress]
+
+    def blobs(self) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any], NDArray[Any]]:
+        """The float and int blobs and their layouts (what compiled callers take)."""
+        return self._fblob.buffer, self._fblob.layout, self._iblob.buffer, self._iblob.layout
 
     # ------------------------------------------------------------------- run
     def step(self, n_ticks: int, skip: ArrayLike | None = None) -> ErrorSums:
@@ -416,10 +637,10 @@ class ServoLoop:
             skip: Indices or mask of members that sit this call out (their clocks do not
                 advance); a vector env's members being auto-reset.
 
-        Members that failed stay frozen; their metrics report ``inf``.
+        Members that failed or arrived stay frozen.
         """
         call = self.prepare(n_ticks, skip)
-        LK.run_ticks(*self.kernel_args(call))
+        self.kernel.run_ticks(*self.kernel_args(call))
         self.complete(call)
         return ErrorSums(self.acc_c.copy(), self.acc_a.copy())
 
@@ -431,39 +652,69 @@ class ServoLoop:
         if skip is not None:
             paused = np.zeros(self.batch_size, dtype=bool)
             paused[np.asarray(skip)] = True
-            paused &= self.status == LK.STATUS_OK
-            self.status[paused] = LK.STATUS_PAUSED
-        if self.record:
-            rec = np.zeros((self.batch_size, n_ticks, self._rec_width))
-        else:
-            rec = self._no_record
+            paused &= self.status == STATUS_OK
+            self.status[paused] = STATUS_PAUSED
+        rec = np.zeros((self.batch_size, n_ticks, self._rec_width)) if self.record else (
+            self._no_record)  # fmt: skip
         if self._noise.active:
-            noise = self._noise.take(n_ticks, self.status == LK.STATUS_OK)
+            noise = self._noise.take(n_ticks, self.status == STATUS_OK)
         else:
             noise = self._no_noise
         return n_ticks, paused, noise, rec
 
+    @property
+    def noise_active(self) -> bool:
+        """Whether the loop draws random numbers (then actions are checked before a call)."""
+        return self._noise.active
+
     def kernel_args(self, call: tuple[int, Any, Array, Array]) -> tuple[Any, ...]:
-        """Arguments of :func:`contour_gym._loopkernel.run_ticks` for a prepared call."""
+        """Arguments of the kernel's ``run_ticks`` for a prepared call."""
         n_ticks, _, noise, rec = call
-        return (n_ticks, self.tick, *self._static_args, noise, rec)
+        fb, fl, ib, il = self.blobs()
+        return (n_ticks, self.tick, self._config, fb, fl, ib, il, self._kind, self._pblob.buffer,
+                self._pblob.layout, noise, rec)  # fmt: skip
 
     def complete(self, call: tuple[int, Any, Array, Array]) -> None:
         """Bookkeeping after a kernel call (clock, paused members, recording)."""
         n_ticks, paused, _, rec = call
+        if self.record:
+            # rows after a member's end were never written: NaN, not data
+            local = self.tick - self.k_start
+            ended = (self.status == STATUS_ARRIVED) | (self.status == STATUS_FAILED)
+            for b in np.flatnonzero(ended):
+                first = int(self.mem[b, M.end]) - local[b]
+                rec[b, max(first, 0) :] = np.nan
+            self._records.append(rec)
         self.tick += n_ticks
         if paused is not None:
-            self.status[paused] = LK.STATUS_OK
+            self.status[paused] = STATUS_OK
             self.k_start[paused] += n_ticks
-        if self.record:
-            self._records.append(rec)
+        _compile.mark_compiled(self.kernel)
 
-    def run(self, max_time: float | None = None, chunk: int = 2048) -> dict[str, Array]:
-        """Run until every member has finished the path (or failed), then return metrics.
+    def planned_time(self, override: float | None = None) -> float:
+        """A generous estimate of one contour's duration, s.
 
         Args:
-            max_time: Stop after this much simulated time, s (default: 20x the nominal
-                cycle time at the slowest commanded feedrate).
+            override: Feed override to plan at (default: the slowest member's).
+        """
+        ovr = float(self.ip_p[:, IP.ovr].min()) if override is None else override
+        slowest = max(ovr, 1e-9)
+        if self.opts.time_law is not None:
+            return self.opts.time_law.duration / slowest + self.opts.settle_time
+        feed = np.minimum(self.program.feed, self.program.vcap)
+        scale = np.where((self.program.flags.astype(int) & motion.RAPID) != 0, 1.0, slowest)
+        speed = np.maximum(np.minimum(feed * scale, float(self.ip_p[:, IP.f_max].min())), 1e-9)
+        move = float(np.sum(np.diff(self.path.table.s0) / speed))
+        dwell = float(self.program.dwell.sum()) * self.stage.ts
+        stops = float(self.program.wait.sum()) * self.opts.settle_time
+        return move + dwell + stops + self.opts.settle_time
+
+    def run(self, max_time: float | None = None, chunk: int = 2048) -> dict[str, Array]:
+        """Run until every member has finished the contour (or failed), then return metrics.
+
+        Args:
+            max_time: Stop after this much simulated time, s (default: 5x
+                :meth:`planned_time` + 1 s).
             chunk: Ticks per kernel call.
 
         Returns:
@@ -471,29 +722,37 @@ class ServoLoop:
             members' values set to ``inf``.
         """
         if max_time is None:
-            slowest = max(float(self.ip_p[:, motion.IP_F].min()), 1e-9)
-            max_time = 20.0 * self.path.length / slowest + 1.0
-        limit = int(np.ceil(max_time / self.stage.ts))
-        while self.tick < limit and not np.all(self.done | self.failed):
+            max_time = 5.0 * self.planned_time() + 1.0
+        limit = int(math.ceil(max_time / self.stage.ts))
+        _compile.notice_first_compile(self.kernel, "servo loop")
+        while self.tick < limit and np.any(self.running):
             self.step(min(chunk, limit - self.tick))
         return self.metrics()
 
     def metrics(self) -> dict[str, Array]:
-        """Metrics of everything run since the last reset (failed members -> inf)."""
+        """Metrics of everything run since the last reset.
+
+        A diverged member's values are all ``inf``; a member that never got in position keeps
+        the errors measured until it was stopped, with ``cycle_time = inf``.
+        """
         out = metrics_from_sums(self.sums, self.cycle_time)
+        diverged = self.failed & (self.mem[:, M.reason] == REASON_DIVERGED)
         for v in out.values():
-            v[self.failed] = np.inf
+            v[diverged] = np.inf
         return out
 
     def trace(self) -> Trace:
-        """The per-tick record since reset (requires ``record=True``)."""
+        """The per-tick record since reset (requires ``record=True``).
+
+        Rows after a member's end (arrival or failure) are NaN.
+        """
         if not self.record:
             raise ValueError("trace() needs ServoLoop(record=True)")
         a, c = self.stage.n_axes, len(self.stage.contours)
         rec = (
             np.concatenate(self._records, axis=1)
             if self._records
-            else np.zeros((self.batch_size, 0, 2 + 3 * a + 2 * c))
+            else np.zeros((self.batch_size, 0, self._rec_width))
         )
         base = 2 + 3 * a
         return Trace(
@@ -503,6 +762,68 @@ class ServoLoop:
             r=rec[..., 2 : 2 + a],
             x=rec[..., 2 + a : 2 + 2 * a],
             u=rec[..., 2 + 2 * a : base],
-            eps=rec[..., base::2],
-            eps_est=rec[..., base + 1 :: 2],
+            eps=rec[..., base : base + 2 * c : 2],
+            eps_est=rec[..., base + 1 : base + 2 * c : 2],
         )
+
+
+def simulate_axis(
+    axis: AxisParams,
+    controls: ArrayLike,
+    *,
+    ts: float = 1e-3,
+    substeps: int = 1,
+    x0: float = 0.0,
+    v0: float = 0.0,
+    noise: ArrayLike | None = None,
+) -> tuple[Array, Array, Array]:
+    """Drive one axis open-loop through the servo loop's own plant step (tests, studies).
+
+    Args:
+        axis: The axis.
+        controls: (n,) control held over each tick.
+        ts: Tick, s.
+        substeps: Plant substeps per tick.
+        x0: Initial position, m.
+        v0: Initial velocity, m/s.
+        noise: (n,) standard normals for a random disturbance (default zeros).
+
+    Returns:
+        ``(positions (n,), velocities (n,), final state row)`` after each tick.
+    """
+    u = np.ascontiguousarray(as_finite_array(controls, "controls", ndim=1))
+    n = u.shape[0]
+    w = np.zeros(n) if noise is None else np.ascontiguousarray(
+        as_finite_array(noise, "noise", shape=(n,)))  # fmt: skip
+    ax = axis_row(axis, ideal=True)[None]
+    ad, bd = zoh_matrices(ax, positive(ts, "ts") / substeps)
+    st = np.zeros((1, STATE.size))
+    st[0, ST.x], st[0, ST.v] = x0, v0
+    law = law_for(axis.friction)
+    slots = {"FRICTION_0": law.substep, **{f"FRICTION_{i}": _slots.unused_law for i in (1, 2, 3)}}
+    kernel = _compile.specialise("contour_gym._loopkernel", slots, f"axis with {law.name} friction")
+    xs, vs = np.zeros(n), np.zeros(n)
+    kernel.drive_axis(ax, friction_row(axis)[None], ripple_rows(axis)[None],
+                      disturbance_row(axis, ts)[None], ad, bd, st, u, 0.0, ts, substeps, w, xs,
+                      vs)  # fmt: skip
+    return xs, vs, st[0].copy()
+
+
+def _options(options: dict[str, Any]) -> LoopOptions:
+    fields = set(LoopOptions.__dataclass_fields__)
+    unknown = sorted(set(options) - fields)
+    if unknown:
+        raise ValueError(f"unknown loop option(s) {unknown}; accepted: {', '.join(sorted(fields))}")
+    opts = LoopOptions(**options)
+    choice(opts.ccc_injection, "ccc_injection", INJECTIONS)
+    positive(opts.settle_time, "settle_time")
+    if opts.sample_period is not None:
+        positive(opts.sample_period, "sample_period")
+    if opts.path_tolerance is not None:
+        non_negative(opts.path_tolerance, "path_tolerance")
+    if opts.time_law is not None and not isinstance(opts.time_law, TimeLaw):
+        raise ValueError(f"time_law must be a TimeLaw, got {type(opts.time_law).__name__}")
+    return opts
+
+
+__all__ = ["LoopOptions", "ServoLoop", "Trace", "simulate_axis"]

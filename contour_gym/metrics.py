@@ -1,20 +1,24 @@
 """Contouring metrics, used by tests, the harness, optimisers, envs and plots.
 
-Every metric is a function of a few running sums (``ErrorSums``), so the loop kernel can
+Every metric is a function of a few running sums (:class:`ErrorSums`), so the loop kernel can
 accumulate them without storing traces, and a recorded trace gives identical numbers through
 :func:`sums_from_trace`. All values are SI (m, s); reports convert to um/mm.
 
-Definitions (per batch member; tick-sampled over the motion, i.e. from the first tick to the
-tick the reference reaches the end of the path):
+Definitions (per batch member), over the ticks from the start until the machine is in position
+at the path end (the *arrival*), counting only ticks whose foot point lies on a cutting segment
+(rapids and other non-cutting moves of a G-code part never count; on a plain path every segment
+cuts):
 
 * ``max/mean/rms_contour_error``: max, mean and RMS of |eps| over ticks and contours.
+* ``max/mean_contour_error_per_contour``: the same per contour, shape (B, C) (003's tables
+  report |eps_1| and |eps_2|).
 * ``cea``: 000's contour error average, the mean modulus of eps (equals the mean).
-* ``p_e``: 003 eq. 39, sum over axes of the mean |tracking error|.
-* ``p_eps``: 003 eq. 40, sum over contours of the mean |eps| (003 samples at 10 Hz; we use
-  every servo tick).
+* ``p_e``: 003 eq. 39, ``(1/R) sum_k sum_axes |e(k)|``, and ``p_eps``: 003 eq. 40,
+  ``(1/R) sum_k sum_contours |eps(k)|``, over the R samples taken every ``sample_every`` ticks
+  (003 samples at 10 Hz; the presets say what they use, every tick by default).
 * ``max/mean/rms_tracking_error``: per axis, shape (B, n_axes).
-* ``chattering``: total variation of the saturated control signal, summed over axes.
-* ``cycle_time``: time for the reference to traverse the path, s (``inf`` if unfinished).
+* ``chattering``: total variation of the saturated control command, summed over axes.
+* ``cycle_time``: time from the start to the arrival, s (``inf`` if the member did not arrive).
 """
 
 from __future__ import annotations
@@ -24,6 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from contour_gym._loopstate import AA, AC, ACC_A, ACC_C
+
 Array = NDArray[np.float64]
 
 
@@ -32,8 +38,10 @@ class ErrorSums:
     """Running sums of one or several windows of ticks, per batch member.
 
     Attributes:
-        contour: (B, C, 4): sum |eps|, sum eps^2, max |eps|, number of ticks.
-        axis: (B, A, 4): sum |e|, sum e^2, max |e|, total variation of u.
+        contour: (B, C, 6): sum |eps|, sum eps^2, max |eps|, ticks, and the sampled sum |eps|
+            and sample count (:data:`contour_gym._loopstate.ACC_C`).
+        axis: (B, A, 5): sum |e|, sum e^2, max |e|, total variation of u, sampled sum |e|
+            (:data:`contour_gym._loopstate.ACC_A`).
     """
 
     contour: Array
@@ -42,17 +50,20 @@ class ErrorSums:
     @classmethod
     def zeros(cls, batch: int, n_contours: int, n_axes: int) -> ErrorSums:
         """Empty sums."""
-        return cls(np.zeros((batch, n_contours, 4)), np.zeros((batch, n_axes, 4)))
+        return cls(np.zeros((batch, n_contours, ACC_C.size)), np.zeros((batch, n_axes, ACC_A.size)))
 
 
-def sums_from_trace(eps: Array, tracking: Array, u: Array, u0: Array | None = None) -> ErrorSums:
-    """Build the sums from recorded arrays.
+def sums_from_trace(
+    eps: Array, tracking: Array, u: Array, u0: Array | None = None, sample_every: int = 1
+) -> ErrorSums:
+    """Build the sums from recorded arrays (every tick counted).
 
     Args:
         eps: Contour error, (B, T, C) (or (T, C)).
         tracking: Tracking error r - p per axis, (B, T, A).
         u: Saturated control, (B, T, A).
         u0: Control before the first tick (default zero), (B, A).
+        sample_every: Ticks between the samples of P_e and P_eps (from the first tick).
 
     Returns:
         The sums over the T ticks.
@@ -63,17 +74,16 @@ def sums_from_trace(eps: Array, tracking: Array, u: Array, u0: Array | None = No
     prev = np.zeros_like(u[:, :1]) if u0 is None else np.asarray(u0, dtype=float)[:, None]
     tv = np.abs(np.diff(np.concatenate([prev, u], axis=1), axis=1)).sum(axis=1)
     ae, at = np.abs(eps), np.abs(tracking)
-    contour = np.stack(
-        [
-            ae.sum(1),
-            (eps**2).sum(1),
-            ae.max(1, initial=0.0),
-            np.full(ae.sum(1).shape, eps.shape[1]),
-        ],
-        axis=-1,
-    )
-    axis = np.stack([at.sum(1), (tracking**2).sum(1), at.max(1, initial=0.0), tv], axis=-1)
-    return ErrorSums(contour.astype(float), axis)
+    picks = np.arange(eps.shape[1]) % sample_every == 0
+    contour = np.zeros(eps.shape[:1] + eps.shape[2:] + (ACC_C.size,))
+    contour[..., AC.abs], contour[..., AC.sq] = ae.sum(1), (eps**2).sum(1)
+    contour[..., AC.max], contour[..., AC.n] = ae.max(1, initial=0.0), eps.shape[1]
+    contour[..., AC.s_abs], contour[..., AC.s_n] = ae[:, picks].sum(1), picks.sum()
+    axis = np.zeros(tracking.shape[:1] + tracking.shape[2:] + (ACC_A.size,))
+    axis[..., AA.abs], axis[..., AA.sq] = at.sum(1), (tracking**2).sum(1)
+    axis[..., AA.max], axis[..., AA.tv] = at.max(1, initial=0.0), tv
+    axis[..., AA.s_abs] = at[:, picks].sum(1)
+    return ErrorSums(contour, axis)
 
 
 def metrics_from_sums(sums: ErrorSums, cycle_time: Array | float) -> dict[str, Array]:
@@ -84,23 +94,26 @@ def metrics_from_sums(sums: ErrorSums, cycle_time: Array | float) -> dict[str, A
         cycle_time: (B,) or scalar cycle time, s.
 
     Returns:
-        Name -> array of shape (B,), or (B, n_axes) for the per-axis tracking metrics.
+        Name -> array of shape (B,), (B, n_axes) for the per-axis tracking metrics, or
+        (B, C) for the per-contour ones.
     """
     c, a = sums.contour, sums.axis
-    n = np.maximum(c[..., 3], 1.0)  # ticks per contour, (B, C)
+    n = np.maximum(c[..., AC.n], 1.0)  # ticks per contour, (B, C)
     n_axis = n[:, :1]
-    mean_abs_c = c[..., 0] / n
+    ns = np.maximum(c[..., AC.s_n], 1.0)  # samples per contour
     return {
-        "max_contour_error": c[..., 2].max(axis=1),
-        "mean_contour_error": c[..., 0].sum(1) / n.sum(1),
-        "rms_contour_error": np.sqrt(c[..., 1].sum(1) / n.sum(1)),
-        "cea": c[..., 0].sum(1) / n.sum(1),
-        "p_eps": mean_abs_c.sum(1),
-        "p_e": (a[..., 0] / n_axis).sum(1),
-        "max_tracking_error": a[..., 2],
-        "mean_tracking_error": a[..., 0] / n_axis,
-        "rms_tracking_error": np.sqrt(a[..., 1] / n_axis),
-        "chattering": a[..., 3].sum(1),
+        "max_contour_error": c[..., AC.max].max(axis=1),
+        "mean_contour_error": c[..., AC.abs].sum(1) / n.sum(1),
+        "rms_contour_error": np.sqrt(c[..., AC.sq].sum(1) / n.sum(1)),
+        "cea": c[..., AC.abs].sum(1) / n.sum(1),
+        "p_eps": (c[..., AC.s_abs] / ns).sum(1),
+        "p_e": (a[..., AA.s_abs] / ns[:, :1]).sum(1),
+        "max_contour_error_per_contour": c[..., AC.max].copy(),
+        "mean_contour_error_per_contour": c[..., AC.abs] / n,
+        "max_tracking_error": a[..., AA.max].copy(),
+        "mean_tracking_error": a[..., AA.abs] / n_axis,
+        "rms_tracking_error": np.sqrt(a[..., AA.sq] / n_axis),
+        "chattering": a[..., AA.tv].sum(1),
         "cycle_time": np.broadcast_to(np.asarray(cycle_time, dtype=float), c.shape[:1]).copy(),
     }
 

@@ -1,125 +1,476 @@
-"""Interpolator: commanded feedrate -> arc length of the reference, one servo tick at a time.
+"""Interpolator: the reference's arc length per servo tick, from a feedrate program or a time law.
 
-The feedrate ``F`` (m/s along the path) may change at any decision; the path speed follows it
-within an acceleration limit (and optionally a jerk limit), with a start ramp from rest and a
-stop ramp that brings the reference to rest exactly at the end of the path.
+**Feedrate mode** (a CNC's interpolator). Every path segment has a programmed feedrate (one
+value for a plain path; a G-code part's own F words, rapids at the machine's rapid rate); the
+feed override ``ovr`` (a CNC panel's, or the feedrate env's ``F(k) = F(k-1) + dF(k)`` as
+``ovr = F / F_nom``) scales the programmed feeds of cutting moves, never above the machine's
+``max_feedrate``. The path speed follows the target within an acceleration limit (and
+optionally a jerk limit), starting from rest and braking so that it meets every downstream
+speed limit: the *junction* speeds of the :class:`Program` (0 at the path end, at exact stops
+and dwells) and the feed of the next segments. ``accel = inf`` steps to the target at once (the
+papers' ``x = R cos(w t)`` references, ``s_k = k F Ts``) and only stops where it must.
 
-Per batch member the kernel keeps ``ip_s = (s, v, a, done_tick)`` and reads
-``ip_p = (F, a_max, j_max)``; ``inf`` limits mean "none". With ``a_max = inf`` the reference
-moves at ``F`` from the first tick (the papers' ``x = R cos(w t)`` references) and
-``s_k = k F Ts`` exactly.
+**Look-ahead planning** (:func:`build_program`): the junction speed between two segments
+follows the junction-deviation rule of open-source motion controllers (Grbl's planner, S. Jeon
+2011, also Marlin and Smoothieware): with ``theta`` the angle between the incoming and
+outgoing directions and ``delta`` the path tolerance, ``v_j^2 = a delta sin(phi/2) / (1 -
+sin(phi/2))``, ``phi = pi - theta`` (``v_j = inf`` straight on, ``0`` on a reversal); segments
+are also capped at ``sqrt(a / kappa_max)`` (centripetal acceleration), and a backward pass makes
+every junction limit reachable by braking at ``a``. Modes (``path_control``, or a G-code part's
+own per-segment modes): ``"none"`` (constant feedrate, only the path end stops: the papers'
+constant-feedrate runs), ``"G61"`` (exact stop at every segment end; the next block starts when
+the axes are in position), ``"G61.1"`` (exact path: stops at real corners only), ``"G64"``
+(blending with the tolerance ``path_tolerance``).
+
+**Time-law mode** (:class:`TimeLaw`): the reference is a prescribed ``s(t)``, e.g. 003's
+three-leaf ``theta = 2 pi f t``; the override scales time (``tau += ovr Ts``).
+
+Per member the kernel keeps ``ip_s`` (:data:`IS`) and reads ``ip_p`` (:data:`IP`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numba
 import numpy as np
+from numpy.typing import NDArray
 
-from contour_gym._validate import positive
+from contour_gym._schema import Param, Schema, state_schema
+from contour_gym._validate import choice, non_negative, positive, positive_or_inf
 
-IP_F, IP_AMAX, IP_JMAX = 0, 1, 2
-N_IP = 3
-IS_S, IS_V, IS_A, IS_DONE = 0, 1, 2, 3
-N_IS = 4
+if TYPE_CHECKING:
+    from contour_gym.paths import Path
+
+Array = NDArray[np.float64]
+
+IP_PARAMS = Schema(
+    "interpolator",
+    ovr=Param(1.0, non_negative, "feed override (fraction of the programmed feedrate)"),
+    a_max=Param(math.inf, positive_or_inf, "tangential acceleration limit, m/s^2"),
+    j_max=Param(math.inf, positive_or_inf, "tangential jerk limit, m/s^3"),
+    f_max=Param(math.inf, positive_or_inf, "machine's maximum feedrate, m/s"),
+)
+IP = IP_PARAMS.col
+IP_STATE = state_schema("interpolator state", "s", "v", "a", "done", "seg", "hold", "wait", "tau")
+IS = IP_STATE.col
+
+RAPID, CUTTING = 1, 2  # Program.flags bits
+PATH_CONTROLS = ("none", "G61", "G61.1", "G64")
+DEFAULT_TOLERANCE = 1e-5  # m: G64 without P (Grbl's default junction deviation is 0.01 mm)
+LOOKAHEAD = 16  # junctions checked ahead of the reference each tick
 
 
 @dataclass(frozen=True)
 class Interpolator:
-    """Feedrate profile settings.
+    """Feedrate settings of a run.
 
     Attributes:
-        feedrate: Commanded feedrate F, m/s (> 0).
+        feedrate: Nominal (programmed) feedrate F, m/s (> 0).
         accel: Tangential acceleration limit, m/s^2 (``inf`` = step to F at once).
         jerk: Tangential jerk limit, m/s^3 (``inf`` = none).
+        max_feedrate: The machine's feedrate limit, m/s (commanded feeds are capped to it).
+        rapid_rate: Speed of rapid (G0) moves, m/s (default ``max_feedrate``).
     """
 
     feedrate: float
     accel: float = math.inf
     jerk: float = math.inf
+    max_feedrate: float = math.inf
+    rapid_rate: float | None = None
 
     def __post_init__(self) -> None:
         positive(self.feedrate, "feedrate")
-        if not math.isinf(self.accel):
-            positive(self.accel, "accel")
-        elif self.accel < 0:
-            raise ValueError(f"accel must be > 0, got {self.accel!r}")
-        if not math.isinf(self.jerk):
-            positive(self.jerk, "jerk")
-        elif self.jerk < 0:
-            raise ValueError(f"jerk must be > 0, got {self.jerk!r}")
+        for name in ("accel", "jerk", "max_feedrate"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and value > 0):
+                raise ValueError(f"{name} must be > 0 (inf allowed), got {value!r}")
+        if self.rapid_rate is not None:
+            positive(self.rapid_rate, "rapid_rate")
 
-    def params(self, batch: int) -> np.ndarray:
-        """Kernel parameter rows (batch, N_IP)."""
-        out = np.empty((batch, N_IP))
-        out[:] = (self.feedrate, self.accel, self.jerk)
-        return out
+    @property
+    def rapid(self) -> float:
+        """Rapid rate, m/s (``rapid_rate``, else ``max_feedrate``, else 10 x the feedrate)."""
+        if self.rapid_rate is not None:
+            return float(self.rapid_rate)
+        return self.max_feedrate if math.isfinite(self.max_feedrate) else 10.0 * self.feedrate
+
+    def params(self, batch: int, override: float = 1.0) -> Array:
+        """Kernel parameter rows (batch, IP_PARAMS.size)."""
+        row = IP_PARAMS.row(
+            ovr=override, a_max=self.accel, j_max=self.jerk, f_max=self.max_feedrate
+        )
+        return np.repeat(row[None], batch, axis=0)
 
 
-def initial_state(batch: int) -> np.ndarray:
-    """Kernel state rows (batch, N_IS) at rest at the start of the path."""
-    out = np.zeros((batch, N_IS))
-    out[:, IS_DONE] = -1.0
+def initial_state(batch: int) -> Array:
+    """Kernel state rows (batch, IP_STATE.size) at rest at the start of the path."""
+    out = np.zeros((batch, IP_STATE.size))
+    out[:, IS.done] = -1.0
     return out
 
 
+@dataclass(frozen=True)
+class TimeLaw:
+    """A prescribed reference ``s(t)`` on a uniform grid (cubic Hermite in between).
+
+    Attributes:
+        dt: Grid step, s.
+        s: (m,) arc length at ``k dt``, m (non-decreasing, from 0 to the path length).
+        v: (m,) its time derivative, m/s.
+        label: What the law is (for reports).
+    """
+
+    dt: float
+    s: Array = field(repr=False)
+    v: Array = field(repr=False)
+    label: str = ""
+
+    def __post_init__(self) -> None:
+        positive(self.dt, "dt")
+        s, v = np.asarray(self.s, dtype=float), np.asarray(self.v, dtype=float)
+        if s.ndim != 1 or s.shape != v.shape or s.size < 2:
+            raise ValueError("time law s and v must be 1-D of the same length >= 2")
+        if not (np.all(np.isfinite(s)) and np.all(np.isfinite(v)) and np.all(np.diff(s) >= 0)):
+            raise ValueError("time law s must be finite and non-decreasing, v finite")
+        object.__setattr__(self, "s", np.ascontiguousarray(s))
+        object.__setattr__(self, "v", np.ascontiguousarray(v))
+
+    @property
+    def duration(self) -> float:
+        """Time to traverse the path at override 1, s."""
+        return self.dt * (self.s.size - 1)
+
+    @classmethod
+    def from_functions(
+        cls, s_of_t: Callable[[Array], Array], v_of_t: Callable[[Array], Array],
+        duration: float, dt: float = 1e-3, label: str = "",
+    ) -> TimeLaw:  # fmt: skip
+        """Sample ``s(t)`` and ``s'(t)`` on ``[0, duration]``."""
+        n = int(math.ceil(positive(duration, "duration") / dt))
+        t = np.linspace(0.0, n * dt, n + 1)
+        return cls(dt, np.asarray(s_of_t(t), float), np.asarray(v_of_t(t), float), label)
+
+    def mean_speed(self) -> float:
+        """Path length / duration, m/s."""
+        return float(self.s[-1] / self.duration)
+
+
+@dataclass(frozen=True)
+class Program:
+    """Per-segment feedrates, speed caps and junction limits of a path (compiled arrays).
+
+    Attributes:
+        feed: (n,) programmed feedrate per segment, m/s (rapids at the rapid rate).
+        flags: (n,) bits: RAPID (the override does not apply), CUTTING (the metrics count it).
+        vcap: (n,) speed cap of each segment (centripetal limit), m/s.
+        vj: (n,) highest speed at the end of each segment after the backward pass, m/s (0 at
+            the path end, exact stops and dwells).
+        wait: (n,) 1 where the next segment starts only when the axes are in position.
+        dwell: (n,) ticks to wait after the end of each segment.
+        nominal: The nominal (programmed cutting) feedrate, m/s.
+    """
+
+    feed: Array
+    flags: Array
+    vcap: Array
+    vj: Array
+    wait: Array
+    dwell: Array
+    nominal: float
+
+    def arrays(self) -> tuple[Array, ...]:
+        """The compiled arrays, in the loop's order."""
+        return (self.feed, self.flags, self.vcap, self.vj, self.wait, self.dwell)
+
+    @property
+    def cutting(self) -> NDArray[np.bool_]:
+        """(n,) whether each segment cuts (counts in the metrics)."""
+        return (self.flags.astype(np.int64) & CUTTING) != 0
+
+
+def junction_speed(t_in: Array, t_out: Array, accel: float, tolerance: float) -> float:
+    """Junction-deviation speed limit between two unit directions (module docstring), m/s."""
+    if not math.isfinite(accel):
+        return math.inf if tolerance > 0 else (0.0 if _corner(t_in, t_out) else math.inf)
+    cos_theta = -float(np.dot(t_in, t_out))
+    if cos_theta <= -0.999999:  # straight on
+        return math.inf
+    sin_half = math.sqrt(max(0.5 * (1.0 - cos_theta), 0.0))
+    if sin_half <= 0.0 or tolerance <= 0.0:
+        return 0.0 if _corner(t_in, t_out) else math.inf
+    return math.sqrt(accel * tolerance * sin_half / (1.0 - sin_half))
+
+
+def _corner(t_in: Array, t_out: Array) -> bool:
+    from contour_gym.paths._geom import CORNER_TOL
+
+    return float(np.linalg.norm(np.asarray(t_in) - np.asarray(t_out))) > CORNER_TOL
+
+
+def _segment_ends(path: Path) -> tuple[Array, Array, Array]:
+    from contour_gym.paths._geom import segment_ends
+
+    t = path.table
+    ends = segment_ends(t.kind, t.s0, t.data)
+    return ends[:, 0, 3:], ends[:, 1, 3:], np.diff(t.s0)
+
+
+def _max_curvature(path: Path) -> Array:
+    # sampled curvature per segment (arcs exact: constant)
+    t = path.table
+    lengths = np.diff(t.s0)
+    out = np.zeros(t.n_segments)
+    for i, (a, n) in enumerate(zip(t.s0[:-1], lengths, strict=True)):
+        s = a + np.linspace(0.0, n, 9)
+        out[i] = float(np.max(path.curvature(s)))
+    return out
+
+
+def _gcode_modes(path: Path, n: int) -> tuple[NDArray[Any], ...]:
+    """(feed or NaN, rapid, cutting, exact_stop, tolerance or NaN, dwell seconds after)."""
+    feed = np.asarray(getattr(path, "segment_feedrates", np.full(n, np.nan)), dtype=float)
+    rapid = np.asarray(getattr(path, "rapid", np.zeros(n, bool)), dtype=bool)
+    cutting = np.asarray(getattr(path, "cutting", ~rapid), dtype=bool)
+    stop = np.asarray(getattr(path, "exact_stop", np.zeros(n, bool)), dtype=bool)
+    tol = np.asarray(getattr(path, "blend_tolerance", np.full(n, np.nan)), dtype=float)
+    return feed, rapid, cutting, stop, tol
+
+
+def _dwell_after(path: Path, n: int) -> Array:
+    before = np.asarray(getattr(path, "dwell_before", np.zeros(n)), dtype=float)
+    after = np.zeros(n)
+    after[:-1] = before[1:]
+    after[-1] = float(getattr(path, "dwell_after_end", 0.0))
+    return after
+
+
+def build_program(
+    path: Path,
+    interpolator: Interpolator,
+    ts: float,
+    *,
+    path_control: str | None = None,
+    path_tolerance: float | None = None,
+    use_program_feeds: bool = True,
+) -> Program:
+    """Per-segment feeds, caps and junction limits of ``path`` (module docstring).
+
+    Args:
+        path: The path (a G-code part's per-segment modes and feeds are honoured).
+        interpolator: Feedrate, limits, rapid rate.
+        ts: Servo tick, s (dwell ticks).
+        path_control: ``"none"``, ``"G61"``, ``"G61.1"``, ``"G64"``, or None for the path's
+            own modes (a G-code part's; ``"none"`` for other paths).
+        path_tolerance: Blending tolerance of ``"G64"``, m (default: a G-code part's own P
+            words, else :data:`DEFAULT_TOLERANCE`).
+        use_program_feeds: Run a G-code part at its own F words (else every cutting segment at
+            ``interpolator.feedrate``).
+
+    Returns:
+        The :class:`Program`.
+    """
+    n = path.table.n_segments
+    if path_control is not None:
+        choice(path_control, "path_control", PATH_CONTROLS)
+    feed, rapid, cutting, stop, tol = _gcode_modes(path, n)
+    nominal = float(interpolator.feedrate)
+    programmed = np.where(np.isfinite(feed) & use_program_feeds, feed, nominal)
+    feed = np.where(rapid, interpolator.rapid, programmed)
+    flags = rapid * RAPID + cutting * CUTTING
+    has_modes = hasattr(path, "exact_stop")
+    mode = path_control if path_control is not None else ("program" if has_modes else "none")
+    tol_default = DEFAULT_TOLERANCE if path_tolerance is None else non_negative(
+        path_tolerance, "path_tolerance")
+    tolerance = np.where(np.isnan(tol), tol_default, tol) if mode == "program" else np.full(
+        n, tol_default)
+    dwell_s = _dwell_after(path, n)
+    if mode == "program":
+        stop = np.asarray(stop, dtype=bool) | (dwell_s > 0)
+    else:
+        stop = np.full(n, mode == "G61") | (dwell_s > 0)
+    a = interpolator.accel
+    t_in, t_out, lengths = _segment_ends(path)
+    vcap = np.full(n, math.inf)
+    vj = np.full(n, math.inf)
+    if mode != "none":
+        exact_path = mode == "G61.1"
+        if math.isfinite(a):
+            kappa = _max_curvature(path)
+            vcap = np.where(kappa > 0, np.sqrt(a / np.maximum(kappa, 1e-300)), math.inf)
+        for j in range(n - 1):
+            delta = 0.0 if exact_path else float(tolerance[j])
+            vj[j] = junction_speed(t_out[j], t_in[j + 1], a, delta)
+    vj[stop] = 0.0
+    vj[-1] = 0.0
+    _backward_pass(vj, vcap, lengths, a)
+    return Program(
+        np.ascontiguousarray(feed, dtype=float), np.ascontiguousarray(flags, dtype=float),
+        vcap, vj, np.ascontiguousarray(stop, dtype=float),
+        np.ascontiguousarray(np.round(dwell_s / ts), dtype=float), nominal,
+    )  # fmt: skip
+
+
+def _backward_pass(vj: Array, vcap: Array, lengths: Array, accel: float) -> None:
+    n = vj.size
+    for j in range(n - 2, -1, -1):
+        reach = math.sqrt(vj[j + 1] ** 2 + 2.0 * accel * lengths[j + 1]) if math.isfinite(
+            accel) else math.inf
+        vj[j] = min(vj[j], vcap[j], vcap[j + 1], reach)
+
+
+# ------------------------------------------------------------------------------ kernel
+
+
 @numba.njit(cache=True, inline="always")
-def stop_speed(remaining, v, a_max, j_max, ts):  # type: ignore[no-untyped-def]
-    """Highest speed for the coming tick from which the reference can still stop in time.
+def brake_speed(room, v, v_end, a_max, j_max, ts):
+    """Highest speed for the coming tick from which the reference can still slow to ``v_end``.
 
-    Picks ``v_new`` so that after this tick's travel ``(v + v_new) ts / 2`` the rest of the
-    path still holds the braking distance ``v_new^2 / (2A) + v_new A / J``::
-
-        v_new^2 / (2A) + v_new (A / J + ts / 2) <= remaining - v ts / 2
-
-    ``A/J`` is twice the trapezoidal-acceleration profile's ramp term ``A/(2J)``: with that
-    margin the jerk-limited profile joins the stop curve from below and never needs more
-    than ``J``; the price is a final approach that decays with time constant ``A/J``. Without
-    a jerk limit the term vanishes and the stop is the exact discrete constant-deceleration
-    ramp.
+    Picks ``v_new`` so that after this tick's travel ``(v + v_new) ts / 2`` the remaining
+    ``room`` still holds the braking distance
+    ``(v_new^2 - v_end^2) / (2A) + (v_new - v_end) (A / J + ts / 2)``. ``A/J`` is twice the
+    trapezoidal-acceleration profile's ramp term ``A/(2J)``: with that margin the jerk-limited
+    profile joins the braking curve from below and never needs more than ``J``; the price is a
+    final approach that decays with time constant ``A/J``. Without a jerk limit the term
+    vanishes and the stop is the exact discrete constant-deceleration ramp.
     """
     if math.isinf(a_max):
         return math.inf
-    room = remaining - 0.5 * v * ts
-    if room <= 0.0:
-        return 0.0
-    c = 0.5 * ts + (0.0 if math.isinf(j_max) else 4.0 * a_max / (2.0 * j_max))
-    return -a_max * c + math.sqrt((a_max * c) ** 2 + 2.0 * a_max * room)
+    rest = room - 0.5 * v * ts
+    if rest <= 0.0:
+        return v_end
+    c = 0.5 * ts + (0.0 if math.isinf(j_max) else 2.0 * a_max / j_max)
+    rhs = rest + v_end * v_end / (2.0 * a_max) + c * v_end
+    return -a_max * c + math.sqrt((a_max * c) ** 2 + 2.0 * a_max * rhs)
 
 
 @numba.njit(cache=True, inline="always")
-def interp_tick(length, ts, p, st, b, k):  # type: ignore[no-untyped-def]
-    """Advance member ``b``'s reference by one tick; marks ``done_tick`` at the path end.
+def _cap(p, b, prog_feed, prog_flags, prog_vcap, j):
+    # speed cap of segment j: its feed (scaled by the override unless a rapid), the machine
+    # limit and the centripetal cap
+    f = prog_feed[j]
+    if (int(prog_flags[j]) & RAPID) == 0:
+        f *= p[b, IP.ovr]
+    return min(f, p[b, IP.f_max], prog_vcap[j])
+
+
+@numba.njit(cache=True, inline="always")
+def _target(p, st, b, s0, prog_feed, prog_flags, prog_vcap, prog_vj, ts):
+    # target speed: the current segment's cap and every junction limit in braking reach
+    n = prog_feed.shape[0]
+    seg = int(st[b, IS.seg])
+    s, v = st[b, IS.s], st[b, IS.v]
+    a_max, j_max = p[b, IP.a_max], p[b, IP.j_max]
+    target = _cap(p, b, prog_feed, prog_flags, prog_vcap, seg)
+    for j in range(seg, min(seg + LOOKAHEAD, n)):
+        v_end = prog_vj[j]
+        if j + 1 < n:
+            v_end = min(v_end, _cap(p, b, prog_feed, prog_flags, prog_vcap, j + 1))
+        target = min(target, brake_speed(s0[j + 1] - s, v, v_end, a_max, j_max, ts))
+        if math.isinf(a_max) or (s0[j + 1] - s) > v * v / a_max + 2.0 * v * ts + 1e-6:
+            break
+    return max(target, 0.0)
+
+
+@numba.njit(cache=True, inline="always")
+def _advance(p, st, b, target, ts):
+    s, v, a = st[b, IS.s], st[b, IS.v], st[b, IS.a]
+    a_max, j_max = p[b, IP.a_max], p[b, IP.j_max]
+    if math.isinf(a_max):
+        return s + target * ts, target, 0.0
+    dv = target - v
+    if math.isinf(j_max):
+        a_new = min(max(dv / ts, -a_max), a_max)
+    else:
+        # time-optimal approach to the target speed with zero final acceleration
+        a_des = math.copysign(min(math.sqrt(2.0 * j_max * abs(dv)), a_max, abs(dv) / ts), dv)
+        a_new = min(max(a_des, a - j_max * ts), a + j_max * ts)
+    v_new = max(v + a_new * ts, 0.0)
+    return s + 0.5 * (v + v_new) * ts, v_new, a_new
+
+
+@numba.njit(cache=True, inline="always")
+def _time_law_tick(p, st, b, k, length, law_s, law_v, law_dt, ts):
+    ovr = p[b, IP.ovr]
+    tau = st[b, IS.tau] + ovr * ts
+    m = law_s.shape[0]
+    x = tau / law_dt
+    j = min(int(x), m - 2)
+    if tau >= law_dt * (m - 1):
+        st[b, IS.s], st[b, IS.v], st[b, IS.a], st[b, IS.tau] = length, 0.0, 0.0, tau
+        st[b, IS.done] = k
+        return
+    u = x - j
+    # cubic Hermite on (s, v) over [j dt, (j + 1) dt]
+    s0_, s1_, v0, v1 = law_s[j], law_s[j + 1], law_v[j] * law_dt, law_v[j + 1] * law_dt
+    h00, h10 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u
+    h01, h11 = -2 * u**3 + 3 * u**2, u**3 - u**2
+    d00, d10, d01, d11 = 6 * u**2 - 6 * u, 3 * u**2 - 4 * u + 1, -6 * u**2 + 6 * u, 3 * u**2 - 2 * u
+    e00, e10, e01, e11 = 12 * u - 6, 6 * u - 4, -12 * u + 6, 6 * u - 2
+    st[b, IS.s] = min(h00 * s0_ + h10 * v0 + h01 * s1_ + h11 * v1, length)
+    st[b, IS.v] = (d00 * s0_ + d10 * v0 + d01 * s1_ + d11 * v1) / law_dt * ovr
+    st[b, IS.a] = (e00 * s0_ + e10 * v0 + e01 * s1_ + e11 * v1) / law_dt**2 * ovr * ovr
+    st[b, IS.tau] = tau
+
+
+@numba.njit(cache=True, inline="always")
+def _hold(st, b, in_position):
+    # a dwell or an exact stop waiting for the axes: True while the reference stays put
+    if st[b, IS.hold] > 0.0:
+        st[b, IS.hold] -= 1.0
+        return True
+    if st[b, IS.wait] > 0.0:
+        if not in_position:
+            return True
+        st[b, IS.wait] = 0.0
+    return False
+
+
+@numba.njit(cache=True, inline="always")
+def interp_tick(p, st, b, k, ts, s0, prog, law, law_dt, in_position):
+    """Advance member ``b``'s reference by one tick; marks ``done`` at the path end.
 
     Args:
-        length: Path length, m.
-        ts: Tick, s.
-        p: (B, N_IP) feedrate and limits.
-        st: (B, N_IS) state; row ``b`` is updated in place.
+        p: (B, IP) parameters.
+        st: (B, IS) state; row ``b`` is updated in place.
         b: The member.
-        k: Index of the tick being produced (``s`` after this call is the reference at k).
+        k: Index of the tick being produced.
+        ts: Tick, s.
+        s0: Segment start arc lengths of the path (n + 1,).
+        prog: The :class:`Program` arrays (feed, flags, vcap, vj, wait, dwell).
+        law: ``(s, v)`` of the time law (empty: feedrate mode).
+        law_dt: Time-law grid step, s.
+        in_position: Whether the axes were in position after the last tick (exact stops).
     """
-    if st[b, IS_DONE] >= 0.0:
+    if st[b, IS.done] >= 0.0:
         return
-    s, v, a = st[b, IS_S], st[b, IS_V], st[b, IS_A]
-    a_max, j_max = p[b, IP_AMAX], p[b, IP_JMAX]
-    target = min(max(p[b, IP_F], 0.0), stop_speed(length - s, v, a_max, j_max, ts))
-    if math.isinf(a_max):
-        v_new, a_new = target, 0.0
-        s_new = s + v_new * ts
-    else:
-        dv = target - v
-        if math.isinf(j_max):
-            a_new = min(max(dv / ts, -a_max), a_max)
+    n = s0.shape[0] - 1
+    length = s0[n]
+    law_s, law_v = law
+    if law_s.shape[0] > 1:
+        _time_law_tick(p, st, b, k, length, law_s, law_v, law_dt, ts)
+        return
+    feed, flags, vcap, vj, wait, dwell = prog
+    if _hold(st, b, in_position):
+        st[b, IS.v], st[b, IS.a] = 0.0, 0.0
+        return
+    target = _target(p, st, b, s0, feed, flags, vcap, vj, ts)
+    s_new, v_new, a_new = _advance(p, st, b, target, ts)
+    seg = int(st[b, IS.seg])
+    while seg < n - 1 and s_new >= s0[seg + 1] - 1e-12:
+        if vj[seg] == 0.0:  # a stop at this junction: arrive at rest and hold
+            break
+        seg += 1
+    stop_at = s0[seg + 1]
+    if vj[seg] == 0.0 and (s_new >= stop_at - 1e-12 or (v_new == 0.0 and stop_at - s_new < 1e-9)):
+        s_new, v_new, a_new = stop_at, 0.0, 0.0
+        if seg == n - 1:
+            st[b, IS.done] = k
         else:
-            # time-optimal approach to the target speed with zero final acceleration
-            a_des = math.copysign(min(math.sqrt(2.0 * j_max * abs(dv)), a_max, abs(dv) / ts), dv)
-            a_new = min(max(a_des, a - j_max * ts), a + j_max * ts)
-        v_new = max(v + a_new * ts, 0.0)
-        s_new = s + 0.5 * (v + v_new) * ts
-    if s_new >= length - 1e-12 or (v_new == 0.0 and length - s_new < 1e-9):
-        s_new, v_new, a_new = length, 0.0, 0.0
-        st[b, IS_DONE] = k
-    st[b, IS_S], st[b, IS_V], st[b, IS_A] = s_new, v_new, a_new
+            st[b, IS.hold] = dwell[seg]
+            st[b, IS.wait] = wait[seg]
+            seg += 1
+    st[b, IS.s], st[b, IS.v], st[b, IS.a], st[b, IS.seg] = s_new, v_new, a_new, seg

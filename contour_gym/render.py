@@ -63,12 +63,15 @@ def contour_figure(
     dense = path.point(np.linspace(0.0, path.length, 2000))
     left.plot(dense[:, 0] * 1e3, dense[:, 1] * 1e3, "k-", lw=1.0, label="path")
     for label, tr in runs.items():
-        pos = tr.x[member][:, list(axes)] - np.asarray(offset)
+        live = np.all(np.isfinite(tr.x[member]), axis=1)  # rows after the end are NaN
+        x = tr.x[member][live]
+        pos = x[:, list(axes)] - np.asarray(offset)
         if path.dim == 3:
-            pos = np.column_stack([pos, tr.x[member][:, 2]])
-        big = magnified(path, pos, tr.s[member], magnify)
+            pos = np.column_stack([pos, x[:, 2]])
+        big = magnified(path, pos, tr.s[member][live], magnify)
         left.plot(big[:, 0] * 1e3, big[:, 1] * 1e3, lw=1.0, label=f"{label} (error x{magnify:g})")
-        right.plot(tr.t, np.abs(tr.eps[member]).max(axis=1) * 1e6, lw=1.0, label=label)
+        err = np.abs(tr.eps[member][live]).max(axis=1) * 1e6
+        right.plot(tr.t[live], err, lw=1.0, label=label)
     left.set(xlabel="x (mm)", ylabel="y (mm)", title=f"{path.name}: contour", aspect="equal")
     right.set(xlabel="time (s)", ylabel="|contour error| (um)", title="contour error")
     for ax in (left, right):

@@ -96,7 +96,7 @@ def test_vector_env_equals_loop_of_single_envs_bit_for_bit(single, vector, kw):
         o, r, te, tr, _ = venv.step(actions[k])
         vrec.append((o, r, te, tr))
     for i in range(n):
-        env = gym.wrappers.TimeLimit(single(**kw), 40)
+        env = single(max_episode_steps=40, **kw)
         obs, _ = env.reset(seed=seed + i)
         assert same_obs(obs, {k: v[i] for k, v in vrec[0][0].items()})
         done = False
@@ -148,7 +148,7 @@ def test_envs_run_user_parametric_path_and_gcode_part(cls, path):
         if term:
             break
     assert term and not info["failure"]
-    assert info["metrics"]["cycle_time"] > path.length / (2.0 * env.task.f_nominal)
+    assert info["metrics"]["cycle_time"] > path.length / (2.0 * env.task.loop.nominal_feedrate)
     assert info["s"] == pytest.approx(path.length)
 
 
@@ -187,22 +187,33 @@ def test_stepping_after_termination_raises():
         env.step(np.zeros(3))
 
 
-def test_failure_terminates_with_penalty_and_flag():
+def test_failure_terminates_and_sets_the_return_to_the_failure_floor():
     env = CCCEnv(hard_limit=5e-6, tolerance=1e-6, failure_penalty=50.0)  # start transient ~10 um
     env.reset(seed=0)
-    term, info = False, {}
+    term, info, ret = False, {}, 0.0
     while not term:
         _, r, term, _, info = env.step(np.zeros(3))
-    assert info["failure"] and r == -50.0
+        ret += r
+    task = env.task
+    floor = task.max_episode_steps * min(task.reward_range[0], 0.0) - 50.0
+    assert info["failure"] and ret == pytest.approx(floor, rel=1e-12)
 
 
-def test_gain_mapping_round_trip_and_log_scale():
+def test_gain_mapping_reaches_zero_and_round_trips_exactly():
     env = CCCEnv()
     a = np.array([-1.0, 0.0, 0.5])
     g = env.action_to_gains(a)
     np.testing.assert_allclose(env.gains_to_action(g), a, atol=1e-12)
-    lo, hi = env.action_to_gains(-np.ones(3)), env.action_to_gains(np.ones(3))
-    np.testing.assert_allclose(np.sqrt(lo * hi), env.action_to_gains(np.zeros(3)), rtol=1e-12)
+    assert np.all(env.action_to_gains(-np.ones(3)) == 0.0)  # no CCC is an action
+    np.testing.assert_allclose(env.action_to_gains(np.ones(3))[0], env.task.g_max, rtol=1e-12)
+    # the preset's own gains (kd = 0) and no CCC at all round-trip to 1e-9
+    for gains in (env.task.preset.ccc_gains.as_tuple(), (0.0, 0.0, 0.0)):
+        back = env.action_to_gains(env.gains_to_action(gains))[0]
+        np.testing.assert_allclose(back, gains, rtol=1e-9, atol=0.0)
+    # log-like: equal action steps multiply the gain by about the same factor high up
+    hi = env.action_to_gains(np.array([[0.5, 0.5, 0.5], [0.75, 0.75, 0.75], [1.0, 1.0, 1.0]]))
+    r1, r2 = hi[1, 0, 0] / hi[0, 0, 0], hi[2, 0, 0] / hi[1, 0, 0]
+    assert r1 == pytest.approx(r2, rel=0.05) and r1 > 1.5
 
 
 def test_rgb_array_render_shows_the_contour():

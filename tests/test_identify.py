@@ -12,7 +12,8 @@ from agents.identify import (
     identify_friction,
     lugre_response,
 )
-from contour_gym.plant import LuGreFriction, get_preset
+from contour_gym.plant import LuGreFriction
+from contour_gym.presets import get_preset
 
 
 @pytest.fixture(scope="module")

@@ -4,25 +4,30 @@ import numpy as np
 import pytest
 
 from contour_gym import motion
-from contour_gym.motion import Interpolator, interp_tick
+from contour_gym.motion import IP, IS, Interpolator, build_program, interp_tick
+from contour_gym.paths import line
+
+NO_LAW = (np.zeros(1), np.zeros(1))
 
 
-def profile(length, interp, ts=1e-3, n=None, changes=None):
+def profile(length, interp, ts=1e-3, n=None, changes=None, path=None, in_position=True):
     """Run the interpolator kernel; returns arrays s, v, a per tick and the done tick."""
+    path = path or line((0.0, 0.0), (length, 0.0))
+    prog = build_program(path, interp, ts).arrays()
     p = interp.params(1)
     st = motion.initial_state(1)
-    n = n or int(10 * length / interp.feedrate / ts) + 1000
+    n = n or int(10 * path.length / interp.feedrate / ts) + 1000
     s, v, a = [], [], []
     for k in range(n):
         if changes and k in changes:
-            p[0, motion.IP_F] = changes[k]
-        interp_tick(length, ts, p, st, 0, k)
-        s.append(st[0, motion.IS_S])
-        v.append(st[0, motion.IS_V])
-        a.append(st[0, motion.IS_A])
-        if st[0, motion.IS_DONE] >= 0:
+            p[0, IP.ovr] = changes[k] / interp.feedrate
+        interp_tick(p, st, 0, k, ts, path.table.s0, prog, NO_LAW, 1.0, in_position)
+        s.append(st[0, IS.s])
+        v.append(st[0, IS.v])
+        a.append(st[0, IS.a])
+        if st[0, IS.done] >= 0:
             break
-    return np.array(s), np.array(v), np.array(a), st[0, motion.IS_DONE]
+    return np.array(s), np.array(v), np.array(a), st[0, IS.done]
 
 
 def test_constant_feedrate_reproduces_time_parameterised_circle():

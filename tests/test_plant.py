@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from contour_gym.loop import simulate_axis
 from contour_gym.plant import (
-    PRESETS,
     AxisParams,
     CoulombFriction,
     Disturbance,
@@ -13,26 +13,18 @@ from contour_gym.plant import (
     Ripple,
     Stage,
     StribeckFriction,
-    get_preset,
 )
 from contour_gym.plant import _kernel as K
-from contour_gym.plant.stage import Contour, axis_row, disturbance_row, zoh_matrices
+from contour_gym.plant.friction import stribeck
+from contour_gym.plant.stage import Contour, disturbance_row, friction_row
+from contour_gym.presets import PRESETS, get_preset
 
 
 def run_axis(axis: AxisParams, u, ts=1e-3, nsub=1, n=1000, x0=0.0, v0=0.0, seed=None):
     """Drive one axis with control u(k) (callable) and return positions and velocities."""
-    p = axis_row(axis)
-    rip = np.zeros((6, 3)) if axis.ripple is None else axis.ripple.as_array()
-    dist = disturbance_row(axis, ts)
-    ad, bd = zoh_matrices(p[None], ts / nsub)
-    st = np.zeros((1, K.N_ST))
-    st[0, K.ST_X], st[0, K.ST_V] = x0, v0
-    rng = np.random.default_rng(seed)
-    xs, vs = np.empty(n), np.empty(n)
-    for k in range(n):
-        w = rng.standard_normal() if seed is not None else 0.0
-        K.axis_tick(p[None], rip[None], dist[None], ad, bd, st, 0, u(k), k * ts, ts, nsub, w)
-        xs[k], vs[k] = st[0, K.ST_X], st[0, K.ST_V]
+    controls = np.array([u(k) for k in range(n)], dtype=float)
+    noise = np.random.default_rng(seed).standard_normal(n) if seed is not None else None
+    xs, vs, _ = simulate_axis(axis, controls, ts=ts, substeps=nsub, x0=x0, v0=v0, noise=noise)
     return xs, vs
 
 
@@ -61,25 +53,8 @@ def test_zoh_matches_ode_solution():
 
 def test_current_loop_is_first_order_lag():
     axis = AxisParams("x", mass=1.0, damping=0.0, force_constant=1.0, u_max=10.0, current_tau=0.01)
-    p = axis_row(axis)
-    ad, bd = zoh_matrices(p[None], 1e-3)
-    st = np.zeros((1, K.N_ST))
-    for k in range(10):
-        K.axis_tick(
-            p[None],
-            np.zeros((1, 6, 3)),
-            disturbance_row(axis, 1e-3)[None],
-            ad,
-            bd,
-            st,
-            0,
-            1.0,
-            k * 1e-3,
-            1e-3,
-            1,
-            0.0,
-        )
-    assert st[0, K.ST_I] == pytest.approx(1.0 - math.exp(-0.01 / 0.01), rel=1e-12)
+    _, _, st = simulate_axis(axis, np.ones(10), ts=1e-3)
+    assert st[K.ST.i] == pytest.approx(1.0 - math.exp(-0.01 / 0.01), rel=1e-12)
 
 
 def test_coulomb_stiction_holds_below_breakaway_and_moves_above():
@@ -109,10 +84,10 @@ def test_coulomb_coasting_stops_at_analytic_distance_without_reversing():
 
 def test_stribeck_curve_matches_003_form():
     fr = StribeckFriction(fc=1.0, fs=2.0, vs=0.1, delta=2.0, fv=3.0)
-    p = axis_row(AxisParams("x", mass=1, damping=0, force_constant=1, u_max=1, friction=fr))
+    row = friction_row(AxisParams("x", mass=1, damping=0, force_constant=1, u_max=1, friction=fr))
     for v in (-0.3, -0.05, 0.02, 0.5):
         want = (1.0 + 1.0 * math.exp(-((abs(v) / 0.1) ** 2)) + 3.0 * abs(v)) * math.copysign(1, v)
-        assert K.kinetic_friction(p[None], 0, v) == pytest.approx(want, rel=1e-12)
+        assert stribeck.kinetic(row[None], 0, v) == pytest.approx(want, rel=1e-12)
 
 
 def test_lugre_reaches_stribeck_steady_state():
@@ -120,31 +95,13 @@ def test_lugre_reaches_stribeck_steady_state():
     # settles at z = g(v)/sigma0, i.e. F = g(v) + sigma2 v (002 eqs. 2-3)
     fr = LuGreFriction(sigma0=560.0, sigma1=300.0, sigma2=4.0, fc=20.0, fs=30.0, vs=0.5)
     axis = AxisParams("x", mass=1e9, damping=0.0, force_constant=1.0, u_max=1.0, friction=fr)
-    p = axis_row(axis)
-    ts = 1e-3
-    ad, bd = zoh_matrices(p[None], ts / 4)
     for v0 in (0.1, -0.4, 1.0):
-        st = np.zeros((1, K.N_ST))
-        st[0, K.ST_V] = v0
-        for k in range(20000):  # 20 s: > 35 bristle time constants g/(sigma0 |v|)
-            K.axis_tick(
-                p[None],
-                np.zeros((1, 6, 3)),
-                disturbance_row(axis, ts)[None],
-                ad,
-                bd,
-                st,
-                0,
-                0.0,
-                k * ts,
-                ts,
-                4,
-                0.0,
-            )
-        v = st[0, K.ST_V]
+        # 20 s: > 35 bristle time constants g/(sigma0 |v|)
+        _, _, st = simulate_axis(axis, np.zeros(20000), ts=1e-3, substeps=4, v0=v0)
+        v = st[K.ST.v]
         assert v == pytest.approx(v0, rel=1e-4)
         g = 20.0 + 10.0 * math.exp(-((v / 0.5) ** 2))
-        assert st[0, K.ST_Z] == pytest.approx(math.copysign(g / 560.0, v), rel=1e-6)
+        assert st[K.ST.z0] == pytest.approx(math.copysign(g / 560.0, v), rel=1e-6)
 
 
 def test_ripple_force_formula():
@@ -159,7 +116,7 @@ def test_random_disturbance_is_seeded_and_has_the_given_std():
     row = disturbance_row(AxisParams("x", 1, 0, 1, 1, disturbance=d), 1e-3)
 
     def draw(seed):
-        st = np.zeros((1, K.N_ST))
+        st = np.zeros((1, K.STATE.size))
         rng = np.random.default_rng(seed)
         rows, n = row[None], 40000
         return np.array(

@@ -6,31 +6,30 @@ import math
 import numpy as np
 import pytest
 
+from contour_gym._loopstate import REASON_DIVERGED, REASON_NOT_IN_POSITION
 from contour_gym.api import make_scenario
 from contour_gym.loop import ServoLoop
 from contour_gym.motion import Interpolator
 from contour_gym.paths import circle
-from contour_gym.plant import PRESETS, Disturbance, LuGreFriction, get_preset
+from contour_gym.plant import Disturbance, LuGreFriction
+from contour_gym.presets import PRESETS, get_preset
 from contour_gym.servo import (
     CONTROLLERS,
     AxisControllers,
     build_controller,
+    compensation,
     controller_options,
+    smc,
     smc_defaults,
+    two_dof_pid,
     two_dof_pid_params,
     two_dof_pid_values,
 )
-from contour_gym.servo import _kernel as K  # noqa: N812
 
 NAMES = ("pid", "two_dof_pid", "smc_dob", "smc", "pd_robust")
-# one absurd gain per kind: makes the sampled loop unstable
-ABSURD = {
-    "pid": K.CP_KD,
-    "two_dof_pid": K.CP_KD,
-    "smc_dob": K.CP_LAMBDA,
-    "smc": K.CP_LAMBDA,
-    "pd_robust": K.CP_PD_KD,
-}
+# one absurd gain per kind (by its schema's name): makes the sampled loop unstable
+ABSURD = {"pid": "kd", "two_dof_pid": "kd", "smc_dob": "reaching", "smc": "reaching",
+          "pd_robust": "kd"}
 
 
 def test_registry_holds_the_issue_names():
@@ -88,7 +87,7 @@ def test_unstable_member_is_flagged_without_poisoning_others(name):
     path, ip = circle(0.01), Interpolator(0.03)
     loop = ServoLoop(stage, path, pr.axis_gains, ip, batch_size=3, axis_controller=name)
     params = loop.ctrl_p.copy()
-    params[1, :, ABSURD[name]] = 1e9
+    params[1, :, loop.controller.params.names.index(ABSURD[name])] = 1e9
     loop.set_controller_params(params)
     m = loop.run()
     single = ServoLoop(stage, path, pr.axis_gains, ip, axis_controller=name)
@@ -102,23 +101,27 @@ def test_unstable_member_is_flagged_without_poisoning_others(name):
 
 @pytest.mark.parametrize("preset", PRESETS)
 def test_default_parameters_give_a_stable_loop_on_every_preset(preset):
-    sc = make_scenario(preset)
+    sc = make_scenario(preset)  # on the rig: encoder quantisation and a one-tick delay
     for name in NAMES:
         loop = sc.loop(axis_controller=name, batch_size=2)
         loop.reset([0, 1])
         m = loop.run()
-        assert not loop.failed.any(), name
-        assert np.all(loop.done), name
-        # bounded: below 3 mm everywhere (the presets' PID peaks at 1-3 mm on its start-up
-        # transient), and no limit cycle beyond the PID's scale
-        assert np.all(m["max_tracking_error"] < 3e-3), (name, m["max_tracking_error"])
+        assert not np.any(loop.failure_reason == REASON_DIVERGED), name
+        if name in ("pid", "two_dof_pid", "smc_dob"):  # integral action or an observer
+            assert np.all(loop.done), name
+        else:  # without either, friction may hold the axis short of the in-position band
+            assert np.all(loop.done | (loop.failure_reason == REASON_NOT_IN_POSITION)), name
+        # bounded: below 4 mm everywhere (the presets' PID peaks at 1-3.1 mm on its start-up
+        # transient, the gantry's highest with its 10 um encoders), and no limit cycle beyond
+        # the PID's scale
+        assert np.all(m["max_tracking_error"] < 4e-3), (name, m["max_tracking_error"])
         assert np.all(np.isfinite(m["chattering"])), name
 
 
 def test_two_dof_pid_implements_003_eq_34():
     pr = get_preset("xyy_gantry")
     ctl = AxisControllers("two_dof_pid", pr.stage, pr.axis_gains, alpha=0.2, beta=0.5)
-    kp, ti, td = ctl.params[0, 0, K.CP_KP], *two_dof_pid_values(pr.axis_gains)[0, 1:3]
+    kp, ti, td = ctl.params[0, 0, two_dof_pid.C.kp], *two_dof_pid_values(pr.axis_gains)[0, 1:3]
     ts, r, rd, y0, y1 = pr.stage.ts, 1e-3, 2e-3, 0.0, 1e-7
     u0 = ctl.step(r, rd, 0.0, y0)[0, 0]
     assert u0 == pytest.approx(kp * ((1 - 0.2) * r - y0 + (r - y0) * ts / ti + td * (1 - 0.5) * rd))
@@ -148,34 +151,34 @@ def test_disturbance_observer_estimates_a_constant_force():
     step = Disturbance(step_amp=force)
     axes = tuple(dataclasses.replace(a, disturbance=step) for a in pr.stage.axes)
     stage = dataclasses.replace(pr.stage, axes=axes)
-    sc = make_scenario(dataclasses.replace(pr, stage=stage))
+    sc = make_scenario(dataclasses.replace(pr, stage=stage), ideal=True)  # the observer law
     with_dob = sc.loop(axis_controller="smc_dob")
     with_dob.step(2000)
     masses = np.array([a.mass for a in axes])
-    np.testing.assert_allclose(with_dob.ctrl_s[0, :, K.CS_DHAT], force / masses, rtol=0.01)
+    np.testing.assert_allclose(with_dob.ctrl_s[0, :, smc.S.d_hat], force / masses, rtol=0.01)
     without = sc.loop(axis_controller="smc")
     without.step(200)
-    assert np.all(without.ctrl_s[..., K.CS_DHAT] == 0.0)
+    assert np.all(without.ctrl_s[..., smc.S.d_hat] == 0.0)
 
 
-def test_two_dof_pid_params_maps_the_tunable_numbers_and_keeps_the_base():
+def test_two_dof_pid_params_maps_the_tunable_numbers_by_name():
     pr = get_preset("xyy_gantry")
-    _, base = build_controller("two_dof_pid", pr.stage, pr.axis_gains, 4, friction=None)
-    base[..., K.CP_FR_S0] = 7.0  # stands for any other column, e.g. friction compensation
+    _, base, _ = build_controller("two_dof_pid", pr.stage, pr.axis_gains, 4)
     rng = np.random.default_rng(0)
     vals = rng.uniform([1, 0.01, 0, 0, 0], [100, 1, 0.01, 1, 1], (4, 3, 5))
     vals[0, 0, 1] = math.inf  # no integral
-    rows = two_dof_pid_params(vals, base=base)
-    assert rows.shape == (4, 3, K.N_CP)
-    np.testing.assert_array_equal(rows[..., K.CP_KP], vals[..., 0])
-    np.testing.assert_allclose(rows[..., K.CP_KI], vals[..., 0] / vals[..., 1])
-    np.testing.assert_allclose(rows[..., K.CP_KD], vals[..., 0] * vals[..., 2])
-    np.testing.assert_array_equal(rows[..., K.CP_ALPHA], vals[..., 3])
-    assert rows[0, 0, K.CP_KI] == 0.0
-    assert np.all(rows[..., K.CP_FR_S0] == 7.0)
+    rows = two_dof_pid_params(vals)
+    c = two_dof_pid.C
+    assert rows.shape == (4, 3, two_dof_pid.PARAMS.size)
+    np.testing.assert_array_equal(rows[..., c.kp], vals[..., 0])
+    np.testing.assert_allclose(rows[..., c.ki], vals[..., 0] / vals[..., 1])
+    np.testing.assert_allclose(rows[..., c.kd], vals[..., 0] * vals[..., 2])
+    np.testing.assert_array_equal(rows[..., c.alpha], vals[..., 3])
+    np.testing.assert_array_equal(rows[..., c.beta], vals[..., 4])
+    assert rows[0, 0, c.ki] == 0.0
     # the preset's PID expressed in the five numbers gives the builder's default rows
     default = two_dof_pid_params(two_dof_pid_values(pr.axis_gains))
-    np.testing.assert_allclose(default[..., :6], base[0, :, :6])
+    np.testing.assert_allclose(default, base[0])
 
 
 def test_optimiser_population_sets_per_member_two_dof_parameters():
@@ -183,7 +186,7 @@ def test_optimiser_population_sets_per_member_two_dof_parameters():
     vals = np.repeat(two_dof_pid_values(sc.preset.axis_gains)[None], 2, axis=0)
     vals[1, :, 4] = 0.8  # beta: member 1 differs
     loop = sc.loop(axis_controller="two_dof_pid", batch_size=2)
-    loop.set_controller_params(two_dof_pid_params(vals, base=loop.ctrl_p))
+    loop.set_controller_params(two_dof_pid_params(vals))
     loop.step(300)
     alone = sc.loop(axis_controller="two_dof_pid", controller_options={"beta": 0.8})
     alone.step(300)
@@ -241,6 +244,7 @@ def test_axis_controllers_saturate_and_reset():
     )
     u = ctl.step(1.0, 0.01, 0.0, 0.0)  # 1 m error: saturates
     assert np.all(np.abs(u) == [a.u_max for a in pr.stage.axes])
-    assert np.all(ctl.state[..., K.CS_ZF] != 0.0)  # the bristles of the feed-forward model moved
+    # the bristles of the feed-forward model moved
+    assert np.all(ctl.comp_state[..., compensation.S.z] != 0.0)
     ctl.reset()
-    assert not ctl.state.any()
+    assert not ctl.state.any() and not ctl.comp_state.any()

@@ -1,11 +1,12 @@
 """Contour error estimators behind one batched interface (the CCC's input each tick).
 
-``ESTIMATORS`` maps a name to a factory: ``ESTIMATORS[name](**options)`` is an
-:class:`Estimator`, callable on a batch of tool positions. :func:`estimate` is the one-call
-form. The loop selects an estimator with ``ServoLoop(estimator=name,
-estimator_options={...})``; the same compiled functions run there and here. Ground truth
-(the exact nearest point near the reference) stays available for metrics and rewards
-whatever the CCC uses.
+:data:`ESTIMATORS` is the registry (:mod:`contour_gym.contour.base`);
+``get_estimator(name, **options)`` is an :class:`Estimator`, callable on a batch of tool
+positions, and :func:`estimate` is the one-call form. The loop selects an estimator with
+``ServoLoop(estimator=name, estimator_options={...})``; the same compiled functions run there
+and here. Ground truth (the exact nearest point) stays available for metrics and rewards
+whatever the CCC uses. Add an estimator with one module and one :func:`register_estimator`
+call (the README's "Add an estimator").
 
 =============  ==========================================================  ================
 name           method                                                      options
@@ -40,23 +41,23 @@ reconstructed, where it breaks down and when it falls back.
 from __future__ import annotations
 
 from contour_gym.contour._api import (
-    ESTIMATORS,
     ContourEstimate,
     Estimator,
-    EstimatorFactory,
     build_estimator,
     estimate,
     estimate_full,
     get_estimator,
 )
+from contour_gym.contour.base import ESTIMATORS, ContourEstimator, register_estimator
 
 __all__ = [
     "ESTIMATORS",
     "ContourEstimate",
+    "ContourEstimator",
     "Estimator",
-    "EstimatorFactory",
     "build_estimator",
     "estimate",
     "estimate_full",
     "get_estimator",
+    "register_estimator",
 ]

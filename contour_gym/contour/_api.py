@@ -1,21 +1,25 @@
-"""The estimator registry and the batched Python interface over the compiled estimators."""
+"""The batched Python interface over the registered, compiled estimators."""
 
 from __future__ import annotations
 
-import functools
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from contour_gym._validate import choice, positive
-from contour_gym.contour import _kernel
-from contour_gym.paths import HELIX, LINE, Path, PathTable
+from contour_gym import _compile
+from contour_gym.contour import _estimators  # noqa: F401 (registers the built-ins)
+from contour_gym.contour.base import ESTIMATORS, ContourEstimator
+from contour_gym.paths import Path
 
 FloatArray = NDArray[np.float64]
-DEFAULT_MAX_TURN = 1.0  # rad: kappa |e| beyond which linearisations at the reference give up
+
+
+@numba.njit(cache=True, inline="always")
+def _no_foot(p, kind, s0, data, bound, p0, p1, p2, s, hist):
+    return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 
 
 @dataclass(frozen=True)
@@ -34,58 +38,6 @@ class ContourEstimate:
     eps: FloatArray
     gains: FloatArray
     fallback: NDArray[np.bool_]
-
-
-def _int_option(value: Any, name: str, lo: int, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
-        raise ValueError(f"{name} must be an int in [{lo}, {hi}], got {value!r}")
-    return int(value)
-
-
-def _row(*values: float) -> FloatArray:
-    row = np.zeros(_kernel.N_EST_P)
-    row[: len(values)] = values
-    return row
-
-
-def _no_options() -> FloatArray:
-    return _row()
-
-
-def _tangent_options(max_turn: float = DEFAULT_MAX_TURN) -> FloatArray:
-    return _row(positive(max_turn, "max_turn"))
-
-
-def _frenet_options(order: int = 2, max_turn: float = DEFAULT_MAX_TURN) -> FloatArray:
-    return _row(_int_option(order, "order", 1, 2), positive(max_turn, "max_turn"))
-
-
-def _angle_options(lag: int = 1, max_turn: float = DEFAULT_MAX_TURN) -> FloatArray:
-    return _row(_int_option(lag, "lag", 1, _kernel.N_HIST), positive(max_turn, "max_turn"))
-
-
-def _window_options(half_width: int = 1) -> FloatArray:
-    return _row(_int_option(half_width, "half_width", 1, _kernel.N_HIST))
-
-
-_METHODS = {"newton": 0, "circle": 1}
-
-
-def _iterative_options(n_iter: int = 4, method: str = "circle", tol: float = 1e-9) -> FloatArray:
-    code = _METHODS[choice(method, "iteration method", _METHODS)]
-    return _row(_int_option(n_iter, "n_iter", 1, 50), code, positive(tol, "tol"))
-
-
-@functools.lru_cache(maxsize=64)
-def _is_lines_and_arcs(table: PathTable) -> bool:
-    ok = (table.kind == LINE) | ((table.kind == HELIX) & (table.data[:, 14] == 0.0))
-    return bool(np.all(ok))
-
-
-def _lines_and_arcs(path: Path) -> None:
-    if not _is_lines_and_arcs(path.table):
-        raise ValueError(f"estimator 'exact' needs a path made of lines and arcs; {path.name!r} "
-                         "has free-form or helix segments (use 'iterative' or 'ground_truth')")
 
 
 def _floats(value: ArrayLike, name: str) -> FloatArray:
@@ -120,22 +72,30 @@ _NO_HIST = np.zeros((1, 1))
 
 @dataclass(frozen=True)
 class Estimator:
-    """A configured estimator: the kernel kind and option row, callable on a batch.
+    """A configured estimator: the registered one and its option row, callable on a batch.
 
     Attributes:
-        name: Registry name.
-        kind: Kernel kind (``contour_gym.contour._kernel.EST_*``).
-        params: (N_EST_P,) option row the kernel reads.
-        needs_history: Whether it reads previous reference points (then pass ``s_hist`` or
-            ``ds``).
-        path_check: Raises ValueError for paths it cannot handle.
+        kind: The registered :class:`~contour_gym.contour.base.ContourEstimator`.
+        params: Its option row.
     """
 
-    name: str
-    kind: int
-    params: FloatArray
-    needs_history: bool = False
-    path_check: Callable[[Path], None] | None = field(default=None, repr=False)
+    kind: ContourEstimator
+    params: FloatArray = field(repr=False)
+
+    @property
+    def name(self) -> str:
+        """Registry name."""
+        return self.kind.name
+
+    @property
+    def needs_history(self) -> bool:
+        """Whether it reads previous reference points."""
+        return self.kind.needs_history
+
+    def slots(self) -> dict[str, Any]:
+        """The kernel slots this estimator fills (:mod:`contour_gym._slots`)."""
+        search = self.kind.foot is None
+        return {"EST_FOOT": _no_foot if search else self.kind.foot, "EST_SEARCH": search}
 
     def __call__(self, path: Path, s_ref: ArrayLike, positions: ArrayLike, *,
                  s_hist: ArrayLike | None = None, ds: ArrayLike | None = None) -> ContourEstimate:
@@ -159,8 +119,8 @@ class Estimator:
                 estimator cannot handle (``exact`` on free-form curves).
         """
         pos, s = _check_inputs(path, s_ref, positions)
-        if self.path_check is not None:
-            self.path_check(path)
+        if self.kind.path_check is not None:
+            self.kind.path_check(path)
         if self.needs_history and s_hist is None and ds is None:
             raise ValueError(f"estimator {self.name!r} reads previous reference points: "
                              "pass s_hist or ds")
@@ -168,8 +128,10 @@ class Estimator:
         out = np.empty((pos.shape[0], 4))
         fell = np.empty(pos.shape[0], dtype=np.bool_)
         t = path.table
-        bad = _kernel.estimate_many(self.kind, self.params, t.kind, t.s0, t.data, t.bound, pos, s,
-                              past, step, mode, out, fell)
+        kernel = _compile.specialise("contour_gym.contour._many", self.slots(),
+                                     f"estimator {self.name}")
+        bad = kernel.estimate_many(self.params, t.kind, t.s0, t.data, t.bound, pos, s, past,
+                                   step, mode, out, fell)
         if bad >= 0:
             raise ValueError(f"positions, s_ref and the history must be finite; member {bad} "
                              "is not")
@@ -192,67 +154,20 @@ def _check_inputs(path: Path, s_ref: ArrayLike, positions: ArrayLike
     return p, s.reshape(-1)
 
 
-@dataclass(frozen=True)
-class EstimatorFactory:
-    """Registry entry: ``factory(**options)`` builds an :class:`Estimator`.
-
-    Attributes:
-        name: Registry name.
-        kind: Kernel kind.
-        builder: ``builder(**options) -> (N_EST_P,)`` option row; raises ValueError on bad
-            options.
-        needs_history: Whether the estimator reads previous reference points.
-        path_check: Raises ValueError for paths it cannot handle (Python API only: the loop's
-            kernel falls back to the exact search instead).
-    """
-
-    name: str
-    kind: int
-    builder: Callable[..., FloatArray]
-    needs_history: bool = False
-    path_check: Callable[[Path], None] | None = None
-
-    def __call__(self, **options: Any) -> Estimator:
-        """The estimator with these options (see each builder's keywords)."""
-        try:
-            params = self.builder(**options)
-        except TypeError as exc:
-            raise ValueError(f"bad options for estimator {self.name!r}: {exc}") from exc
-        return Estimator(self.name, self.kind, params, self.needs_history, self.path_check)
-
-
-ESTIMATORS: dict[str, EstimatorFactory] = {
-    f.name: f
-    for f in (
-        EstimatorFactory("ground_truth", _kernel.EST_GROUND_TRUTH, _no_options),
-        EstimatorFactory("exact", _kernel.EST_EXACT, _no_options, path_check=_lines_and_arcs),
-        EstimatorFactory("two_circle", _kernel.EST_TWO_CIRCLE, _no_options, needs_history=True),
-        EstimatorFactory("tangent", _kernel.EST_TANGENT, _tangent_options),
-        EstimatorFactory("frenet", _kernel.EST_FRENET, _frenet_options),
-        EstimatorFactory("angle", _kernel.EST_ANGLE, _angle_options, needs_history=True),
-        EstimatorFactory("window", _kernel.EST_WINDOW, _window_options, needs_history=True),
-        EstimatorFactory("iterative", _kernel.EST_ITERATIVE, _iterative_options),
-    )
-}
-
-
 def get_estimator(name: str, **options: Any) -> Estimator:
-    """The estimator ``name`` with ``options``.
+    """The estimator ``name`` with ``options`` (its schema's names).
 
     Raises:
         ValueError: for an unknown name (the message lists the accepted ones) or bad options.
     """
-    return ESTIMATORS[choice(name, "estimator", ESTIMATORS)](**options)
+    kind = ESTIMATORS.get(name)
+    return Estimator(kind, np.ascontiguousarray(kind.params.row(**options)).reshape(-1)
+                     if kind.params.size else np.zeros(1))
 
 
-def build_estimator(name: str, **options: Any) -> tuple[int, FloatArray]:
-    """Kernel kind and option row of the estimator ``name`` (what the loop needs).
-
-    Raises:
-        ValueError: for an unknown name (the message lists the accepted ones) or bad options.
-    """
-    est = get_estimator(name, **options)
-    return est.kind, est.params
+def build_estimator(name: str, **options: Any) -> Estimator:
+    """The configured estimator ``name`` (what the loop needs); alias of :func:`get_estimator`."""
+    return get_estimator(name, **options)
 
 
 def estimate_full(name: str, path: Path, s_ref: ArrayLike, positions: ArrayLike,

@@ -24,14 +24,18 @@ import math
 
 import numba
 
+from contour_gym._schema import Param, Schema
+from contour_gym._validate import positive
 from contour_gym.contour._history import N_HIST, history_at, ref_arc
+from contour_gym.contour.base import ContourEstimator, int_in, one_of, register_estimator
 from contour_gym.paths._geom import (
+    CORNER_TOL,
     HELIX,
     LINE,
     eval_path,
-    eval_segment,
     find_segment,
     nearest_segment,
+    unit_tangent,
 )
 
 FAIL = (False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -40,19 +44,18 @@ J_AHEAD = -2  # newest interpolation point searched: two steps ahead of the refe
 J_OLDEST = N_HIST - 1  # oldest interpolation point kept
 _COLLINEAR = 1e-10  # sin of the turn below which three points are taken as a line
 _MIN_CHORD = 1e-10  # shortest chord (m) that still defines a direction
-_CORNER = 1e-8  # unit tangents differing by more than this make a corner (as Path.corners)
 _MAX_JOINS = 8  # segment boundaries checked for corners by the iteration
 
 
 @numba.njit(cache=True)
-def line_foot(p0, p1, p2, ax, ay, az, ux, uy, uz):  # type: ignore[no-untyped-def]
+def line_foot(p0, p1, p2, ax, ay, az, ux, uy, uz):
     """Foot of p on the line through a with direction u (|u| > 0)."""
     t = ((p0 - ax) * ux + (p1 - ay) * uy + (p2 - az) * uz) / (ux * ux + uy * uy + uz * uz)
     return ax + t * ux, ay + t * uy, az + t * uz
 
 
 @numba.njit(cache=True)
-def far_off(p0, p1, p2, rx, ry, rz, tx, ty, tz, kx, ky, kz, max_turn):  # type: ignore[no-untyped-def]
+def far_off(p0, p1, p2, rx, ry, rz, tx, ty, tz, kx, ky, kz, max_turn):
     """True when the tracking error spans more than ``max_turn`` rad of the path's turning.
 
     ``kappa |e| > max_turn`` with kappa the curvature at the reference: a tangent line or
@@ -68,7 +71,7 @@ def far_off(p0, p1, p2, rx, ry, rz, tx, ty, tz, kx, ky, kz, max_turn):  # type: 
 
 
 @numba.njit(cache=True)
-def est_exact(kind, s0, data, p0, p1, p2, s):  # type: ignore[no-untyped-def]
+def est_exact(kind, s0, data, p0, p1, p2, s):
     """000 eqs. (1)-(3): exact contour error of a line or an arc (foot on the reference's segment).
 
     Reconstructed: eq. (1) ``eps = -e_x sin(theta) + e_y cos(theta)`` (the distance from P to
@@ -107,7 +110,7 @@ def est_exact(kind, s0, data, p0, p1, p2, s):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def est_tangent(max_turn, kind, s0, data, p0, p1, p2, s):  # type: ignore[no-untyped-def]
+def est_tangent(max_turn, kind, s0, data, p0, p1, p2, s):
     """001 section 2 (Yeh & Hsu): the foot on the tangent line at the reference.
 
     Reconstructed (001's eqs. (1)-(6) were lost; Yeh & Hsu 2002's standard form): with the
@@ -125,7 +128,7 @@ def est_tangent(max_turn, kind, s0, data, p0, p1, p2, s):  # type: ignore[no-unt
 
 
 @numba.njit(cache=True)
-def est_frenet(order, max_turn, kind, s0, data, p0, p1, p2, s):  # type: ignore[no-untyped-def]
+def est_frenet(order, max_turn, kind, s0, data, p0, p1, p2, s):
     """002 section 4.1 eqs. (19)-(22): Frenet-frame estimate with the delay time.
 
     ``e = P_d - P_a`` is written in the Frenet frame ``t = P'_d/|P'_d|``, ``n``, ``b`` (eqs.
@@ -151,7 +154,7 @@ def est_frenet(order, max_turn, kind, s0, data, p0, p1, p2, s):  # type: ignore[
 
 
 @numba.njit(cache=True)
-def est_angle(lag, max_turn, kind, s0, data, p0, p1, p2, s, hist):  # type: ignore[no-untyped-def]
+def est_angle(lag, max_turn, kind, s0, data, p0, p1, p2, s, hist):
     """003 section 3 eqs. (16)-(21): linear contour angle from the previous and current command.
 
     The contour is taken as the line through the previous command point D' and the current
@@ -181,14 +184,14 @@ def est_angle(lag, max_turn, kind, s0, data, p0, p1, p2, s, hist):  # type: igno
 
 
 @numba.njit(cache=True)
-def ref_point(kind, s0, data, hist, s, j):  # type: ignore[no-untyped-def]
+def ref_point(kind, s0, data, hist, s, j):
     """Interpolation point ``j`` (see :func:`~contour_gym.contour._history.ref_arc`)."""
     x, y, z, _, _, _, _, _, _ = eval_path(kind, s0, data, ref_arc(hist, s, j))
     return x, y, z
 
 
 @numba.njit(cache=True)
-def lag_steps(kind, s0, data, hist, s, p0, p1, p2):  # type: ignore[no-untyped-def]
+def lag_steps(kind, s0, data, hist, s, p0, p1, p2):
     """First guess of the nearest interpolation point, and ``|r - p|^2``.
 
     The guess is ``round(e_t / ds)``: the tracking error along the tangent at the reference
@@ -207,7 +210,7 @@ def lag_steps(kind, s0, data, hist, s, p0, p1, p2):  # type: ignore[no-untyped-d
 
 
 @numba.njit(cache=True)
-def nearest_quad(kind, s0, data, hist, s, p0, p1, p2, j):  # type: ignore[no-untyped-def]
+def nearest_quad(kind, s0, data, hist, s, p0, p1, p2, j):
     """Four interpolation points ``j-1, j, j+1, j+2`` around the one nearest p (index j).
 
     Starting from ``j``, the four slide one step at a time toward the nearer neighbour of
@@ -248,7 +251,7 @@ def nearest_quad(kind, s0, data, hist, s, p0, p1, p2, j):  # type: ignore[no-unt
 
 
 @numba.njit(cache=True)
-def circle_foot(ax, ay, az, bx, by, bz, cx, cy, cz, p0, p1, p2):  # type: ignore[no-untyped-def]
+def circle_foot(ax, ay, az, bx, by, bz, cx, cy, cz, p0, p1, p2):
     """Nearest point of p on the circle through A (newest), B, C; the line if they are collinear.
 
     Returns ``(ok, qx, qy, qz, tx, ty, tz)`` with the tangent pointing from C toward A. In
@@ -288,7 +291,7 @@ def circle_foot(ax, ay, az, bx, by, bz, cx, cy, cz, p0, p1, p2):  # type: ignore
 
 
 @numba.njit(cache=True)
-def est_two_circle(kind, s0, data, p0, p1, p2, s, hist):  # type: ignore[no-untyped-def]
+def est_two_circle(kind, s0, data, p0, p1, p2, s, hist):
     """000 "free curve contour error estimation": two circles through interpolation points.
 
     ``R_eps``, the interpolation point nearest P, is found by tracing back from the command
@@ -325,7 +328,7 @@ def est_two_circle(kind, s0, data, p0, p1, p2, s, hist):  # type: ignore[no-unty
 
 
 @numba.njit(cache=True)
-def window_scan(kind, s0, data, hist, s, p0, p1, p2, lo, hi):  # type: ignore[no-untyped-def]
+def window_scan(kind, s0, data, hist, s, p0, p1, p2, lo, hi):
     """Nearest interpolation point in ``[lo, hi]`` with its two neighbours, in one pass.
 
     Returns ``(j, B, dn, N, do, O)``: index and point of the nearest, then the squared
@@ -353,7 +356,7 @@ def window_scan(kind, s0, data, hist, s, p0, p1, p2, lo, hi):  # type: ignore[no
 
 
 @numba.njit(cache=True)
-def est_window(half0, kind, s0, data, p0, p1, p2, s, hist):  # type: ignore[no-untyped-def]
+def est_window(half0, kind, s0, data, p0, p1, p2, s, hist):
     """004 section 2.2: variable-size window; the two reference points closest to the tool.
 
     004 uses the contour error model of its ref. [5] only in words: "the variable size window
@@ -391,7 +394,7 @@ def est_window(half0, kind, s0, data, p0, p1, p2, s, hist):  # type: ignore[no-u
 
 
 @numba.njit(cache=True)
-def newton_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz):  # type: ignore[no-untyped-def]
+def newton_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz):
     """Newton step on ``g(s) = (P - p) . P'`` (the foot is a root); ``g'`` kept >= |P'|^2/10."""
     ex, ey, ez = x - p0, y - p1, z - p2
     sp2 = tx * tx + ty * ty + tz * tz
@@ -401,7 +404,7 @@ def newton_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz):  # type: ignore[no
 
 
 @numba.njit(cache=True)
-def circle_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz):  # type: ignore[no-untyped-def]
+def circle_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz):
     """Step to the projection of p on the osculating circle at the current point."""
     sp = math.sqrt(tx * tx + ty * ty + tz * tz)
     ux, uy, uz = tx / sp, ty / sp, tz / sp
@@ -417,15 +420,7 @@ def circle_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz):  # type: ignore[no
 
 
 @numba.njit(cache=True)
-def unit_tangent(kind, data, i, t):  # type: ignore[no-untyped-def]
-    """Unit tangent of segment ``i`` at local arc length ``t``."""
-    _, _, _, tx, ty, tz, _, _, _ = eval_segment(kind, data, i, t)
-    n = math.sqrt(tx * tx + ty * ty + tz * tz)
-    return tx / n, ty / n, tz / n
-
-
-@numba.njit(cache=True)
-def corner_inside(kind, s0, data, lo, hi):  # type: ignore[no-untyped-def]
+def corner_inside(kind, s0, data, lo, hi):
     """True if a tangent discontinuity lies strictly inside ``(lo, hi)``.
 
     Checks the unit tangents on both sides of each segment boundary there; more than
@@ -440,13 +435,13 @@ def corner_inside(kind, s0, data, lo, hi):  # type: ignore[no-untyped-def]
             continue
         ax, ay, az = unit_tangent(kind, data, i - 1, s0[i] - s0[i - 1])
         bx, by, bz = unit_tangent(kind, data, i, 0.0)
-        if (ax - bx) ** 2 + (ay - by) ** 2 + (az - bz) ** 2 > _CORNER * _CORNER:
+        if (ax - bx) ** 2 + (ay - by) ** 2 + (az - bz) ** 2 > CORNER_TOL * CORNER_TOL:
             return True
     return False
 
 
 @numba.njit(cache=True)
-def nearer_elsewhere(kind, s0, data, bound, p0, p1, p2, d2, llo, lhi, wlo, whi):  # type: ignore[no-untyped-def]
+def nearer_elsewhere(kind, s0, data, bound, p0, p1, p2, d2, llo, lhi, wlo, whi):
     """True if a segment inside ``[wlo, whi]`` but clear of ``[llo, lhi]`` comes nearer than d.
 
     Segments whose bounding sphere stays ``sqrt(d2)`` away are skipped; the others are
@@ -472,7 +467,7 @@ def nearer_elsewhere(kind, s0, data, bound, p0, p1, p2, d2, llo, lhi, wlo, whi):
 
 
 @numba.njit(cache=True)
-def certified(kind, s0, data, bound, p0, p1, p2, sig, lo, hi, pt):  # type: ignore[no-untyped-def]
+def certified(kind, s0, data, bound, p0, p1, p2, sig, lo, hi, pt):
     """Foot and tangent at ``sig`` if it is the nearest point in ``[lo, hi]``; else FAIL.
 
     ``pt`` is :func:`~contour_gym.paths._geom.eval_path` at ``sig``.
@@ -500,7 +495,7 @@ def certified(kind, s0, data, bound, p0, p1, p2, sig, lo, hi, pt):  # type: igno
 
 
 @numba.njit(cache=True)
-def est_iterative(n_iter, method, tol, kind, s0, data, bound, p0, p1, p2, s):  # type: ignore[no-untyped-def]
+def est_iterative(n_iter, method, tol, kind, s0, data, bound, p0, p1, p2, s):
     """Beyond the papers: real-time nearest-point iteration started at the reference.
 
     At most ``n_iter`` steps of Newton's method on ``g(s) = (P(s) - p) . P'(s) = 0``
@@ -530,3 +525,113 @@ def est_iterative(n_iter, method, tol, kind, s0, data, bound, p0, p1, p2, s):  #
             return certified(kind, s0, data, bound, p0, p1, p2, sig, lo, hi, pt)
         sig = min(max(sig + step, lo), hi)
     return FAIL
+
+
+# ---------------------------------------------------------------------------- registration
+# Every estimator as a ContourEstimator with the uniform foot signature
+# foot(p, kind, s0, data, bound, p0, p1, p2, s, hist) (contour_gym.contour.base). The adapters
+# are called, not inlined: each compiles once and every loop kernel that uses it shares it.
+
+DEFAULT_MAX_TURN = 1.0  # rad: kappa |e| beyond which linearisations at the reference give up
+_MAX_TURN = Param(DEFAULT_MAX_TURN, positive, "fall back when kappa |e| > max_turn, rad")
+
+
+def _lines_and_arcs(path):
+    table = path.table
+    ok = (table.kind == LINE) | ((table.kind == HELIX) & (table.data[:, 14] == 0.0))
+    if not bool(ok.all()):
+        raise ValueError(f"estimator 'exact' needs a path made of lines and arcs; {path.name!r} "
+                         "has free-form or helix segments (use 'iterative' or 'ground_truth')")
+
+
+@numba.njit(cache=True)
+def foot_exact(p, kind, s0, data, bound, p0, p1, p2, s, hist):
+    """Adapter of :func:`est_exact`."""
+    return est_exact(kind, s0, data, p0, p1, p2, s)
+
+
+@numba.njit(cache=True)
+def foot_two_circle(p, kind, s0, data, bound, p0, p1, p2, s, hist):
+    """Adapter of :func:`est_two_circle`."""
+    return est_two_circle(kind, s0, data, p0, p1, p2, s, hist)
+
+
+TANGENT = Schema("tangent", max_turn=_MAX_TURN)
+_TC = TANGENT.col
+
+
+@numba.njit(cache=True)
+def foot_tangent(p, kind, s0, data, bound, p0, p1, p2, s, hist):
+    """Adapter of :func:`est_tangent`."""
+    return est_tangent(p[_TC.max_turn], kind, s0, data, p0, p1, p2, s)
+
+
+FRENET = Schema("frenet", order=Param(2, int_in(1, 2), "Taylor order"), max_turn=_MAX_TURN)
+_FC = FRENET.col
+
+
+@numba.njit(cache=True)
+def foot_frenet(p, kind, s0, data, bound, p0, p1, p2, s, hist):
+    """Adapter of :func:`est_frenet`."""
+    c = _FC
+    return est_frenet(int(p[c.order]), p[c.max_turn], kind, s0, data, p0, p1, p2, s)
+
+
+ANGLE = Schema("angle", lag=Param(1, int_in(1, N_HIST), "ticks back to D'"), max_turn=_MAX_TURN)
+_AC = ANGLE.col
+
+
+@numba.njit(cache=True)
+def foot_angle(p, kind, s0, data, bound, p0, p1, p2, s, hist):
+    """Adapter of :func:`est_angle`."""
+    c = _AC
+    return est_angle(int(p[c.lag]), p[c.max_turn], kind, s0, data, p0, p1, p2, s, hist)
+
+
+WINDOW = Schema("window", half_width=Param(1, int_in(1, N_HIST), "starting half-width"))
+_WC = WINDOW.col
+
+
+@numba.njit(cache=True)
+def foot_window(p, kind, s0, data, bound, p0, p1, p2, s, hist):
+    """Adapter of :func:`est_window`."""
+    return est_window(int(p[_WC.half_width]), kind, s0, data, p0, p1, p2, s, hist)
+
+
+ITERATIVE = Schema(
+    "iterative",
+    n_iter=Param(4, int_in(1, 50), "step budget"),
+    method=Param(1, one_of({"newton": 0, "circle": 1}), "newton or circle"),
+    tol=Param(1e-9, positive, "convergence step, m"),
+)
+_IC = ITERATIVE.col
+
+
+@numba.njit(cache=True)
+def foot_iterative(p, kind, s0, data, bound, p0, p1, p2, s, hist):
+    """Adapter of :func:`est_iterative`."""
+    c = _IC
+    return est_iterative(
+        int(p[c.n_iter]), int(p[c.method]), p[c.tol], kind, s0, data, bound, p0, p1, p2, s
+    )
+
+
+for _est in (
+    ContourEstimator("ground_truth", Schema("ground_truth"),
+                     doc="exact nearest point in a window around the reference"),
+    ContourEstimator("exact", Schema("exact"), foot_exact, path_check=_lines_and_arcs,
+                     doc="000 eqs. 1-3: distance to the reference's line or arc"),
+    ContourEstimator("two_circle", Schema("two_circle"), foot_two_circle, needs_history=True,
+                     doc="000: two circles through interpolation points near the tool"),
+    ContourEstimator("tangent", TANGENT, foot_tangent,
+                     doc="001 (Yeh & Hsu): foot on the tangent line at the reference"),
+    ContourEstimator("frenet", FRENET, foot_frenet,
+                     doc="002 eqs. 19-22: Frenet frame, delay time, Taylor expansion"),
+    ContourEstimator("angle", ANGLE, foot_angle, needs_history=True,
+                     doc="003 eqs. 16-21: line through previous and current command"),
+    ContourEstimator("window", WINDOW, foot_window, needs_history=True,
+                     doc="004 sec. 2.2: variable window, two closest reference points"),
+    ContourEstimator("iterative", ITERATIVE, foot_iterative,
+                     doc="Newton / osculating-circle iteration from the reference"),
+):  # fmt: skip
+    register_estimator(_est)

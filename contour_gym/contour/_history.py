@@ -14,7 +14,7 @@ N_HIST = 128  # past reference arc lengths kept per member
 
 
 @numba.njit(cache=True)
-def history_push(hist, s):  # type: ignore[no-untyped-def]
+def history_push(hist, s):
     """Append arc length ``s`` to the ring buffer ``hist`` (hist[0] = head, hist[1:] = ring)."""
     head = int(hist[0]) + 1
     if head >= N_HIST:
@@ -24,7 +24,7 @@ def history_push(hist, s):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def history_at(hist, i):  # type: ignore[no-untyped-def]
+def history_at(hist, i):
     """Reference arc length ``i + 1`` ticks ago (0 <= i < N_HIST); 0 before the start."""
     j = int(hist[0]) - i
     if j < 0:
@@ -33,7 +33,7 @@ def history_at(hist, i):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def ref_arc(hist, s, j):  # type: ignore[no-untyped-def]
+def ref_arc(hist, s, j):
     """Arc length of interpolation point ``j``.
 
     ``j >= 1``: the reference ``j`` ticks ago; ``j == 0``: the current reference ``s``;

@@ -1,238 +1,256 @@
-"""Compiled per-step work of the envs: apply actions, then rewards and observations.
+"""Kernel template: one env decision for every member in one compiled call.
 
-Both kernels read and write the ServoLoop's blobs (``contour_gym._blob``) and the env's own
-blob (arrays in the order of ``ENV_ARRAYS``), so a step costs two compiled calls with a
-handful of arguments each instead of dozens of small numpy operations.
+apply the actions (CCC gains or feed override) -> run the ticks (the loop's own specialised
+``run_ticks``, slot ``RUN_TICKS``) -> reward components, reward (slot ``REWARD``), the failure
+rule, termination and truncation -> observations. A Python reward replaces the middle step:
+:func:`env_step` then stops after the components and :func:`apply_rewards` finishes once Python
+has filled ``raw``.
 """
 
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numba
+import numpy as np
 
-from contour_gym import _loopkernel as LK
-from contour_gym._blob import view1, view2, view3
-from contour_gym.motion import IP_F, IS_DONE, IS_S, IS_V
+from contour_gym._blob import borrow, view1, view2
+from contour_gym._loopstate import (
+    AA,
+    AC,
+    FT,
+    LS,
+    STATUS_ARRIVED,
+    STATUS_FAILED,
+    loop_arrays,
+    path_arrays,
+)
+from contour_gym._schema import Schema
+from contour_gym._slots import REWARD, RUN_TICKS
+from contour_gym.motion import IP, IS
 from contour_gym.paths._geom import eval_path
-from contour_gym.servo._kernel import CP_KD, CP_KI, CP_KP
+from contour_gym.plant._kernel import AX
+from contour_gym.rewards import COMPONENTS, RC
 
-ENV_ARRAYS = (
-    "action", "skip", "log_lo", "log_hi", "lookahead", "eps_prev", "s_before", "obs", "ref", "vel",
-    "reward", "terminated", "failure",
+ENV_FLOATS = (
+    "action", "skip", "g_max", "g_log", "lookahead", "eps_prev", "s_before", "obs", "ref",
+    "vel", "raw", "reward", "terminated", "truncated", "failure", "comp", "weights", "steps",
+    "ret",
 )  # fmt: skip
-E_ACTION, E_SKIP, E_LOG_LO, E_LOG_HI, E_LOOKAHEAD, E_EPS_PREV, E_S_BEFORE = 0, 1, 2, 3, 4, 5, 6
-E_OBS, E_REF, E_VEL, E_REWARD, E_TERMINATED, E_FAILURE = 7, 8, 9, 10, 11, 12
+E = namedtuple("E", ENV_FLOATS)(*range(len(ENV_FLOATS)))
+EnvArrays = namedtuple("EnvArrays", ENV_FLOATS)  # type: ignore[misc]
+ENV_CONFIG = Schema(
+    "env config", kind=0.0, dovr=0.1, ovr_lo=0.2, ovr_hi=2.0, tol=1e-5, hard=1e-3, penalty=100.0,
+    r_lo=-1.0, r_hi=0.0, n_max=1000.0, nominal=1.0, f_nom=1.0, python_reward=0.0, dim=2.0,
+    length=1.0,
+)  # fmt: skip
+EC = ENV_CONFIG.col
 
 KIND_CCC, KIND_FEEDRATE = 0, 1
 TRACKING_SCALE = 1e-3  # m: tracking errors are observed in mm
 CURVATURE_SCALE = 0.01  # m: curvature is observed as kappa x 1 cm
-FEEDRATE_PENALTY = 10.0  # feedrate env: penalty per tolerance of excess error
 OBS_LIMIT = 1e4  # every scaled observation is clipped to +-OBS_LIMIT
 
 
-@numba.njit(cache=True)
-def apply_actions(kind, fb, fl, eb, el, dfeed, f_lo, f_hi):  # type: ignore[no-untyped-def]
-    """Clip each live member's action to [-1, 1] and set its CCC gains or feedrate.
+@numba.njit(cache=True, inline="always")
+def env_arrays(eb, el):
+    """The env blob as a named tuple of views."""
+    return EnvArrays(
+        view2(eb, el, E.action), view1(eb, el, E.skip), view1(eb, el, E.g_max),
+        view1(eb, el, E.g_log), view1(eb, el, E.lookahead), view2(eb, el, E.eps_prev),
+        view1(eb, el, E.s_before), view2(eb, el, E.obs), view2(eb, el, E.ref),
+        view2(eb, el, E.vel), view1(eb, el, E.raw), view1(eb, el, E.reward),
+        view1(eb, el, E.terminated), view1(eb, el, E.truncated), view1(eb, el, E.failure),
+        view2(eb, el, E.comp), view1(eb, el, E.weights), view1(eb, el, E.steps),
+        view1(eb, el, E.ret),
+    )  # fmt: skip
 
-    CCC: ``g = exp(lo + (a + 1)/2 (hi - lo))`` per gain (log scale). Feedrate (004 eq. 3.3):
-    ``F = clip(F + a dfeed, f_lo, f_hi)``. Also records s at the decision's start.
-    """
-    action, skip = view2(eb, el, E_ACTION), view1(eb, el, E_SKIP)
-    lo, hi, s_before = view1(eb, el, E_LOG_LO), view1(eb, el, E_LOG_HI), view1(eb, el, E_S_BEFORE)
-    eps_prev = view2(eb, el, E_EPS_PREV)
-    ccc_p, ip_p = view3(fb, fl, LK.I_CCC_P), view2(fb, fl, LK.I_IP_P)
-    ip_s, last = view2(fb, fl, LK.I_IP_S), view3(fb, fl, LK.I_LAST)
-    for b in range(action.shape[0]):
-        if skip[b] != 0.0:
+
+@numba.njit(cache=True, inline="always")
+def action_to_gain(a, g_max, g_log):
+    """The CCC env's gain map: ``g_max (R^((a+1)/2) - 1) / (R - 1)``, ``g_log = ln R``."""
+    a = min(max(a, -1.0), 1.0)
+    return g_max * (math.exp(0.5 * (a + 1.0) * g_log) - 1.0) / (math.exp(g_log) - 1.0)
+
+
+@numba.njit(cache=True, inline="always")
+def _apply(A, V, ec):
+    # clip each live member's action to [-1, 1] and set its CCC gains or feed override
+    n_c = A.c_axes.shape[0]
+    for b in range(V.action.shape[0]):
+        if V.skip[b] != 0.0:
             continue
-        s_before[b] = ip_s[b, IS_S]
-        for c in range(eps_prev.shape[1]):
-            eps_prev[b, c] = last[b, c, LK.LS_EST]
-        for j in range(action.shape[1]):
-            action[b, j] = min(max(action[b, j], -1.0), 1.0)
-        if kind == KIND_FEEDRATE:
-            ip_p[b, IP_F] = min(max(ip_p[b, IP_F] + action[b, 0] * dfeed, f_lo), f_hi)
+        V.s_before[b] = A.ip_s[b, IS.s]
+        for c in range(n_c):
+            V.eps_prev[b, c] = A.last[b * n_c + c, LS.est]
+        for j in range(V.action.shape[1]):
+            V.action[b, j] = min(max(V.action[b, j], -1.0), 1.0)
+        if ec[EC.kind] == KIND_FEEDRATE:
+            ovr = A.ip_p[b, IP.ovr] + V.action[b, 0] * ec[EC.dovr]
+            A.ip_p[b, IP.ovr] = min(max(ovr, ec[EC.ovr_lo]), ec[EC.ovr_hi])
             continue
-        for c in range(ccc_p.shape[1]):
-            for g, col in ((0, CP_KP), (1, CP_KI), (2, CP_KD)):
-                a = action[b, 3 * c + g]
-                ccc_p[b, c, col] = math.exp(lo[g] + 0.5 * (a + 1.0) * (hi[g] - lo[g]))
+        for c in range(n_c):
+            for g in range(3):  # every CCC law starts its parameters with kp, ki, kd
+                a = V.action[b, 3 * c + g]
+                A.ccc_p[b * n_c + c, g] = action_to_gain(a, V.g_max[g], V.g_log[g])
 
 
-@numba.njit(cache=True)
-def _reward(kind, acc, ds, tol, hard, penalty, nominal, failed):  # type: ignore[no-untyped-def]
+@numba.njit(cache=True, inline="always")
+def _components(A, V, ec, b):
+    # the decision's reward components (contour_gym.rewards); True when the member failed
+    n_c, n_a = A.c_axes.shape[0], A.work.shape[1]
+    tol = ec[EC.tol]
     total, count, worst = 0.0, 0.0, 0.0
-    for c in range(acc.shape[0]):
-        total += acc[c, LK.AC_ABS]
-        count += acc[c, LK.AC_N]
-        worst = max(worst, acc[c, LK.AC_MAX])
-    fail = failed or worst > hard
-    if fail:
-        return -penalty, True
-    if kind == KIND_CCC:
-        return -(total / max(count, 1.0)) / tol, False
-    return ds / nominal - FEEDRATE_PENALTY * max(worst - tol, 0.0) / tol, False
+    for c in range(n_c):
+        q = b * n_c + c
+        total += A.acc_c[q, AC.abs]
+        count += A.acc_c[q, AC.n]
+        worst = max(worst, A.acc_c[q, AC.max])
+    ticks = A.acc_c[b * n_c, AC.n]
+    chatter = 0.0
+    for a in range(n_a):
+        i = b * n_a + a
+        chatter += A.acc_a[i, AA.tv] / (max(ticks, 1.0) * A.ax_p[i, AX.u_max])
+    comp = V.comp
+    comp[b, RC.contour] = total / max(count, 1.0) / tol
+    comp[b, RC.peak] = worst / tol
+    comp[b, RC.chatter] = chatter / n_a
+    comp[b, RC.progress] = (A.ip_s[b, IS.s] - V.s_before[b]) / ec[EC.nominal]
+    comp[b, RC.excess] = max(worst / tol - 1.0, 0.0)
+    return A.status[b] == STATUS_FAILED or worst > ec[EC.hard]
 
 
 @numba.njit(cache=True)
-def _curvature(kind, s0, data, s, dim):  # type: ignore[no-untyped-def]
-    _, _, _, tx, ty, tz, kx, ky, kz = eval_path(kind, s0, data, s)
+def apply_rewards(eb, el, fb, fl, ib, il, ec):
+    """Clip ``raw`` rewards, apply the failure rule, count steps, flag ends (env docstrings).
+
+    Failure rule: a failed member's terminal reward brings its episode return to
+    ``n_max r_lo - penalty``, below any completed episode's (each of at most ``n_max`` steps
+    earns at least ``r_lo <= 0``).
+    """
+    A, V = loop_arrays(fb, fl, ib, il), env_arrays(eb, el)
+    r_lo, r_hi = ec[EC.r_lo], ec[EC.r_hi]
+    for b in range(V.reward.shape[0]):
+        if V.skip[b] != 0.0:
+            V.reward[b], V.terminated[b], V.truncated[b] = 0.0, 0.0, 0.0
+            continue
+        r = min(max(V.raw[b], r_lo), r_hi)
+        if V.failure[b] != 0.0:
+            r = ec[EC.n_max] * r_lo - ec[EC.penalty] - V.ret[b]
+        V.reward[b] = r
+        V.ret[b] += r
+        V.steps[b] += 1.0
+        ended = V.failure[b] != 0.0 or A.status[b] == STATUS_ARRIVED
+        V.terminated[b] = 1.0 if ended else 0.0
+        V.truncated[b] = 1.0 if (not ended and V.steps[b] >= ec[EC.n_max]) else 0.0
+
+
+@numba.njit(cache=True)
+def _point(kind, s0, data, s):
+    # called, not inlined: the observation evaluates the path at several places
+    return eval_path(kind, s0, data, s)
+
+
+@numba.njit(cache=True, inline="always")
+def _curvature(P, s, dim):
+    _, _, _, tx, ty, tz, kx, ky, kz = _point(P.kind, P.s0, P.data, s)
     if dim == 2:  # signed, + = turning left
         return (tx * ky - ty * kx) / max((tx * tx + ty * ty) ** 1.5, 1e-300)
     return math.sqrt(kx * kx + ky * ky + kz * kz)
 
 
-@numba.njit(cache=True)
-def _put(obs, b, col, value):  # type: ignore[no-untyped-def]
+@numba.njit(cache=True, inline="always")
+def _put(obs, b, col, value):
     obs[b, col] = min(max(value, -OBS_LIMIT), OBS_LIMIT)
     return col + 1
 
 
-@numba.njit(cache=True)
-def _observe(kind, pk, s0, data, dim, length, b, fb, fl, ib, il, eb, el, tol, f_nom):  # type: ignore[no-untyped-def]
-    ip_s, ip_p, last = view2(fb, fl, LK.I_IP_S), view2(fb, fl, LK.I_IP_P), view3(fb, fl, LK.I_LAST)
-    y_last, c_off, c_axes = (
-        view2(fb, fl, LK.I_Y_LAST),
-        view2(fb, fl, LK.I_C_OFF),
-        view2(ib, il, LK.I_C_AXES),
-    )
-    obs, ref, action = view2(eb, el, E_OBS), view2(eb, el, E_REF), view2(eb, el, E_ACTION)
-    vel = view2(eb, el, E_VEL)
-    eps_prev, ahead = view2(eb, el, E_EPS_PREV), view1(eb, el, E_LOOKAHEAD)
-    s, v = ip_s[b, IS_S], ip_s[b, IS_V]
-    px, py, pz, tx, ty, tz, _, _, _ = eval_path(pk, s0, data, s)
-    n_axes, n_c = y_last.shape[1], c_axes.shape[0]
-    for c in range(n_c):
+@numba.njit(cache=True, inline="always")
+def _references(A, P, V, b, dim):
+    s, v = A.ip_s[b, IS.s], A.ip_s[b, IS.v]
+    px, py, pz, tx, ty, tz, _, _, _ = _point(P.kind, P.s0, P.data, s)
+    for c in range(A.c_axes.shape[0]):
         for j in range(dim):
-            a = c_axes[c, j]
-            ref[b, a] = (px if j == 0 else (py if j == 1 else pz)) + c_off[c, j]
-            vel[b, a] = (tx if j == 0 else (ty if j == 1 else tz)) * v
+            a = A.c_axes[c, j]
+            V.ref[b, a] = (px if j == 0 else (py if j == 1 else pz)) + A.c_off[c, j]
+            V.vel[b, a] = (tx if j == 0 else (ty if j == 1 else tz)) * v
+
+
+@numba.njit(cache=True, inline="always")
+def _observe(A, P, V, ec, b):
+    # member b's observation row (the env docstrings' table, in key order)
+    dim, length = int(ec[EC.dim]), ec[EC.length]
+    _references(A, P, V, b, dim)
+    n_c, n_a = A.c_axes.shape[0], A.work.shape[1]
+    tol, f_nom, obs = ec[EC.tol], ec[EC.f_nom], V.obs
+    s = A.ip_s[b, IS.s]
     col = 0
     for c in range(n_c):
-        col = _put(obs, b, col, last[b, c, LK.LS_EST] / tol)
+        col = _put(obs, b, col, A.last[b * n_c + c, LS.est] / tol)
     for c in range(n_c):
-        col = _put(obs, b, col, (last[b, c, LK.LS_EST] - eps_prev[b, c]) / tol)
-    for a in range(n_axes):
-        col = _put(obs, b, col, (ref[b, a] - y_last[b, a]) / TRACKING_SCALE)
-    for a in range(n_axes):
-        col = _put(obs, b, col, vel[b, a] / f_nom)
-    col = _put(obs, b, col, _curvature(pk, s0, data, s, dim) * CURVATURE_SCALE)
-    for i in range(ahead.shape[0]):
-        col = _put(
-            obs, b, col, _curvature(pk, s0, data, min(s + ahead[i], length), dim) * CURVATURE_SCALE
-        )
-    col = _put(obs, b, col, s / length)
-    if kind == KIND_CCC:
-        for j in range(action.shape[1]):
-            col = _put(obs, b, col, action[b, j])
+        col = _put(obs, b, col, (A.last[b * n_c + c, LS.est] - V.eps_prev[b, c]) / tol)
+    for a in range(n_a):
+        col = _put(obs, b, col, (V.ref[b, a] - A.y_last[b, a]) / TRACKING_SCALE)
+    for a in range(n_a):
+        col = _put(obs, b, col, V.vel[b, a] / f_nom)
+    col = _put(obs, b, col, _curvature(P, s, dim) * CURVATURE_SCALE)
+    for i in range(V.lookahead.shape[0]):
+        ahead = min(s + V.lookahead[i], length)
+        col = _put(obs, b, col, _curvature(P, ahead, dim) * CURVATURE_SCALE)
+    col = _put(obs, b, col, min(A.foot[b * n_c, FT.progress], length) / length)
+    if ec[EC.kind] == KIND_CCC:
+        for j in range(V.action.shape[1]):
+            col = _put(obs, b, col, V.action[b, j])
     else:
-        col = _put(obs, b, col, ip_p[b, IP_F] / f_nom)
-        col = _put(obs, b, col, v / f_nom)
+        f_block = P.feed[int(A.ip_s[b, IS.seg])]
+        col = _put(obs, b, col, A.ip_p[b, IP.ovr])
+        col = _put(obs, b, col, A.ip_s[b, IS.v] / f_block)
 
 
 @numba.njit(cache=True)
-def finish_step(  # type: ignore[no-untyped-def]
-    kind, pk, s0, data, dim, length, fb, fl, ib, il, eb, el, tol, hard, penalty, nominal, f_nom
-):
-    """Rewards, termination, failure and observations of every member after a decision.
+def observe(eb, el, fb, fl, ib, il, pk, pb, pl, ec, members):
+    """Write the observation rows of ``members`` (after a reset and after every step)."""
+    A, P, V = loop_arrays(fb, fl, ib, il), path_arrays(pk, pb, pl), env_arrays(eb, el)
+    for b in members:
+        _observe(A, P, V, ec, b)
 
-    Reward (see the env docstrings): CCC ``-mean|eps| / tol``; feedrate
-    ``ds / nominal - 10 max(0, max|eps| - tol) / tol``; ``-penalty`` on failure
-    (``|eps| > hard`` or a diverged member). Skipped members only get observations.
-    """
-    acc, status, ip_s = (
-        view3(fb, fl, LK.I_ACC_C),
-        view1(ib, il, LK.I_STATUS),
-        view2(fb, fl, LK.I_IP_S),
-    )
-    skip, s_before = view1(eb, el, E_SKIP), view1(eb, el, E_S_BEFORE)
-    reward, term, fail = (
-        view1(eb, el, E_REWARD),
-        view1(eb, el, E_TERMINATED),
-        view1(eb, el, E_FAILURE),
-    )
-    for b in range(acc.shape[0]):
-        if skip[b] == 0.0:
-            failed = status[b] == LK.STATUS_FAILED
-            r, f = _reward(
-                kind, acc[b], ip_s[b, IS_S] - s_before[b], tol, hard, penalty, nominal, failed
-            )
-            reward[b], fail[b] = r, 1.0 if f else 0.0
-            term[b] = 1.0 if (f or ip_s[b, IS_DONE] >= 0.0) else 0.0
+
+@numba.njit(cache=True)
+def finish(eb, el, fb, fl, ib, il, pk, pb, pl, ec):
+    """Components, failure flags and (compiled reward) raw rewards; observations."""
+    A, V = loop_arrays(fb, fl, ib, il), env_arrays(eb, el)
+    for b in range(V.reward.shape[0]):
+        if V.skip[b] == 0.0:
+            failed = _components(A, V, ec, b)
+            V.failure[b] = 1.0 if failed else 0.0
+            if ec[EC.python_reward] == 0.0:
+                V.raw[b] = REWARD(V.comp[b], V.weights)
         else:
-            reward[b], term[b], fail[b] = 0.0, 0.0, 0.0
-        _observe(kind, pk, s0, data, dim, length, b, fb, fl, ib, il, eb, el, tol, f_nom)
+            V.failure[b] = 0.0
+    observe(eb, el, fb, fl, ib, il, pk, pb, pl, ec, np.arange(V.reward.shape[0]))
 
 
 @numba.njit(cache=True)
-def env_step(  # type: ignore[no-untyped-def]
-    kind,
-    dfeed,
-    f_lo,
-    f_hi,
-    eb,
-    el,
-    tol,
-    hard,
-    penalty,
-    nominal,
-    f_nom,
-    dim,
-    n,
-    k0,
-    ts,
-    nsub,
-    length,
-    record,
-    meas_exact,
-    ctrl_kind,
-    est_kind,
-    pk,
-    s0,
-    data,
-    bound,
-    fb,
-    fl,
-    ib,
-    il,
-    noise,
-    rec,
-):
+def env_step(eb, el, ec, n, k0, cf, fb, fl, ib, il, pk, pb, pl, noise, rec):
     """One env decision in one compiled call: apply actions, run the ticks, finish.
 
     The arguments from ``n`` on are :meth:`contour_gym.loop.ServoLoop.kernel_args` (passed
     flat: a tuple argument would send numba's dispatcher down its slow typing path).
     Returns False, having changed nothing, when an action is NaN or infinite.
     """
-    action = view2(eb, el, E_ACTION)
-    for b in range(action.shape[0]):
-        for j in range(action.shape[1]):
-            if not math.isfinite(action[b, j]):
+    eb_, fb_, ib_ = borrow(eb), borrow(fb), borrow(ib)
+    V = env_arrays(eb_, el)
+    for b in range(V.action.shape[0]):
+        for j in range(V.action.shape[1]):
+            if not math.isfinite(V.action[b, j]):
                 return False
-    apply_actions(kind, fb, fl, eb, el, dfeed, f_lo, f_hi)
-    LK.run_ticks(
-        n,
-        k0,
-        ts,
-        nsub,
-        length,
-        record,
-        meas_exact,
-        ctrl_kind,
-        est_kind,
-        pk,
-        s0,
-        data,
-        bound,
-        fb,
-        fl,
-        ib,
-        il,
-        noise,
-        rec,
-    )
-    finish_step(
-        kind, pk, s0, data, dim, length, fb, fl, ib, il, eb, el, tol, hard, penalty, nominal, f_nom
-    )
+    _apply(loop_arrays(fb_, fl, ib_, il), V, ec)
+    RUN_TICKS(n, k0, cf, fb, fl, ib, il, pk, pb, pl, noise, rec)
+    finish(eb, el, fb, fl, ib, il, pk, pb, pl, ec)
+    if ec[EC.python_reward] == 0.0:
+        apply_rewards(eb, el, fb, fl, ib, il, ec)
     return True
+
+
+__all__ = ["COMPONENTS", "E", "ENV_CONFIG", "ENV_FLOATS", "apply_rewards", "env_step", "observe"]

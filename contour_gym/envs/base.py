@@ -35,21 +35,39 @@ def _check_render_mode(render_mode: str | None) -> None:
         )
 
 
+def _figure(task: ContourTask, kind: str, member: int = 0) -> NDArray[np.uint8]:
+    from contour_gym.render import contour_figure, figure_to_array
+
+    contour = task.stage.contours[0]
+    fig = contour_figure(
+        task.path, {kind: task.loop.trace()}, axes=contour.axes[:2],
+        offset=(contour.offset or (0.0, 0.0))[:2], member=member,
+    )  # fmt: skip
+    return figure_to_array(fig)
+
+
 class ContourEnv(gym.Env):
     """Base of the single envs; subclasses set ``kind`` and document the spec."""
 
     kind: ClassVar[str]
     metadata = {"render_modes": RENDER_MODES, "render_fps": 10}  # noqa: RUF012 (gymnasium convention)
 
-    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        max_episode_steps: int | None = None,
+        **kwargs: Any,
+    ) -> None:
         _check_render_mode(render_mode)
+        if max_episode_steps is not None:  # the env's own limit (see EnvConfig.step_limit)
+            kwargs["step_limit"] = max_episode_steps
         self.config = EnvConfig.from_kwargs(kwargs)
         self.render_mode = render_mode
         self.task = ContourTask(self.config, 1, self.kind, record=render_mode is not None)
         self.action_space = self.task.action_space()
         self.observation_space = self.task.observation_space()
+        self.max_episode_steps = self.task.max_episode_steps
         self._needs_reset = True
-        self._window: Any = None
 
     # reference policies speak in gains; these convert (CCC env)
     def action_to_gains(self, action: Any) -> NDArray[np.float64]:
@@ -68,7 +86,7 @@ class ContourEnv(gym.Env):
         super().reset(seed=seed)
         self.task.reset_members(np.array([0]), [self.np_random])
         self._needs_reset = False
-        return self._obs(), self.task.info(0, failure=False, ended=False)
+        return self.task.observe(0), self.task.info(0, ended=False)
 
     def step(
         self, action: Any
@@ -77,27 +95,17 @@ class ContourEnv(gym.Env):
         if self._needs_reset:
             raise ResetNeeded("call reset() before step(), also after an episode has ended")
         self.task.step(check_actions(action, (self.task.n_actions,))[None])
-        reward, terminated, failure = self.task.member_result(0)
-        self._needs_reset = terminated
-        info = self.task.info(0, failure=failure, ended=terminated)
-        return self._obs(), reward, terminated, False, info
-
-    def _obs(self) -> dict[str, NDArray[np.float32]]:
-        return self.task.observe(0)
+        reward, terminated, truncated, _ = self.task.member_result(0)
+        self._needs_reset = terminated or truncated
+        info = self.task.info(0, ended=self._needs_reset)
+        return self.task.observe(0), reward, terminated, truncated, info
 
     def render(self) -> NDArray[np.uint8] | None:
         """The contour with the error magnified 200x (rgb_array) or shown in a window."""
         if self.render_mode is None:
             gym.logger.warn("render() needs render_mode='rgb_array' or 'human'")
             return None
-        from contour_gym.render import contour_figure, figure_to_array
-
-        contour = self.task.stage.contours[0]
-        fig = contour_figure(
-            self.task.path, {self.kind: self.task.loop.trace()}, axes=contour.axes[:2],
-            offset=(contour.offset or (0.0, 0.0))[:2],
-        )  # fmt: skip
-        image = figure_to_array(fig)
+        image = _figure(self.task, self.kind)
         if self.render_mode == "rgb_array":
             return image
         _show(image)
@@ -118,9 +126,10 @@ class ContourVectorEnv(VectorEnv):
     """Base of the native vector envs: one batched array program over ``num_envs`` members.
 
     Autoreset is NEXT_STEP: the step after a member's episode ends returns its reset
-    observation with reward 0 and ignores its action. Member ``i`` of ``reset(seed=s)`` is
-    seeded ``s + i``, like a single env reset with that seed, so a vector env equals a loop
-    of single envs bit for bit.
+    observation and info with reward 0 and ignores its action. Member ``i`` of
+    ``reset(seed=s)`` is seeded ``s + i``, like a single env reset with that seed, so a vector
+    env equals a loop of single envs bit for bit, infos included (batched as Gymnasium's
+    ``VectorEnv._add_info`` batches the members' infos, every key with its ``_key`` mask).
     """
 
     kind: ClassVar[str]
@@ -140,15 +149,16 @@ class ContourVectorEnv(VectorEnv):
             raise ValueError(f"num_envs must be a positive int, got {num_envs!r}")
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"unknown render_mode {render_mode!r}; accepted: rgb_array")
+        if max_episode_steps is not None:  # Gymnasium's vector convention: the env's own limit
+            kwargs["step_limit"] = max_episode_steps
         self.config = EnvConfig.from_kwargs(kwargs)
         self.num_envs, self.render_mode = num_envs, render_mode
-        self.max_episode_steps = max_episode_steps
         self.task = ContourTask(self.config, num_envs, self.kind, record=render_mode is not None)
+        self.max_episode_steps = self.task.max_episode_steps
         self.single_action_space = self.task.action_space()
         self.single_observation_space = self.task.observation_space()
         self.action_space = batch_space(self.single_action_space, num_envs)
         self.observation_space = batch_space(self.single_observation_space, num_envs)
-        self._steps = np.zeros(num_envs, dtype=np.int64)
         self._prev_done = np.zeros(num_envs, dtype=bool)
         self._started = False
 
@@ -158,10 +168,9 @@ class ContourVectorEnv(VectorEnv):
         """Reset every member; member ``i`` is seeded ``seed + i``."""
         everyone = np.arange(self.num_envs)
         self.task.reset_members(everyone, member_rngs(seed, self.num_envs))
-        self._steps[:] = 0
         self._prev_done[:] = False
         self._started = True
-        return self.task.observe(), {}
+        return self.task.observe(), self.task.batch_info(np.zeros(self.num_envs, dtype=bool))
 
     def step(
         self, actions: Any
@@ -180,46 +189,14 @@ class ContourVectorEnv(VectorEnv):
         if restart.any():
             idx = np.flatnonzero(restart)
             self.task.reset_members(idx, [self.task.rngs[i] for i in idx])
-            self._steps[restart] = 0
         self.task.step(a, restart)
-        reward, terminated, failure = self.task.results()
-        self._steps[~restart] += 1
-        limit = self.max_episode_steps
-        truncated = ~terminated & (self._steps >= limit) if limit else np.zeros_like(terminated)
-        reward[restart], terminated[restart], truncated[restart] = 0.0, False, False
+        reward, terminated, truncated, _ = self.task.results()
         self._prev_done = terminated | truncated
-        info = self._infos(failure & ~restart, self._prev_done)
-        return self.task.observe(), reward, terminated, truncated, info
-
-    def _infos(self, failure: NDArray[np.bool_], ended: NDArray[np.bool_]) -> dict[str, Any]:
-        info: dict[str, Any] = {"failure": failure, "_failure": np.ones(self.num_envs, dtype=bool)}
-        if ended.any():
-            per = [
-                self.task.info(int(b), bool(failure[b]), True)["metrics"] if ended[b] else None
-                for b in range(self.num_envs)
-            ]
-            keys = next(p for p in per if p is not None).keys()
-            info["metrics"] = {k: np.array([p[k] if p else np.nan for p in per]) for k in keys}
-            info["_metrics"] = ended.copy()
-        return info
+        return self.task.observe(), reward, terminated, truncated, self.task.batch_info(
+            self._prev_done)
 
     def render(self) -> tuple[Any, ...] | None:
         """An rgb_array per member (render_mode='rgb_array')."""
         if self.render_mode is None:
             return None
-        from contour_gym.render import contour_figure, figure_to_array
-
-        contour = self.task.stage.contours[0]
-        trace = self.task.loop.trace()
-        return tuple(
-            figure_to_array(
-                contour_figure(
-                    self.task.path,
-                    {self.kind: trace},
-                    axes=contour.axes[:2],
-                    offset=(contour.offset or (0.0, 0.0))[:2],
-                    member=b,
-                )
-            )
-            for b in range(self.num_envs)
-        )
+        return tuple(_figure(self.task, self.kind, b) for b in range(self.num_envs))

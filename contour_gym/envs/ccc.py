@@ -7,20 +7,28 @@ from contour_gym.envs.core import CCC
 
 _SPEC = """
     ## Description
-    A multi-axis servo stage follows a contour under per-axis position control; a PID
-    cross-coupled controller (CCC, Koren 1980) acts on the estimated contour error of each
-    contour and distributes its output to the axes through the coupling gains. Every step
-    the agent chooses the CCC gains (kp, ki, kd) of each contour, held for ``decision_ticks``
-    servo ticks. The feedrate is fixed.
+    A multi-axis servo stage follows a contour under per-axis position control; a
+    cross-coupled controller (CCC, Koren 1980; a PID on the contour error by default,
+    ``ccc_law``) acts on the *estimated* contour error of each contour (the paper's estimator
+    by default, fed by the encoder readings) and distributes its output to the axes through
+    the coupling gains, into the control signal or the commanded position
+    (``ccc_injection``, the paper's by default). Every step the agent chooses the CCC gains
+    (kp, ki, kd) of each contour, held for ``decision_ticks`` servo ticks. The feedrate is
+    fixed. The machine is a rig (encoder quantisation, one-tick computation delay) unless
+    ``ideal=True``: high gains amplify quantisation noise into the motor command and, past a
+    point, destabilise the loop, so the best gains are interior.
 
     ## Action space
     ``Box(-1, 1, (3C,), float32)``, C = contours of the stage (1; 2 for ``xyy_gantry``).
-    For contour c: ``action[3c:3c+3]`` maps log-linearly to (kp, ki, kd):
-    ``g = exp(log(lo) + (a + 1)/2 (log(hi) - log(lo)))`` with, around the plant preset's CCC
-    gains (kp0, ki0), ``kp in [kp0/R, kp0 R]``, ``ki in [ki0/R, ki0 R]``,
-    ``kd in kp0 [1e-5, 1e-2] s`` and ``R = gain_range`` (default 30). Out-of-range actions are
-    clipped to [-1, 1]; NaN/inf or misshaped actions raise ValueError. ``action_to_gains`` and
-    ``gains_to_action`` convert, so reference policies can speak in gains.
+    For contour c, ``action[3c:3c+3]`` maps to (kp, ki, kd) by
+    ``g = g_max (R^((a+1)/2) - 1) / (R - 1)`` with ``R = gain_range^2``: ``a = -1`` is exactly
+    0 (no CCC), ``a = 1`` is ``g_max``, and the scale is logarithmic in between (``a = 0`` is
+    about ``g_max / gain_range``, the preset's gain). ``g_max`` is ``gain_range`` (default 30)
+    times the preset's kp and ki, and ``kd_scale`` (default 0.01 s) times its kp for kd.
+    ``action_to_gains`` and ``gains_to_action`` convert exactly (``gains_to_action`` of the
+    preset's gains, kd = 0 included, round-trips), so reference policies speak in gains.
+    Out-of-range actions are clipped to [-1, 1]; NaN/inf or misshaped actions raise
+    ValueError.
 
     ## Observation space
     ``Dict`` of float32 ``Box(-1e4, 1e4)`` (scaled values clipped to that; ``tol`` is
@@ -33,34 +41,54 @@ _SPEC = """
     | tracking_error | (A,) | reference minus encoder reading per axis | m / 1 mm |
     | reference_velocity | (A,) | reference velocity per axis | (m/s) / nominal feedrate |
     | curvature | (1+L,) | curvature at s_ref and ``lookahead`` ahead (signed in 2-D) | 1/m x 1 cm |
-    | progress | (1,) | s_ref / path length | - |
+    | progress | (1,) | the machine's foot point along the path / path length | - |
     | gains | (3C,) | the action in force | [-1, 1] |
 
     ## Reward
-    ``r = -mean(|eps_true|) / tolerance`` over the decision's ticks (and contours), i.e. 0 is
-    a perfect contour; ``-failure_penalty`` on failure.
+    A compiled reward of the step's components (``contour_gym.rewards``; ``reward`` and
+    ``reward_weights`` swap it), by default
+    ``r = -(contour + 10 chatter)``: ``contour`` the mean |true contour error| over the
+    decision's ticks in tolerances, ``chatter`` the mean |u_k - u_(k-1)| / u_max over ticks
+    and axes (the price of gains that amplify encoder noise into the motor). Each step's
+    reward is clipped to the reward's range ``[r_lo, r_hi]`` over the components' bounds;
+    ``info["reward_components"]`` holds the components.
+
+    **Failure never pays.** On failure the step's reward makes the episode's return exactly
+    ``N r_lo - failure_penalty`` (N the env's step limit): below any completed or truncated
+    episode, which earns at least ``r_lo`` on each of at most N steps.
 
     ## Starting state
     All axes at rest at the path start, integrators empty, CCC gains at the preset's (the
     ``gains`` observation shows them). With ``randomize`` the plant is redrawn per episode.
 
     ## Episode end
-    Terminated when the reference reaches the path end, or on failure (|true contour error|
-    > ``hard_limit`` or a diverged state; ``info["failure"] = True``). Truncated by the
-    registered ``max_episode_steps``. Stepping after the end without ``reset`` raises
+    Terminated when the machine is in position at the path end (the reference has ended, the
+    machine's foot point has reached the end, and every axis is within the stage's
+    in-position band and nearly at rest), or on failure: |true contour error| >
+    ``hard_limit`` (default 100 tolerances), a diverged state, or not in position
+    ``settle_time`` after the reference ended (``info["failure"] = True``). Truncated at the
+    env's own step limit N (``step_limit``; default twice the planned decisions of its
+    path at its feedrate, plus 10). Stepping after the end without ``reset`` raises
     ``gymnasium.error.ResetNeeded``.
 
     ## Info
     Every step: ``contour_error`` (true, m, signed in 2-D), ``contour_error_estimate``,
-    ``tracking_error`` (true, m), ``feedrate`` (m/s), ``s`` (m), ``failure``. At the end also
-    ``metrics``: the episode's ``contour_gym.metrics`` (the keys of ``contour_gym.simulate``).
+    ``tracking_error`` (true, m), ``feedrate`` (m/s), ``s`` (m), ``failure``,
+    ``reward_components``. At every episode end (terminated or truncated) also ``metrics``: the
+    episode's ``contour_gym.metrics`` (the keys of ``contour_gym.simulate``) and ``finished``
+    (whether the machine got in position at the end). The vector env batches each key with a
+    ``_key`` mask.
 
     ## Arguments
-    ``plant``, ``path`` (name or Path), ``feedrate``, ``estimator``, ``estimator_options``,
-    ``axis_controller``, ``controller_options``, ``decision_ticks``, ``tolerance``,
-    ``hard_limit``, ``failure_penalty``, ``randomize``, ``lookahead``, ``gain_range``,
-    ``render_mode`` ("rgb_array", "human"); see :class:`contour_gym.envs.config.EnvConfig`.
-    Unknown arguments raise ValueError listing the accepted ones.
+    ``plant`` (name or ``{"preset": name, **overrides}``), ``path`` (name or Path),
+    ``feedrate``, ``feedrate_override``, ``ideal``, ``estimator``, ``estimator_options``,
+    ``axis_controller``, ``controller_options``, ``ccc_law``, ``ccc_law_params``,
+    ``ccc_injection``, ``path_control``, ``path_tolerance``, ``decision_ticks``,
+    ``tolerance``, ``hard_limit``, ``failure_penalty``, ``reward``, ``reward_weights``,
+    ``randomize``, ``lookahead``, ``gain_range``, ``kd_scale``, ``settle_time``,
+    ``step_limit``, ``render_mode`` ("rgb_array", "human"); see
+    :class:`contour_gym.envs.config.EnvConfig`. Unknown arguments raise ValueError listing the
+    accepted ones.
 
     ## Version history
     v0: initial release.

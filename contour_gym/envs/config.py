@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from contour_gym._validate import as_finite_array, non_negative, positive
+from contour_gym.ccc import INJECTIONS
+from contour_gym.motion import PATH_CONTROLS
 from contour_gym.paths import Path
 
 # Default domain randomisation (``randomize=True``): relative +- spread of mass, damping and
@@ -20,6 +23,7 @@ DEFAULT_RANDOMIZATION: dict[str, Any] = {
     "friction": (0.5, 1.5),
     "disturbance": (0.0, 2.0),
 }
+HARD_LIMIT_TOLERANCES = 100.0  # default hard limit, in tolerances
 
 
 @dataclass(frozen=True)
@@ -27,53 +31,86 @@ class EnvConfig:
     """Arguments shared by the CCC and feedrate environments (see their docstrings).
 
     Attributes:
-        plant: Preset name (``contour_gym.plant.PRESETS``).
+        plant: Preset name, or ``{"preset": name, **overrides}`` (``contour_gym.presets``).
         path: Library path name or :class:`Path` (None: the preset's paper path).
-        feedrate: Nominal feedrate, m/s (None: the preset's).
-        estimator: Contour error estimator feeding the CCC and the observation.
+        feedrate: Nominal feedrate, m/s (None: the preset's, or a G-code part's F words).
+        feedrate_override: Fraction of the programmed feeds (a CNC panel's override).
+        ideal: Drop the rig's encoder, noise and computation delay (the papers' simulations).
+        estimator: Contour error estimator feeding the CCC and the observation (None: the
+            preset's, i.e. its paper's).
         estimator_options: Its options.
         axis_controller: Axis controller name.
         controller_options: Its options.
+        ccc_law: CCC law name (``contour_gym.ccc.CCC_LAWS``).
+        ccc_law_params: The law's parameters beyond kp, ki, kd.
+        ccc_injection: ``"control"`` or ``"reference"`` (None: the preset's).
+        path_control: ``"none"``, ``"G61"``, ``"G61.1"``, ``"G64"`` (None: the path's own).
+        path_tolerance: Tolerance of ``"G64"``, m.
         decision_ticks: Servo ticks per env step (the action is held).
-        tolerance: Contour error bound, m; also the observation and reward scale.
-        hard_limit: |true contour error| beyond this ends the episode as a failure, m.
-        failure_penalty: Reward subtracted on failure.
+        tolerance: Contour error bound, m; also the observation and reward scale (None: the
+            preset's).
+        hard_limit: |true contour error| beyond this ends the episode as a failure, m (None:
+            100 tolerances).
+        failure_penalty: Extra penalty of a failed episode beyond the failure rule's floor.
+        reward: Reward: a registered compiled reward's name, a Python callable, or None for
+            the env kind's default (``"ccc"`` or ``"feedrate"``; ``contour_gym.rewards``).
+        reward_weights: Weights of a compiled reward, by name.
         randomize: False, True (default ranges) or a dict overriding some ranges.
         lookahead: Arc lengths ahead of the reference where curvature is observed, m.
         ccc_gains: Fixed CCC gains (feedrate env; None: the preset's), (kp, ki, kd).
-        gain_range: CCC env: each gain spans [g0 / gain_range, g0 * gain_range] around the
-            preset's gains g0 (log scale); kd spans kp0 * [1e-5, 1e-2] s.
-        feedrate_range: Feedrate env: (F_min, F_max) as multiples of the nominal feedrate.
-        max_feedrate_change: Feedrate env: |dF| per step as a multiple of the nominal.
+        gain_range: CCC env: each gain's largest value is the preset's times this; the action
+            map spans [0, that] on a log-like scale (see the CCC env).
+        kd_scale: CCC env: largest kd as a multiple of the preset's kp, s.
+        feedrate_range: Feedrate env: (F_min, F_max) as multiples of the programmed feedrate.
+        max_feedrate_change: Feedrate env: |dF| per step as a multiple of the programmed one.
+        settle_time: Time allowed to get in position after the reference ends, s.
+        step_limit: The env's own step limit (None: computed from its path, feedrate and
+            decision time, see the env docstrings). ``gym.make(id, max_episode_steps=N)`` adds
+            Gymnasium's ``TimeLimit`` wrapper instead, whose truncation the env cannot see (its
+            info then has no ``metrics``); ``step_limit=N`` ends the episode in the env itself.
     """
 
-    plant: str = "xy_dc_servo"
+    plant: str | Mapping[str, Any] = "xy_dc_servo"
     path: str | Path | None = None
     feedrate: float | None = None
-    estimator: str = "ground_truth"
+    feedrate_override: float | None = None
+    ideal: bool = False
+    estimator: str | None = None
     estimator_options: dict[str, Any] = field(default_factory=dict)
     axis_controller: str = "pid"
     controller_options: dict[str, Any] = field(default_factory=dict)
+    ccc_law: str = "pid"
+    ccc_law_params: dict[str, Any] = field(default_factory=dict)
+    ccc_injection: str | None = None
+    path_control: str | None = None
+    path_tolerance: float | None = None
     decision_ticks: int = 10
-    tolerance: float = 1e-5
-    hard_limit: float = 2e-3
+    tolerance: float | None = None
+    hard_limit: float | None = None
     failure_penalty: float = 100.0
+    reward: Any = None
+    reward_weights: dict[str, float] = field(default_factory=dict)
     randomize: bool | dict[str, Any] = False
     lookahead: tuple[float, ...] = (0.002, 0.005, 0.01)
     ccc_gains: tuple[float, float, float] | None = None
     gain_range: float = 30.0
+    kd_scale: float = 1e-2
     feedrate_range: tuple[float, float] = (0.2, 2.0)
     max_feedrate_change: float = 0.1
+    settle_time: float = 1.0
+    step_limit: int | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.decision_ticks, int) or self.decision_ticks < 1:
             raise ValueError(f"decision_ticks must be a positive int, got {self.decision_ticks!r}")
-        positive(self.tolerance, "tolerance")
-        if positive(self.hard_limit, "hard_limit") <= self.tolerance:
-            raise ValueError(f"hard_limit must exceed tolerance, got {self.hard_limit!r}")
+        if self.tolerance is not None:
+            positive(self.tolerance, "tolerance")
+        if self.hard_limit is not None:
+            positive(self.hard_limit, "hard_limit")
         non_negative(self.failure_penalty, "failure_penalty")
         if positive(self.gain_range, "gain_range") <= 1.0:
             raise ValueError(f"gain_range must be > 1, got {self.gain_range!r}")
+        positive(self.kd_scale, "kd_scale")
         as_finite_array(self.lookahead, "lookahead", ndim=1)
         lo, hi = as_finite_array(self.feedrate_range, "feedrate_range", shape=(2,))
         if not 0 < lo < 1 < hi:
@@ -81,8 +118,21 @@ class EnvConfig:
                 f"feedrate_range must satisfy 0 < low < 1 < high, got {self.feedrate_range!r}"
             )
         positive(self.max_feedrate_change, "max_feedrate_change")
+        positive(self.settle_time, "settle_time")
         if self.ccc_gains is not None:
             as_finite_array(self.ccc_gains, "ccc_gains", shape=(3,))
+        if self.ccc_injection is not None and self.ccc_injection not in INJECTIONS:
+            raise ValueError(
+                f"unknown ccc_injection {self.ccc_injection!r}; accepted: {INJECTIONS}"
+            )
+        if self.path_control is not None and self.path_control not in PATH_CONTROLS:
+            raise ValueError(
+                f"unknown path_control {self.path_control!r}; accepted: {PATH_CONTROLS}"
+            )
+        if self.step_limit is not None and (
+            not isinstance(self.step_limit, int) or self.step_limit < 1
+        ):
+            raise ValueError(f"step_limit must be a positive int, got {self.step_limit!r}")
         self.randomization()  # validates
 
     @classmethod

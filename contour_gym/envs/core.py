@@ -3,28 +3,43 @@
 The single envs run it with B = 1 and the native vector envs with B = num_envs, so a vector
 env equals a loop of single envs by construction: every member owns its generator (seeded
 the way ``gymnasium.Env.reset(seed)`` seeds ``np_random``), its randomisation draws, its loop
-noise stream and its clock. The per-step arithmetic is compiled (:mod:`._kernel`).
+noise stream and its clock. The per-step arithmetic is compiled (:mod:`._kernel`, specialised
+to the loop's components and the reward).
 """
 
 from __future__ import annotations
 
-from typing import Any
+import math
+from collections.abc import Callable
+from typing import Any, cast
 
 import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
 from numpy.typing import NDArray
 
+from contour_gym import _compile
 from contour_gym._blob import Blob
+from contour_gym._loopstate import STATUS_ARRIVED
 from contour_gym.api import make_scenario
 from contour_gym.envs import _kernel as EK
-from contour_gym.envs.config import EnvConfig
+from contour_gym.envs.config import HARD_LIMIT_TOLERANCES, EnvConfig
 from contour_gym.metrics import member_metrics
-from contour_gym.plant import _kernel as PK
-from contour_gym.servo import _kernel as SK
+from contour_gym.motion import IP, IS
+from contour_gym.plant._kernel import ST
+from contour_gym.presets import resolve_preset
+from contour_gym.rewards import (
+    COMPONENTS,
+    REWARDS,
+    CompiledReward,
+    component_bounds,
+    components_dict,
+    reward_range,
+)
 
 Array = NDArray[np.float64]
 CCC, FEEDRATE = "ccc", "feedrate"
+EPISODE_MARGIN = 2.0  # the step limit is this times the planned decisions (+ 10)
 
 
 class ContourTask:
@@ -39,77 +54,137 @@ class ContourTask:
 
     def __init__(self, config: EnvConfig, batch: int, kind: str, record: bool = False) -> None:
         self.config, self.batch, self.kind = config, batch, kind
-        self.scenario = make_scenario(config.plant, config.path, config.feedrate)
+        self.scenario = _scenario(config)
         preset, path = self.scenario.preset, self.scenario.path
-        self.path, self.stage = path, preset.stage
+        self.path, self.stage, self.preset = path, preset.stage, preset
         self.n_contours, self.n_axes = len(self.stage.contours), self.stage.n_axes
+        self.tolerance = config.tolerance if config.tolerance is not None else preset.tolerance
+        self.hard_limit = config.hard_limit or HARD_LIMIT_TOLERANCES * self.tolerance
+        if self.hard_limit <= self.tolerance:
+            raise ValueError(f"hard_limit must exceed tolerance, got {self.hard_limit!r}")
         self.g0 = np.asarray(config.ccc_gains or preset.ccc_gains.as_tuple(), dtype=float)
         self.loop = self.scenario.loop(
-            batch_size=batch,
-            ccc_gains=self.g0 if kind == FEEDRATE else None,
-            record=record,
-            estimator=config.estimator,
-            estimator_options=config.estimator_options,
-            axis_controller=config.axis_controller,
-            controller_options=config.controller_options,
+            batch_size=batch, ccc_gains=self.g0 if kind == FEEDRATE else None, record=record
         )
-        self.f_nominal = self.scenario.feedrate
-        self.f_bounds = np.asarray(config.feedrate_range) * self.f_nominal
-        kp0 = self.g0[0] if self.g0[0] > 0 else preset.ccc_gains.kp
-        ki0 = self.g0[1] if self.g0[1] > 0 else kp0 * 10.0
-        r = config.gain_range
-        log_lo, log_hi = (
-            np.log([kp0 / r, ki0 / r, kp0 * 1e-5]),
-            np.log([kp0 * r, ki0 * r, kp0 * 1e-2]),
-        )
-        # the CCC env starts from the preset gains clipped into its action range (kd = 0 sits
-        # at the log scale's floor); the feedrate env holds them as given
-        self.g_start = np.clip(self.g0, np.exp(log_lo), np.exp(log_hi)) if kind == CCC else self.g0
+        self.ovr_bounds = np.asarray(config.feedrate_range, dtype=float)
+        self.g_max, self.g_log = self._gain_map()
         self.rngs: list[np.random.Generator] = [np.random.default_rng(0)] * batch
-        self.feed = self.loop.ip_p[:, 0]  # view: commanded feedrate per member
-        self._kind_code = EK.KIND_CCC if kind == CCC else EK.KIND_FEEDRATE
-        self._nominal_progress = self.f_nominal * config.decision_ticks * self.stage.ts
         self._sizes = self._observation_sizes()
-        n_obs = sum(self._sizes.values())
+        self._reward, weights = self._resolve_reward()
+        self.max_episode_steps = config.step_limit or self._step_limit()
+        self._build_blob(weights)
+        self.kernel = _compile.specialise(
+            "contour_gym.envs._kernel",
+            {"RUN_TICKS": self.loop.kernel.run_ticks, "REWARD": self._reward_slot()},
+            f"{self.loop.describe()}, {kind} env, reward {self.reward_name}",
+        )
+
+    # --------------------------------------------------------------- building
+    def _gain_map(self) -> tuple[Array, Array]:
+        # CCC env: g = g_max (R^((a+1)/2) - 1) / (R - 1), R = gain_range^2 (env docstring)
+        kp0 = self.g0[0] if self.g0[0] > 0 else self.preset.ccc_gains.kp
+        ki0 = self.g0[1] if self.g0[1] > 0 else kp0 * 10.0
+        r = self.config.gain_range
+        g_max = np.array([kp0 * r, ki0 * r, kp0 * self.config.kd_scale])
+        return g_max, np.full(3, 2.0 * math.log(r))
+
+    def _resolve_reward(self) -> tuple[CompiledReward | Callable[..., Any], Array]:
+        spec = self.config.reward
+        if spec is None:
+            spec = "ccc" if self.kind == CCC else "feedrate"
+        if isinstance(spec, str):
+            reward: CompiledReward | Callable[..., Any] = REWARDS.get(spec)
+            weights = reward.weights.row(**self.config.reward_weights)  # type: ignore[union-attr]
+        elif callable(spec):
+            if self.config.reward_weights:
+                raise ValueError("reward_weights apply to compiled rewards; a Python reward "
+                                 "takes its own parameters")
+            reward, weights = spec, np.zeros(0)
+        else:
+            raise ValueError(f"reward must be a registered name or a callable, got {spec!r}")
+        return reward, weights
+
+    @property
+    def reward_name(self) -> str:
+        """The reward's name (a compiled reward's registry name, else the callable's)."""
+        if isinstance(self._reward, CompiledReward):
+            return self._reward.name
+        return getattr(self._reward, "__name__", type(self._reward).__name__)
+
+    def _reward_slot(self) -> Any:
+        if isinstance(self._reward, CompiledReward):
+            return self._reward.fn
+        return REWARDS.get("ccc").fn  # compiled but never called: the Python reward runs
+
+    def _step_limit(self) -> int:
+        slowest = float(self.ovr_bounds[0]) if self.kind == FEEDRATE else 1.0
+        planned = self.loop.planned_time(override=slowest)
+        decisions = planned / (self.config.decision_ticks * self.stage.ts)
+        return int(math.ceil(EPISODE_MARGIN * decisions)) + 10
+
+    def set_step_limit(self, steps: int) -> None:
+        """Truncate episodes after ``steps`` decisions (the failure rule follows it)."""
+        if not isinstance(steps, int) or steps < 1:
+            raise ValueError(f"step_limit must be a positive int, got {steps!r}")
+        self.max_episode_steps = steps
+        self._econfig[EK.EC.n_max] = steps
+
+    def _build_blob(self, weights: Array) -> None:
+        b, n_obs = self.batch, sum(self._sizes.values())
         shapes = {
-            "action": (batch, self.n_actions), "skip": (batch,), "log_lo": (3,), "log_hi": (3,),
-            "lookahead": (len(config.lookahead),), "eps_prev": (batch, self.n_contours),
-            "s_before": (batch,), "obs": (batch, n_obs), "ref": (batch, self.n_axes),
-            "vel": (batch, self.n_axes), "reward": (batch,), "terminated": (batch,),
-            "failure": (batch,),
+            "action": (b, self.n_actions), "skip": (b,), "g_max": (3,), "g_log": (3,),
+            "lookahead": (len(self.config.lookahead),), "eps_prev": (b, self.n_contours),
+            "s_before": (b,), "obs": (b, n_obs), "ref": (b, self.n_axes), "vel": (b, self.n_axes),
+            "raw": (b,), "reward": (b,), "terminated": (b,), "truncated": (b,), "failure": (b,),
+            "comp": (b, COMPONENTS.size), "weights": (max(weights.size, 1),), "steps": (b,),
+            "ret": (b,),
         }  # fmt: skip
-        self._blob = Blob([(name, shapes[name]) for name in EK.ENV_ARRAYS])
+        self._blob = Blob([(name, shapes[name]) for name in EK.ENV_FLOATS])
         self._attach_views()
-        self._v["log_lo"][...], self._v["log_hi"][...] = log_lo, log_hi
-        self._v["lookahead"][...] = config.lookahead
-        # env_step's leading arguments, constant for this task (Python scalars: numba's
-        # dispatcher types them fastest)
-        self._step_args = (
-            self._kind_code, float(config.max_feedrate_change * self.f_nominal),
-            float(self.f_bounds[0]), float(self.f_bounds[1]), self._blob.buffer,
-            self._blob.layout, float(config.tolerance), float(config.hard_limit),
-            float(config.failure_penalty), float(self._nominal_progress), float(self.f_nominal),
-            int(self.path.dim),
+        v = self._v
+        v["g_max"][...], v["g_log"][...] = self.g_max, self.g_log
+        v["lookahead"][...] = self.config.lookahead
+        v["weights"][: weights.size] = weights
+        lo, hi = component_bounds(self.hard_limit / self.tolerance, self._max_progress())
+        self.reward_range = reward_range(self._reward, weights, lo, hi)
+        self._econfig = EK.ENV_CONFIG.row(
+            kind=EK.KIND_CCC if self.kind == CCC else EK.KIND_FEEDRATE,
+            dovr=self.config.max_feedrate_change, ovr_lo=self.ovr_bounds[0],
+            ovr_hi=self.ovr_bounds[1], tol=self.tolerance, hard=self.hard_limit,
+            penalty=self.config.failure_penalty, r_lo=min(self.reward_range[0], 0.0),
+            r_hi=self.reward_range[1], n_max=self.max_episode_steps,
+            nominal=self.loop.nominal_feedrate * self.config.decision_ticks * self.stage.ts,
+            f_nom=self.loop.nominal_feedrate,
+            python_reward=float(not isinstance(self._reward, CompiledReward)),
+            dim=self.path.dim, length=self.path.length,
         )  # fmt: skip
-        self._axis_map = [
-            (c.axes[j], j, c.offset[j] if c.offset else 0.0)
-            for c in self.stage.contours
-            for j in range(c.dim)
-        ]
+
+    def _max_progress(self) -> float:
+        # the fastest progress per step: the highest feed (rapids included) at the top override
+        top = self.ovr_bounds[1] if self.kind == FEEDRATE else self.scenario.feed_override
+        return float(max(top, 1.0) * np.max(self.loop.program.feed) / self.loop.nominal_feedrate)
 
     def _attach_views(self) -> None:
         v = self._v = self._blob.views
-        self._action, self._skip, self._reward = v["action"], v["skip"], v["reward"]
-        self._terminated, self._failure = v["terminated"], v["failure"]
+        self._action, self._skip, self._reward_out = v["action"], v["skip"], v["reward"]
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
+        if isinstance(self._reward, str):  # a compiled reward, pickled by name
+            self._reward = REWARDS.get(self._reward)
         self._attach_views()  # views alias the unpickled buffer again
-        self.feed = self.loop.ip_p[:, 0]
+        self.kernel = _compile.specialise(
+            "contour_gym.envs._kernel",
+            {"RUN_TICKS": self.loop.kernel.run_ticks, "REWARD": self._reward_slot()},
+            f"{self.loop.describe()}, {self.kind} env, reward {self.reward_name}",
+        )
 
     def __getstate__(self) -> dict[str, Any]:
-        views = ("_v", "_action", "_skip", "_reward", "_terminated", "_failure", "feed")
-        return {k: val for k, val in self.__dict__.items() if k not in views}
+        drop = ("_v", "_action", "_skip", "_reward_out", "kernel")
+        state = {k: val for k, val in self.__dict__.items() if k not in drop}
+        if isinstance(self._reward, CompiledReward):
+            state["_reward"] = self._reward.name
+        return state
 
     # ---------------------------------------------------------------- spaces
     @property
@@ -143,19 +218,23 @@ class ContourTask:
 
     # ------------------------------------------------------- gains <-> actions
     def action_to_gains(self, action: Array) -> Array:
-        """Map actions in [-1, 1], shape (..., 3C), to CCC gains (..., C, 3) on a log scale."""
+        """Map actions in [-1, 1], shape (..., 3C), to CCC gains (..., C, 3) (env docstring)."""
         a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
         a = a.reshape(*a.shape[:-1], self.n_contours, 3)
-        lo, hi = self._v["log_lo"], self._v["log_hi"]
-        return np.exp(lo + 0.5 * (a + 1.0) * (hi - lo))
+        big_r = np.exp(self.g_log)
+        return self.g_max * (np.exp(0.5 * (a + 1.0) * self.g_log) - 1.0) / (big_r - 1.0)
 
     def gains_to_action(self, gains: Array) -> Array:
-        """Inverse of :meth:`action_to_gains`; gains outside the range map outside [-1, 1]."""
+        """Inverse of :meth:`action_to_gains`; gains above the range map above 1.
+
+        Raises:
+            ValueError: for negative or non-finite gains.
+        """
         g = np.asarray(gains, dtype=float)
-        if np.any(g <= 0) or not np.all(np.isfinite(g)):
-            raise ValueError(f"gains must be finite and > 0 to have an action, got {g}")
-        lo, hi = self._v["log_lo"], self._v["log_hi"]
-        a = 2.0 * (np.log(g) - lo) / (hi - lo) - 1.0
+        if np.any(g < 0) or not np.all(np.isfinite(g)):
+            raise ValueError(f"gains must be finite and >= 0 to have an action, got {g}")
+        big_r = np.exp(self.g_log)
+        a = 2.0 * np.log1p(g * (big_r - 1.0) / self.g_max) / self.g_log - 1.0
         return a.reshape(*g.shape[:-2], -1)
 
     # ----------------------------------------------------------------- reset
@@ -167,18 +246,24 @@ class ContourTask:
             self._randomize(int(b), rng)
             seeds.append(int(rng.integers(2**63 - 1)))
         self.loop.reset(seeds, members=members)
-        self._v["eps_prev"][members] = 0.0
-        self._v["skip"][members] = 1.0  # observe them without a reward
+        v = self._v
+        for name in ("eps_prev", "steps", "ret", "reward", "terminated", "truncated", "failure",
+                     "comp"):  # fmt: skip
+            v[name][members] = 0.0
         if self.kind == CCC:
-            self.loop.ccc_p[members, :, SK.CP_KP : SK.CP_KD + 1] = self.g_start
-            start = self.gains_to_action(
-                np.broadcast_to(self.g_start, (len(members), self.n_contours, 3))
-            )
-            self._v["action"][members] = np.clip(start, -1.0, 1.0)
+            self.loop.ccc_p[members, :, :3] = self.g0
+            gains = np.broadcast_to(self.g0, (len(members), self.n_contours, 3))
+            start = self.gains_to_action(gains)
+            v["action"][members] = np.clip(start, -1.0, 1.0)
         else:
-            self.feed[members] = self.f_nominal
-        self._finish()
-        self._v["skip"][members] = 0.0
+            self.loop.ip_p[members, IP.ovr] = self.scenario.feed_override
+        self.kernel.observe(*self._kernel_blobs(), np.asarray(members, dtype=np.int64))
+
+    def _kernel_blobs(self) -> tuple[Any, ...]:
+        loop = self.loop
+        fb, fl, ib, il = loop.blobs()
+        return (self._blob.buffer, self._blob.layout, fb, fl, ib, il, loop._kind,
+                loop._pblob.buffer, loop._pblob.layout, self._econfig)  # fmt: skip
 
     def _randomize(self, b: int, rng: np.random.Generator) -> None:
         ranges = self.config.randomization()
@@ -207,36 +292,41 @@ class ContourTask:
             self._action[~skip] = actions[~skip]
             self._skip[...] = skip
         loop = self.loop
-        if loop._noise.active and not np.isfinite(self._action).all():
+        if loop.noise_active and not np.isfinite(self._action).all():
             # checked before prepare(), which draws noise: a rejected action leaves no trace
             raise ValueError(f"actions must be finite, got {actions}")
         call = loop.prepare(
             self.config.decision_ticks, None if skip is None else np.flatnonzero(skip)
         )
-        if not EK.env_step(*self._step_args, *loop.kernel_args(call)):
+        eb, el = self._blob.buffer, self._blob.layout
+        if not self.kernel.env_step(eb, el, self._econfig, *loop.kernel_args(call)):
             raise ValueError(f"actions must be finite, got {actions}")  # nothing was run
         loop.complete(call)
+        if not isinstance(self._reward, CompiledReward):
+            self._python_rewards()
 
-    def results(self) -> tuple[Array, NDArray[np.bool_], NDArray[np.bool_]]:
-        """Rewards (B,), terminated (B,) and failure (B,) of the last decision (copies)."""
-        return self._reward.copy(), self._terminated != 0.0, self._failure != 0.0
+    def _python_rewards(self) -> None:
+        live = self._skip == 0.0
+        reward = cast(Callable[[dict[str, Array]], Any], self._reward)
+        values = np.asarray(reward(components_dict(self._v["comp"])), dtype=np.float64)
+        if values.shape != (self.batch,) or not np.all(np.isfinite(values[live])):
+            raise ValueError(
+                f"the Python reward must return {self.batch} finite values, got {values!r}"
+            )
+        self._v["raw"][...] = values
+        self.kernel.apply_rewards(*self._kernel_blobs()[:6], self._econfig)
 
-    def member_result(self, b: int) -> tuple[float, bool, bool]:
-        """Reward, terminated and failure of member ``b`` after the last decision."""
-        return (
-            float(self._reward[b]),
-            bool(self._terminated[b] != 0.0),
-            bool(self._failure[b] != 0.0),
-        )
+    def results(self) -> tuple[Array, NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]]:
+        """Rewards (B,), terminated, truncated and failure (B,) of the last decision (copies)."""
+        v = self._v
+        return (v["reward"].copy(), v["terminated"] != 0.0, v["truncated"] != 0.0,
+                v["failure"] != 0.0)  # fmt: skip
 
-    def _finish(self) -> None:
-        cfg, loop, t = self.config, self.loop, self.path.table
-        EK.finish_step(
-            self._kind_code, t.kind, t.s0, t.data, self.path.dim, self.path.length,
-            loop._fblob.buffer, loop._fblob.layout, loop._iblob.buffer, loop._iblob.layout,
-            self._blob.buffer, self._blob.layout, cfg.tolerance, cfg.hard_limit,
-            cfg.failure_penalty, self._nominal_progress, self.f_nominal,
-        )  # fmt: skip
+    def member_result(self, b: int) -> tuple[float, bool, bool, bool]:
+        """Reward, terminated, truncated and failure of member ``b`` after the last decision."""
+        v = self._v
+        return (float(v["reward"][b]), bool(v["terminated"][b] != 0.0),
+                bool(v["truncated"][b] != 0.0), bool(v["failure"][b] != 0.0))  # fmt: skip
 
     # ----------------------------------------------------------- observation
     def observe(self, member: int | None = None) -> dict[str, NDArray[np.float32]]:
@@ -254,20 +344,87 @@ class ContourTask:
         return out
 
     # ------------------------------------------------------------------ info
-    def info(self, b: int, failure: bool, ended: bool) -> dict[str, Any]:
-        """Info of member ``b`` after a step (SI units)."""
-        loop = self.loop
-        out: dict[str, Any] = {
-            "contour_error": loop.contour_error[b].copy(),
-            "contour_error_estimate": loop.contour_error_estimate[b].copy(),
-            "tracking_error": self._v["ref"][b] - loop.ax_s[b, :, PK.ST_X],
-            "feedrate": float(self.feed[b]),
-            "s": float(loop.s[b]),
-            "failure": bool(failure),
+    def _step_info(self) -> dict[str, Any]:
+        """Every member's per-step info as batched arrays (B, ...)."""
+        loop, v = self.loop, self._v
+        seg = loop.ip_s[:, IS.seg].astype(np.int64)
+        comps = components_dict(v["comp"])
+        return {
+            "contour_error": loop.contour_error.copy(),
+            "contour_error_estimate": loop.contour_error_estimate.copy(),
+            "tracking_error": v["ref"] - loop.ax_s[:, :, ST.x],
+            "feedrate": loop.ip_p[:, IP.ovr] * loop.program.feed[seg],
+            "s": loop.s.copy(),
+            "failure": v["failure"] != 0.0,
+            "reward_components": comps,
         }
-        if ended:
-            out["metrics"] = member_metrics(loop.metrics(), b)
+
+    def _end_metrics(self) -> dict[str, Any]:
+        loop = self.loop
+        m = loop.metrics()
+        out: dict[str, Any] = {k: m[k].copy() for k in member_metrics(m, 0)}
+        out["finished"] = loop.status == STATUS_ARRIVED
         return out
+
+    def info(self, b: int, ended: bool) -> dict[str, Any]:
+        """Info of member ``b`` after a step or reset (SI units; see the env docstrings)."""
+        step = self._step_info()
+        out: dict[str, Any] = {}
+        for k, val in step.items():
+            out[k] = _member(val, b)
+        if ended:
+            out["metrics"] = {k: _member(val, b) for k, val in self._end_metrics().items()}
+        return out
+
+    def batch_info(self, ended: NDArray[np.bool_]) -> dict[str, Any]:
+        """The vector env's info: each key batched with its ``_key`` mask.
+
+        As Gymnasium's ``VectorEnv._add_info`` builds it from the members' infos (``metrics``
+        only where a member's episode ended).
+        """
+        everyone = np.ones(self.batch, dtype=bool)
+        info = _masked(self._step_info(), everyone)
+        if ended.any():
+            metrics = {k: np.where(ended, val, np.zeros_like(val))
+                       for k, val in self._end_metrics().items()}  # fmt: skip
+            info["metrics"], info["_metrics"] = _masked(metrics, ended), ended.copy()
+        return info
+
+
+def _member(value: Any, b: int) -> Any:
+    if isinstance(value, dict):
+        return {k: _member(v, b) for k, v in value.items()}
+    item = value[b]
+    if isinstance(item, np.ndarray):
+        return item.copy()
+    if isinstance(item, np.bool_):
+        return bool(item)
+    return float(item)
+
+
+def _masked(values: dict[str, Any], mask: NDArray[np.bool_]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, val in values.items():
+        out[key] = _masked(val, mask) if isinstance(val, dict) else val
+        out[f"_{key}"] = mask.copy()
+    return out
+
+
+def _scenario(config: EnvConfig) -> Any:
+    options: dict[str, Any] = {
+        "ideal": config.ideal, "axis_controller": config.axis_controller,
+        "controller_options": config.controller_options, "ccc_law": config.ccc_law,
+        "ccc_law_params": config.ccc_law_params, "path_control": config.path_control,
+        "path_tolerance": config.path_tolerance, "settle_time": config.settle_time,
+        "estimator_options": config.estimator_options,
+    }  # fmt: skip
+    if config.ccc_injection is not None:
+        options["ccc_injection"] = config.ccc_injection
+    options["estimator"] = config.estimator or resolve_preset(config.plant).estimator
+    return make_scenario(
+        config.plant, config.path, config.feedrate, feedrate_override=config.feedrate_override,
+        **options,
+    )  # fmt: skip
 
 
 def member_rngs(seed: int | None, count: int) -> list[np.random.Generator]:

@@ -9,13 +9,19 @@ _SPEC = """
     ## Description
     Paper 004's adaptive feedrate task: traverse the path as fast as possible while the
     contour error stays within ``tolerance``. The CCC is fixed (``ccc_gains``, default: the
-    plant preset's PID CCC); every step the agent changes the commanded feedrate, which the
-    interpolator follows within its acceleration limit, for ``decision_ticks`` ticks.
+    plant preset's); every step the agent changes the feedrate, which the interpolator
+    follows within the machine's acceleration limit, for ``decision_ticks`` ticks. The
+    interpolator only stops where it must (the path end, exact stops and dwells of a G-code
+    part): slowing for corners and curves is the agent's job, unless ``path_control`` turns
+    on the CNC's own look-ahead planning (the ``cnc_lookahead`` reference policy does).
 
     ## Action space
     ``Box(-1, 1, (1,), float32)``: ``dF = a * max_feedrate_change * F_nom`` and
     ``F(k) = clip(F(k-1) + dF, F_min, F_max)`` (004 eq. 3.3) with
-    ``(F_min, F_max) = feedrate_range * F_nom``. Out-of-range actions are clipped; NaN/inf or
+    ``(F_min, F_max) = feedrate_range * F_nom``, where ``F_nom`` is the programmed feedrate of
+    the current block (one value on a plain path; a G-code part's own F words), i.e. the action
+    moves the feed override ``F / F_nom`` by ``a * max_feedrate_change``. Rapid moves run at the
+    machine's rapid rate whatever the override. Out-of-range actions are clipped; NaN/inf or
     misshaped actions raise ValueError.
 
     ## Observation space
@@ -26,27 +32,36 @@ _SPEC = """
     | contour_error | (C,) | estimated contour error, signed in 2-D | m / tol |
     | contour_error_change | (C,) | its change over the decision (004's 2nd input) | m / tol |
     | tracking_error | (A,) | reference minus encoder reading per axis | m / 1 mm |
-    | reference_velocity | (A,) | reference velocity per axis | (m/s) / F_nom |
+    | reference_velocity | (A,) | reference velocity per axis | (m/s) / nominal feedrate |
     | curvature | (1+L,) | path curvature at s_ref and ``lookahead`` distances ahead | 1/m x 1 cm |
-    | progress | (1,) | s_ref / path length | - |
-    | feedrate | (2,) | commanded feedrate, actual path speed | (m/s) / F_nom |
+    | progress | (1,) | the machine's foot point along the path / path length | - |
+    | feedrate | (2,) | the override F / F_nom, actual path speed / F_nom | - |
 
     ## Reward
-    ``r = ds / (F_nom T_dec) - 10 max(0, max|eps_true| - tolerance) / tolerance``: progress
-    (1 per step at the nominal feedrate) minus a penalty for the decision's worst excess over
-    the tolerance; ``-failure_penalty`` on failure.
+    By default ``r = progress - 10 excess`` (``contour_gym.rewards``): ``progress`` the arc
+    length advanced in the decision over ``F_nom x decision time`` (1 per step at the nominal
+    feedrate), ``excess = max(0, peak - 1)`` with ``peak`` the decision's max |true contour
+    error| in tolerances. Clipped to the reward's range ``[r_lo, r_hi]``;
+    ``info["reward_components"]`` holds the components.
+
+    **Failure never pays.** On failure the step's reward makes the episode's return exactly
+    ``N min(r_lo, 0) - failure_penalty`` (N the env's step limit), below any completed or
+    truncated episode.
 
     ## Starting state
-    At rest at the path start, commanded feedrate F_nom.
+    At rest at the path start, override 1 (``feedrate_override`` if given).
 
     ## Episode end
-    Terminated when the reference reaches the path end, or on failure (``info["failure"]``).
-    Truncated by the registered ``max_episode_steps``; stepping after the end without
+    Terminated when the machine is in position at the path end, or on failure (|true
+    contour error| > ``hard_limit``, a diverged state, or not in position ``settle_time`` after
+    the reference ended; ``info["failure"]``). Truncated at the env's own step limit N (twice
+    the planned decisions at the slowest feedrate, plus 10); stepping after the end without
     ``reset`` raises ``gymnasium.error.ResetNeeded``.
 
     ## Info
-    As the CCC env: true and estimated contour error, tracking errors, ``feedrate``, ``s``,
-    ``failure``, and ``metrics`` (including ``cycle_time``) at the end.
+    As the CCC env: true and estimated contour error, tracking errors, ``feedrate`` (m/s),
+    ``s``, ``failure``, ``reward_components``, and ``metrics`` (including ``cycle_time``, the
+    time until in position at the end, and ``finished``) at every episode end.
 
     ## Arguments
     As the CCC env, plus ``ccc_gains``, ``feedrate_range``, ``max_feedrate_change``.

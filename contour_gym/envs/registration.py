@@ -2,23 +2,17 @@
 
 Grammar: ``contour_gym/<Task>[-<Machine>]-<Path>-v<N>`` with Task ``CCC`` or ``Feedrate``; the
 generic ``contour_gym/CCC-v0`` and ``contour_gym/Feedrate-v0`` take every argument. Each id
-registers ``entry_point`` (single env), ``vector_entry_point`` (native vector env) and
-``max_episode_steps`` = ``EPISODE_MARGIN`` x (nominal cycle time / decision time) for the
-CCC env and ``1 / F_min`` times that for the feedrate env, so truncation only ends
-episodes that stalled.
+registers ``entry_point`` (single env) and ``vector_entry_point`` (native vector env). No
+``max_episode_steps`` is registered: every env truncates itself at its own limit, computed
+from its own path, feedrate and decision time (so a user's path or feedrate given to
+``gym.make`` runs to its end), and puts the episode's metrics into that step's info.
 """
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import gymnasium as gym
-
-from contour_gym.api import make_scenario
-from contour_gym.envs.config import EnvConfig
-
-EPISODE_MARGIN = 2.0
 
 # id -> (task, env kwargs): one per paper scenario
 SCENARIOS: dict[str, tuple[str, dict[str, Any]]] = {
@@ -44,15 +38,6 @@ _ENTRY = {
 }
 
 
-def max_episode_steps(task: str, kwargs: dict[str, Any]) -> int:
-    """Registered step limit of a scenario (see the module docstring)."""
-    cfg = EnvConfig.from_kwargs(kwargs)
-    sc = make_scenario(cfg.plant, cfg.path, cfg.feedrate)
-    decisions = sc.path.length / sc.feedrate / (cfg.decision_ticks * sc.preset.stage.ts)
-    slow = 1.0 / cfg.feedrate_range[0] if task == "Feedrate" else 1.0
-    return int(math.ceil(EPISODE_MARGIN * slow * decisions)) + 10
-
-
 def register_envs() -> None:
     """Register every id (idempotent)."""
     for name, (task, kwargs) in SCENARIOS.items():
@@ -64,7 +49,6 @@ def register_envs() -> None:
             id=env_id,
             entry_point=single,
             vector_entry_point=vector,
-            max_episode_steps=max_episode_steps(task, kwargs),
             kwargs=dict(kwargs),
         )
 

@@ -46,13 +46,15 @@ HELIX = 1
 POLY5 = 2
 NCOL = 18
 
+CLOSED_TOL = 1e-9  # start and end closer than this (m): the path is closed
+CORNER_TOL = 1e-8  # unit tangents differing by more than this: a corner
 _RMIN = 2.5e-10  # smallest half-width of a search sub-interval, m
 _NEWTON_TOL = 1e-14  # Newton step size at which the foot point is final, m
 _BOUND_SAMPLES = 32  # sub-intervals per segment when building bounding spheres
 
 
 @numba.njit(cache=True, inline="always")
-def find_segment(s0, s):  # type: ignore[no-untyped-def]
+def find_segment(s0, s):
     """Index of the segment containing arc length ``s`` (binary search, clamped to [0, n-1]).
 
     At a segment boundary the segment that starts there is returned.
@@ -74,7 +76,7 @@ def find_segment(s0, s):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def _poly_axis(data, i, j, t):  # type: ignore[no-untyped-def]
+def _poly_axis(data, i, j, t):
     """Value, first and second derivative of coordinate ``j`` of a POLY5 row at ``t``."""
     c1 = data[i, 3 + j]
     c2 = data[i, 6 + j]
@@ -88,7 +90,7 @@ def _poly_axis(data, i, j, t):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def eval_segment(kind, data, i, t):  # type: ignore[no-untyped-def]
+def eval_segment(kind, data, i, t):
     """Point, dP/ds and d2P/ds2 of segment ``i`` at local arc length ``t`` (9 floats)."""
     k = kind[i]
     if k == LINE:
@@ -125,7 +127,7 @@ def eval_segment(kind, data, i, t):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def eval_path(kind, s0, data, s):  # type: ignore[no-untyped-def]
+def eval_path(kind, s0, data, s):
     """Point, dP/ds and d2P/ds2 at arc length ``s`` clamped to [0, L] (9 floats).
 
     At a corner the segment that starts there is used. NaN propagates.
@@ -140,7 +142,7 @@ def eval_path(kind, s0, data, s):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def _dist2_at(kind, data, i, t, px, py, pz):  # type: ignore[no-untyped-def]
+def _dist2_at(kind, data, i, t, px, py, pz):
     """Squared distance from p to segment ``i`` at ``t``, with g and g' (see module doc)."""
     x, y, z, tx, ty, tz, kx, ky, kz = eval_segment(kind, data, i, t)
     ex = x - px
@@ -152,7 +154,7 @@ def _dist2_at(kind, data, i, t, px, py, pz):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def _nearest_line(data, i, px, py, pz, ta, tb):  # type: ignore[no-untyped-def]
+def _nearest_line(data, i, px, py, pz, ta, tb):
     ux = data[i, 3]
     uy = data[i, 4]
     uz = data[i, 5]
@@ -168,7 +170,7 @@ def _nearest_line(data, i, px, py, pz, ta, tb):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def _nearest_arc(kind, data, i, px, py, pz, ta, tb):  # type: ignore[no-untyped-def]
+def _nearest_arc(kind, data, i, px, py, pz, ta, tb):
     """Closed form for a plain arc: the foot is at the polar angle of p, else an end."""
     qx = px - data[i, 0]
     qy = py - data[i, 1]
@@ -201,7 +203,7 @@ def _nearest_arc(kind, data, i, px, py, pz, ta, tb):  # type: ignore[no-untyped-
 
 
 @numba.njit(cache=True)
-def _norm3(data, i, j):  # type: ignore[no-untyped-def]
+def _norm3(data, i, j):
     x = data[i, j]
     y = data[i, j + 1]
     z = data[i, j + 2]
@@ -209,7 +211,7 @@ def _norm3(data, i, j):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def _g2_bound(data, i, seg_len, dmax):  # type: ignore[no-untyped-def]
+def _g2_bound(data, i, seg_len, dmax):
     """Upper bound of |g''| = |3 P'.P'' + (P - p).P'''| over a POLY5 span, |P - p| <= dmax."""
     n1 = _norm3(data, i, 3)
     n2 = _norm3(data, i, 6)
@@ -223,19 +225,30 @@ def _g2_bound(data, i, seg_len, dmax):  # type: ignore[no-untyped-def]
     return 3.0 * v * a + dmax * j
 
 
+@numba.njit(cache=True, inline="always")
+def _g_at(kind, data, i, px, py, pz, local, t):
+    """Squared distance, g and g' at ``t``.
+
+    On segment ``i``, or (``local`` = (r, w, h, x, y, z), ``r > 0``) on a helix in its local
+    frame.
+    """
+    if local[0] > 0.0:
+        return _helix_f(local[0], local[1], local[2], local[3], local[4], local[5], t)
+    return _dist2_at(kind, data, i, t, px, py, pz)
+
+
 @numba.njit(cache=True)
-def _newton(kind, data, i, px, py, pz, lo, hi, glo, ghi):  # type: ignore[no-untyped-def]
+def _root(kind, data, i, px, py, pz, local, lo, hi, glo, ghi):
     """Root of g in (lo, hi) with g(lo) < 0 < g(hi): Newton safeguarded by bisection.
 
-    Returns the last evaluated parameter (within ``_NEWTON_TOL`` of the root) and its squared
-    distance.
+    The one root finder of the nearest-point search (POLY5 sweeps and helices). Returns the
+    parameter (within ``_NEWTON_TOL`` of the root) and its squared distance.
     """
     t = lo - glo * (hi - lo) / (ghi - glo)
     if not lo < t < hi:
         t = 0.5 * (lo + hi)
-    d2 = np.inf
     for _ in range(100):
-        d2, g, gp = _dist2_at(kind, data, i, t, px, py, pz)
+        _, g, gp = _g_at(kind, data, i, px, py, pz, local, t)
         if g < 0.0:
             lo = t
         elif g > 0.0:
@@ -245,14 +258,18 @@ def _newton(kind, data, i, px, py, pz, lo, hi, glo, ghi):  # type: ignore[no-unt
         tn = t - g / gp if gp > 0.0 else 0.5 * (lo + hi)
         if not lo < tn < hi:
             tn = 0.5 * (lo + hi)
-        if abs(tn - t) <= _NEWTON_TOL or hi - lo <= _NEWTON_TOL:
-            break
+        step = abs(tn - t)
         t = tn
-    return t, d2
+        if step <= _NEWTON_TOL or hi - lo <= _NEWTON_TOL:
+            break
+    return t, _g_at(kind, data, i, px, py, pz, local, t)[0]
+
+
+_NO_LOCAL = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 @numba.njit(cache=True)
-def _nearest_sweep(kind, data, i, px, py, pz, ta, tb, g2max):  # type: ignore[no-untyped-def]
+def _nearest_sweep(kind, data, i, px, py, pz, ta, tb, g2max):
     """Exact nearest point on a POLY5 span over local [ta, tb] (see the module doc).
 
     From each sub-interval start u the sweep steps ``w = |g'(u)| / g2max``: then g' keeps the
@@ -271,7 +288,7 @@ def _nearest_sweep(kind, data, i, px, py, pz, ta, tb, g2max):  # type: ignore[no
             best_d2 = d2v
             best_t = v
         if gu < 0.0 < gv:
-            t, d2 = _newton(kind, data, i, px, py, pz, u, v, gu, gv)
+            t, d2 = _root(kind, data, i, px, py, pz, _NO_LOCAL, u, v, gu, gv)
             if d2 < best_d2:
                 best_d2 = d2
                 best_t = t
@@ -282,7 +299,7 @@ def _nearest_sweep(kind, data, i, px, py, pz, ta, tb, g2max):  # type: ignore[no
 
 
 @numba.njit(cache=True)
-def _helix_local(data, i, px, py, pz):  # type: ignore[no-untyped-def]
+def _helix_local(data, i, px, py, pz):
     """Coordinates of p in the helix frame (e1, e2, a) about its centre."""
     qx = px - data[i, 0]
     qy = py - data[i, 1]
@@ -294,7 +311,7 @@ def _helix_local(data, i, px, py, pz):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def _helix_f(r, w, h, x, y, z, t):  # type: ignore[no-untyped-def]
+def _helix_f(r, w, h, x, y, z, t):
     """Squared distance, g and g' at t for a helix point in local coordinates (x, y, z)."""
     phi = w * t
     c = math.cos(phi)
@@ -308,31 +325,7 @@ def _helix_f(r, w, h, x, y, z, t):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def _helix_root(r, w, h, x, y, z, lo, hi, glo, ghi):  # type: ignore[no-untyped-def]
-    """Root of g in (lo, hi), g(lo) < 0 < g(hi), g increasing: safeguarded Newton."""
-    t = lo - glo * (hi - lo) / (ghi - glo)
-    if not lo < t < hi:
-        t = 0.5 * (lo + hi)
-    for _ in range(100):
-        _, g, gp = _helix_f(r, w, h, x, y, z, t)
-        if g < 0.0:
-            lo = t
-        elif g > 0.0:
-            hi = t
-        else:
-            break
-        tn = t - g / gp if gp > 0.0 else 0.5 * (lo + hi)
-        if not lo < tn < hi:
-            tn = 0.5 * (lo + hi)
-        step = abs(tn - t)
-        t = tn
-        if step <= _NEWTON_TOL or hi - lo <= _NEWTON_TOL:
-            break
-    return t, _helix_f(r, w, h, x, y, z, t)[0]
-
-
-@numba.njit(cache=True)
-def _nearest_helix(data, i, px, py, pz, ta, tb):  # type: ignore[no-untyped-def]
+def _nearest_helix(kind, data, i, px, py, pz, ta, tb):
     """Exact nearest point on a helix segment over local [ta, tb].
 
     With ``psi = w t - theta`` (theta the polar angle of p), ``g = R w rho sin(psi) + h (h t - z)``
@@ -354,7 +347,7 @@ def _nearest_helix(data, i, px, py, pz, ta, tb):  # type: ignore[no-untyped-def]
     kk = h * h / (r * rho * w * w) if rho > 0.0 else 2.0
     if kk >= 1.0:  # g' >= 0 everywhere: one minimum at most
         if ga < 0.0 < gb:
-            t, d2 = _helix_root(r, w, h, x, y, z, ta, tb, ga, gb)
+            t, d2 = _root(kind, data, i, px, py, pz, (r, w, h, x, y, z), ta, tb, ga, gb)
             if d2 < best_d2:
                 best_d2 = d2
                 best_t = t
@@ -381,7 +374,7 @@ def _nearest_helix(data, i, px, py, pz, ta, tb):  # type: ignore[no-untyped-def]
         _, g1, _ = _helix_f(r, w, h, x, y, z, t1)
         _, g2, _ = _helix_f(r, w, h, x, y, z, t2)
         if g1 < 0.0 < g2:
-            t, d2 = _helix_root(r, w, h, x, y, z, t1, t2, g1, g2)
+            t, d2 = _root(kind, data, i, px, py, pz, (r, w, h, x, y, z), t1, t2, g1, g2)
             if d2 < best_d2:
                 best_d2 = d2
                 best_t = t
@@ -390,7 +383,7 @@ def _nearest_helix(data, i, px, py, pz, ta, tb):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def nearest_segment(kind, data, bound, i, seg_len, px, py, pz, ta, tb):  # type: ignore[no-untyped-def]
+def nearest_segment(kind, data, bound, i, seg_len, px, py, pz, ta, tb):
     """Nearest point of segment ``i`` restricted to local ``t`` in [ta, tb]: (t, dist2)."""
     k = kind[i]
     if k == LINE:
@@ -398,7 +391,7 @@ def nearest_segment(kind, data, bound, i, seg_len, px, py, pz, ta, tb):  # type:
     if k == HELIX:
         if data[i, 14] == 0.0:
             return _nearest_arc(kind, data, i, px, py, pz, ta, tb)
-        return _nearest_helix(data, i, px, py, pz, ta, tb)
+        return _nearest_helix(kind, data, i, px, py, pz, ta, tb)
     dx = px - bound[i, 0]
     dy = py - bound[i, 1]
     dz = pz - bound[i, 2]
@@ -408,7 +401,7 @@ def nearest_segment(kind, data, bound, i, seg_len, px, py, pz, ta, tb):  # type:
 
 
 @numba.njit(cache=True, inline="always")
-def _lower_bound(bound, j, px, py, pz):  # type: ignore[no-untyped-def]
+def _lower_bound(bound, j, px, py, pz):
     dx = px - bound[j, 0]
     dy = py - bound[j, 1]
     dz = pz - bound[j, 2]
@@ -416,7 +409,7 @@ def _lower_bound(bound, j, px, py, pz):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def _visit(kind, s0, data, bound, j, px, py, pz, s_lo, s_hi, best_s, best_d2):  # type: ignore[no-untyped-def]
+def _visit(kind, s0, data, bound, j, px, py, pz, s_lo, s_hi, best_s, best_d2):
     """Search segment ``j`` over the window unless its bounding sphere rules it out."""
     lb = _lower_bound(bound, j, px, py, pz)
     if lb > 0.0 and lb * lb >= best_d2:
@@ -437,7 +430,7 @@ def _visit(kind, s0, data, bound, j, px, py, pz, s_lo, s_hi, best_s, best_d2):  
 
 
 @numba.njit(cache=True)
-def nearest_window(kind, s0, data, bound, px, py, pz, s_lo, s_hi):  # type: ignore[no-untyped-def]
+def nearest_window(kind, s0, data, bound, px, py, pz, s_lo, s_hi):
     """Exact nearest point with arc length in [s_lo, s_hi] (clamped to [0, L]): (s_foot, dist2).
 
     The segment holding the window centre is searched first, then its neighbours outward;
@@ -467,7 +460,7 @@ def nearest_window(kind, s0, data, bound, px, py, pz, s_lo, s_hi):  # type: igno
 
 
 @numba.njit(cache=True)
-def nearest_global(kind, s0, data, bound, px, py, pz):  # type: ignore[no-untyped-def]
+def nearest_global(kind, s0, data, bound, px, py, pz):
     """Exact nearest point over the whole path: (s_foot, dist2).
 
     The segment whose bounding sphere is nearest is searched first, then all others with pruning.
@@ -490,7 +483,7 @@ def nearest_global(kind, s0, data, bound, px, py, pz):  # type: ignore[no-untype
 
 
 @numba.njit(cache=True)
-def hint_window(kind, s0, data, px, py, pz, s_hint):  # type: ignore[no-untyped-def]
+def hint_window(kind, s0, data, px, py, pz, s_hint):
     """The search window used with a hint: ``[s_hint - W, s_hint + W]``.
 
     ``W = 4 |p - P(s_hint)| + 1e-9``. The nearest point q satisfies ``|q - P(s_hint)| <= 2 d``
@@ -508,22 +501,22 @@ def hint_window(kind, s0, data, px, py, pz, s_hint):  # type: ignore[no-untyped-
 
 
 @numba.njit(cache=True)
-def nearest_hint(kind, s0, data, bound, px, py, pz, s_hint):  # type: ignore[no-untyped-def]
+def nearest_hint(kind, s0, data, bound, px, py, pz, s_hint):
     """Nearest point in the window :func:`hint_window` around ``s_hint``: (s_foot, dist2)."""
     lo, hi = hint_window(kind, s0, data, px, py, pz, s_hint)
     return nearest_window_wrapped(kind, s0, data, bound, px, py, pz, lo, hi)
 
 
 @numba.njit(cache=True)
-def is_closed(kind, s0, data):  # type: ignore[no-untyped-def]
-    """Whether the path ends where it starts (within 1e-9 m, as ``Path.closed``)."""
+def is_closed(kind, s0, data):
+    """Whether the path ends where it starts (within ``CLOSED_TOL``, as ``Path.closed``)."""
     ax, ay, az, _, _, _, _, _, _ = eval_path(kind, s0, data, 0.0)
     bx, by, bz, _, _, _, _, _, _ = eval_path(kind, s0, data, s0[s0.shape[0] - 1])
-    return math.sqrt((ax - bx) ** 2 + (ay - by) ** 2 + (az - bz) ** 2) <= 1e-9
+    return math.sqrt((ax - bx) ** 2 + (ay - by) ** 2 + (az - bz) ** 2) <= CLOSED_TOL
 
 
 @numba.njit(cache=True)
-def nearest_window_wrapped(kind, s0, data, bound, px, py, pz, s_lo, s_hi):  # type: ignore[no-untyped-def]
+def nearest_window_wrapped(kind, s0, data, bound, px, py, pz, s_lo, s_hi):
     """:func:`nearest_window`, where on a closed path the window wraps around 0 and L.
 
     A tool that overshoots the end of a closed contour (or lags behind its start) is near
@@ -544,8 +537,9 @@ def nearest_window_wrapped(kind, s0, data, bound, px, py, pz, s_lo, s_hi):  # ty
     return sf, d2
 
 
-@numba.njit(cache=True)
-def _unit_tangent(kind, data, i, t):  # type: ignore[no-untyped-def]
+@numba.njit(cache=True, inline="always")
+def unit_tangent(kind, data, i, t):
+    """Unit tangent of segment ``i`` at local arc length ``t`` (zeros where P' vanishes)."""
     r = eval_segment(kind, data, i, t)
     norm = math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5])
     if norm == 0.0:
@@ -554,7 +548,7 @@ def _unit_tangent(kind, data, i, t):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def side_2d(kind, s0, data, closed, s, px, py):  # type: ignore[no-untyped-def]
+def side_2d(kind, s0, data, closed, s, px, py):
     """Sign (+1 left of travel, -1 right) of a 2-D point whose foot point is at ``s``.
 
     Uses the sum of the unit tangents just before and just after ``s``, so at a corner the
@@ -567,22 +561,22 @@ def side_2d(kind, s0, data, closed, s, px, py):  # type: ignore[no-untyped-def]
     i = find_segment(s0, s)
     t = s - s0[i]
     x, y, _, _, _, _, _, _, _ = eval_segment(kind, data, i, t)
-    ax, ay, _ = _unit_tangent(kind, data, i, t)
+    ax, ay, _ = unit_tangent(kind, data, i, t)
     bx = ax
     by = ay
     if t <= 0.0:
         if i > 0:
-            bx, by, _ = _unit_tangent(kind, data, i - 1, s0[i] - s0[i - 1])
+            bx, by, _ = unit_tangent(kind, data, i - 1, s0[i] - s0[i - 1])
         elif closed:
-            bx, by, _ = _unit_tangent(kind, data, n - 1, total - s0[n - 1])
+            bx, by, _ = unit_tangent(kind, data, n - 1, total - s0[n - 1])
     elif s >= total and closed:
-        bx, by, _ = _unit_tangent(kind, data, 0, 0.0)
+        bx, by, _ = unit_tangent(kind, data, 0, 0.0)
     cross = (ax + bx) * (py - y) - (ay + by) * (px - x)
     return -1.0 if cross < 0.0 else 1.0
 
 
 @numba.njit(cache=True)
-def eval_many(kind, s0, data, s, out):  # type: ignore[no-untyped-def]
+def eval_many(kind, s0, data, s, out):
     """:func:`eval_path` at every ``s[k]`` into ``out[k, 0:9]``."""
     for k in range(s.shape[0]):
         r = eval_path(kind, s0, data, s[k])
@@ -591,7 +585,7 @@ def eval_many(kind, s0, data, s, out):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def nearest_many(kind, s0, data, bound, pts, hint, mode, out_s, out_d2):  # type: ignore[no-untyped-def]
+def nearest_many(kind, s0, data, bound, pts, hint, mode, out_s, out_d2):
     """Nearest point for every row of ``pts`` (N, 3).
 
     ``mode`` 0: global; 1: :func:`nearest_hint` with ``hint[k]``.
@@ -607,14 +601,14 @@ def nearest_many(kind, s0, data, bound, pts, hint, mode, out_s, out_d2):  # type
 
 
 @numba.njit(cache=True)
-def side_many(kind, s0, data, closed, s, pts, out):  # type: ignore[no-untyped-def]
+def side_many(kind, s0, data, closed, s, pts, out):
     """:func:`side_2d` for every foot ``s[k]`` and point ``pts[k]``."""
     for k in range(s.shape[0]):
         out[k] = side_2d(kind, s0, data, closed, s[k], pts[k, 0], pts[k, 1])
 
 
 @numba.njit(cache=True)
-def _accel_bound(kind, data, i, seg_len):  # type: ignore[no-untyped-def]
+def _accel_bound(kind, data, i, seg_len):
     """Upper bound of |P''| over the segment."""
     k = kind[i]
     if k == LINE:
@@ -628,7 +622,7 @@ def _accel_bound(kind, data, i, seg_len):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def compute_bounds(kind, s0, data):  # type: ignore[no-untyped-def]
+def compute_bounds(kind, s0, data):
     """Bounding sphere (centre xyz, radius) of every segment, (n, 4).
 
     Samples each segment at ``_BOUND_SAMPLES + 1`` points; a curve piece between samples
@@ -662,7 +656,7 @@ def compute_bounds(kind, s0, data):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def segment_ends(kind, s0, data):  # type: ignore[no-untyped-def]
+def segment_ends(kind, s0, data):
     """Point and unit tangent at the start and end of every segment, (n, 2, 6)."""
     n = kind.shape[0]
     out = np.empty((n, 2, 6))
@@ -670,7 +664,7 @@ def segment_ends(kind, s0, data):  # type: ignore[no-untyped-def]
         for e in range(2):
             t = 0.0 if e == 0 else s0[i + 1] - s0[i]
             r = eval_segment(kind, data, i, t)
-            ux, uy, uz = _unit_tangent(kind, data, i, t)
+            ux, uy, uz = unit_tangent(kind, data, i, t)
             out[i, e, 0] = r[0]
             out[i, e, 1] = r[1]
             out[i, e, 2] = r[2]

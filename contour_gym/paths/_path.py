@@ -9,12 +9,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from contour_gym._validate import as_finite_array
 from contour_gym.paths import _geom
+from contour_gym.paths._geom import CLOSED_TOL, CORNER_TOL
 from contour_gym.paths._table import PathTable, transform_table
 
 FloatArray = NDArray[np.float64]
-
-CLOSED_TOL = 1e-9  # start and end closer than this (m): the path is closed
-CORNER_TOL = 1e-8  # unit tangents differing by more than this: a corner
 
 
 class Path:

@@ -1,29 +1,32 @@
-"""Plants: axis dynamics, friction, ripple, disturbances, stages and the papers' presets."""
+"""Plants: axis dynamics, friction laws, ripple, disturbances, sensing, stages.
+
+The papers' machines (presets) sit one layer up, in :mod:`contour_gym.presets`: they need the
+servo gains too.
+"""
 
 from __future__ import annotations
 
-from contour_gym.plant.params import (
-    AxisParams,
+from contour_gym.plant.friction import (
+    FRICTION_LAWS,
     CoulombFriction,
-    Disturbance,
+    FrictionLaw,
     LuGreFriction,
-    Ripple,
     StribeckFriction,
+    register_friction_law,
 )
-from contour_gym.plant.presets import PRESETS, Preset, get_preset, pd_pole_placement
+from contour_gym.plant.params import AxisParams, Disturbance, Ripple
 from contour_gym.plant.stage import Contour, Stage
 
 __all__ = [
-    "PRESETS",
+    "FRICTION_LAWS",
     "AxisParams",
     "Contour",
     "CoulombFriction",
     "Disturbance",
+    "FrictionLaw",
     "LuGreFriction",
-    "Preset",
     "Ripple",
     "Stage",
     "StribeckFriction",
-    "get_preset",
-    "pd_pole_placement",
+    "register_friction_law",
 ]

@@ -1,4 +1,4 @@
-"""Frozen parameter dataclasses of one axis: dynamics, friction, force ripple, disturbances.
+"""Frozen parameter dataclasses of one axis: dynamics, force ripple, disturbances, sensing.
 
 Every axis obeys (DESIGN.md; issue 2 item 5)::
 
@@ -7,109 +7,23 @@ Every axis obeys (DESIGN.md; issue 2 item 5)::
 
 with ``u`` the controller output (A or V, saturated at ``u_max``), ``x`` in metres. All
 quantities are SI. Rotary axes (a motor on a ball screw) are converted to these linear
-equivalents by :meth:`AxisParams.from_rotary`.
+equivalents by :meth:`AxisParams.from_rotary`. Friction models live with their laws in
+:mod:`contour_gym.plant.friction` (re-exported here).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from contour_gym._validate import as_finite_array, finite, non_negative, positive
+from contour_gym.plant._kernel import MAX_HARMONICS
+from contour_gym.plant.friction import CoulombFriction, LuGreFriction, StribeckFriction
 
-
-@dataclass(frozen=True)
-class CoulombFriction:
-    """Coulomb friction with stiction: ``F = fc sgn(v)``; at rest it holds up to ``fs``.
-
-    Attributes:
-        fc: Coulomb (kinetic) friction force, N.
-        fs: Static (break-away) force, N; defaults to ``fc``.
-    """
-
-    fc: float
-    fs: float | None = None
-
-    def __post_init__(self) -> None:
-        non_negative(self.fc, "fc")
-        if self.fs is not None and non_negative(self.fs, "fs") < self.fc:
-            raise ValueError(f"fs must be >= fc, got fs={self.fs!r} < fc={self.fc!r}")
-
-    @property
-    def static(self) -> float:
-        """Break-away force, N."""
-        return self.fc if self.fs is None else float(self.fs)
-
-
-@dataclass(frozen=True)
-class StribeckFriction:
-    """Stribeck friction in the form of paper 003 (eqs. 7-8).
-
-    ``F = {fc + (fs - fc) exp(-(|v| / vs)^delta) + fv |v|} sgn(v)``; at rest it holds up to
-    ``fs`` (stiction).
-
-    Attributes:
-        fc: Coulomb friction, N.
-        fs: Static friction, N (>= fc).
-        vs: Stribeck velocity, m/s (003 calls it the lubricant parameter).
-        delta: Empirical Stribeck exponent (003's delta; 2 is Gaussian).
-        fv: Viscous friction coefficient, N s/m (in addition to the axis damping ``b``).
-    """
-
-    fc: float
-    fs: float
-    vs: float
-    delta: float = 2.0
-    fv: float = 0.0
-
-    def __post_init__(self) -> None:
-        non_negative(self.fc, "fc")
-        if non_negative(self.fs, "fs") < self.fc:
-            raise ValueError(f"fs must be >= fc, got fs={self.fs!r} < fc={self.fc!r}")
-        positive(self.vs, "vs")
-        positive(self.delta, "delta")
-        non_negative(self.fv, "fv")
-
-
-@dataclass(frozen=True)
-class LuGreFriction:
-    """LuGre dynamic friction (paper 002 eq. 1) with bristle state ``z``.
-
-    ``dz/dt = v - sigma0 |v| z / g(v)``, ``g(v) = fc + (fs - fc) exp(-(v/vs)^2)``,
-    ``F = sigma0 z + sigma1 dz/dt + sigma2 v``.
-
-    002 prints ``- sigma1 dz/dt``; the standard model (Canudas de Wit et al. 1995, 002's
-    ref. 16) has ``+ sigma1 dz/dt``, which is what dissipates energy; we use ``+``.
-
-    Attributes:
-        sigma0: Bristle stiffness, N/m (002 table 1: 560).
-        sigma1: Bristle damping, N s/m (002 table 1: 300).
-        sigma2: Viscous coefficient, N s/m (not published in 002; chosen per preset).
-        fc: Coulomb force, N (not published in 002; chosen per preset).
-        fs: Static force, N (002 table 1: 30).
-        vs: Stribeck velocity, m/s (002 table 1: 0.5).
-    """
-
-    sigma0: float
-    sigma1: float
-    sigma2: float
-    fc: float
-    fs: float
-    vs: float
-
-    def __post_init__(self) -> None:
-        positive(self.sigma0, "sigma0")
-        non_negative(self.sigma1, "sigma1")
-        non_negative(self.sigma2, "sigma2")
-        positive(self.fc, "fc")
-        if positive(self.fs, "fs") < self.fc:
-            raise ValueError(f"fs must be >= fc, got fs={self.fs!r} < fc={self.fc!r}")
-        positive(self.vs, "vs")
-
-
-Friction = CoulombFriction | StribeckFriction | LuGreFriction
+Friction = Any  # a registered law's model (contour_gym.plant.friction), or None
 
 
 @dataclass(frozen=True)
@@ -141,9 +55,6 @@ class Ripple:
         n = len(self.wavenumber)
         out[:n, 0], out[:n, 1], out[:n, 2] = self.sin_amp, self.cos_amp, self.wavenumber
         return out
-
-
-MAX_HARMONICS = 6
 
 
 @dataclass(frozen=True)
@@ -202,8 +113,9 @@ class AxisParams:
         friction: Friction model or None.
         ripple: Force ripple or None.
         disturbance: External disturbance or None.
-        encoder_resolution: Position quantisation step, m; 0 = none.
-        noise_std: Measurement noise standard deviation, m.
+        encoder_resolution: Position quantisation step of the encoder, m; 0 = none (the rig
+            model; ``ideal=True`` drops it).
+        noise_std: Measurement noise standard deviation, m (rig model; dropped by ``ideal``).
     """
 
     name: str
@@ -274,3 +186,15 @@ class AxisParams:
             force_constant=positive(torque_constant, f"{name}.torque_constant") * n,
             **kwargs,  # type: ignore[arg-type]
         )
+
+
+__all__ = [
+    "MAX_HARMONICS",
+    "AxisParams",
+    "CoulombFriction",
+    "Disturbance",
+    "Friction",
+    "LuGreFriction",
+    "Ripple",
+    "StribeckFriction",
+]

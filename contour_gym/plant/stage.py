@@ -10,12 +10,8 @@ from scipy.linalg import expm
 
 from contour_gym._validate import as_finite_array, positive
 from contour_gym.plant import _kernel as K
-from contour_gym.plant.params import (
-    AxisParams,
-    CoulombFriction,
-    LuGreFriction,
-    StribeckFriction,
-)
+from contour_gym.plant.friction import law_for
+from contour_gym.plant.params import AxisParams
 
 
 @dataclass(frozen=True)
@@ -52,6 +48,12 @@ class Stage:
         contours: The contours (one for X-Y or X-Y-Z; two for 003's X-Y-Y gantry).
         ts: Servo sampling time, s.
         substeps: Plant integration substeps per tick (for stiff friction).
+        delay_ticks: Computation delay of the digital drive, ticks (0 or 1): the command
+            computed from sample k acts from tick k + delay_ticks (rig model; ``ideal=True``
+            drops it).
+        in_position: In-position band of every axis, m: a contour has ended when the axes are
+            within it of the path's end point (a CNC's in-position check).
+        in_position_speed: ... and every axis is slower than this, m/s.
         notes: Where the numbers come from (published or chosen).
     """
 
@@ -60,12 +62,19 @@ class Stage:
     contours: tuple[Contour, ...]
     ts: float
     substeps: int = 1
+    delay_ticks: int = 1
+    in_position: float = 5e-6
+    in_position_speed: float = 1e-3
     notes: str = field(default="", compare=False)
 
     def __post_init__(self) -> None:
         positive(self.ts, "ts")
         if not isinstance(self.substeps, int) or self.substeps < 1:
             raise ValueError(f"substeps must be a positive int, got {self.substeps!r}")
+        if self.delay_ticks not in (0, 1):
+            raise ValueError(f"delay_ticks must be 0 or 1, got {self.delay_ticks!r}")
+        positive(self.in_position, "in_position")
+        positive(self.in_position_speed, "in_position_speed")
         if not self.axes or not self.contours:
             raise ValueError("a stage needs at least one axis and one contour")
         n = len(self.axes)
@@ -89,44 +98,54 @@ class Stage:
         return any(a.is_random for a in self.axes)
 
 
-def axis_row(axis: AxisParams) -> np.ndarray:
-    """Pack one axis into the kernel's (N_AX,) parameter row."""
-    p = np.zeros(K.N_AX)
-    p[K.AX_M], p[K.AX_B], p[K.AX_KS] = axis.mass, axis.damping, axis.stiffness
-    p[K.AX_K], p[K.AX_UMAX], p[K.AX_TAU] = axis.force_constant, axis.u_max, axis.current_tau
-    p[K.AX_ENC], p[K.AX_NOISE] = axis.encoder_resolution, axis.noise_std
-    p[K.AX_DELTA], p[K.AX_VS] = 2.0, 1.0
-    fr = axis.friction
-    if isinstance(fr, CoulombFriction):
-        p[K.AX_FKIND], p[K.AX_FC], p[K.AX_FS] = K.FRIC_COULOMB, fr.fc, fr.static
-    elif isinstance(fr, StribeckFriction):
-        p[K.AX_FKIND] = K.FRIC_STRIBECK
-        p[K.AX_FC], p[K.AX_FS], p[K.AX_VS] = fr.fc, fr.fs, fr.vs
-        p[K.AX_DELTA], p[K.AX_FV] = fr.delta, fr.fv
-    elif isinstance(fr, LuGreFriction):
-        p[K.AX_FKIND] = K.FRIC_LUGRE
-        p[K.AX_FC], p[K.AX_FS], p[K.AX_VS] = fr.fc, fr.fs, fr.vs
-        p[K.AX_S0], p[K.AX_S1], p[K.AX_S2] = fr.sigma0, fr.sigma1, fr.sigma2
-    p[K.AX_NRIP] = 0 if axis.ripple is None else len(axis.ripple.wavenumber)
-    return p
+def friction_laws(stage: Stage) -> tuple[str, ...]:
+    """The distinct friction laws of a stage's axes, in slot order (sorted names).
+
+    Raises:
+        ValueError: for more than ``MAX_LAWS`` distinct laws or an unregistered model.
+    """
+    names = tuple(sorted({law_for(a.friction).name for a in stage.axes}))
+    if len(names) > K.MAX_LAWS:
+        raise ValueError(f"a stage may use at most {K.MAX_LAWS} friction laws, got {names}")
+    return names
 
 
-def disturbance_row(axis: AxisParams, ts: float) -> np.ndarray:
-    """Pack one axis' disturbance into the kernel's (N_DS,) row for sampling time ``ts``."""
-    out = np.zeros(K.N_DS)
-    d = axis.disturbance
-    out[K.DS_STEP_T] = math.inf
+def axis_row(axis: AxisParams, law: int = 0, *, ideal: bool = False) -> np.ndarray:
+    """Pack one axis into the kernel's :data:`~contour_gym.plant._kernel.AXIS` row.
+
+    Args:
+        axis: The axis.
+        law: Slot of its friction law among the stage's (:func:`friction_laws`).
+        ideal: Drop the rig's encoder quantisation and measurement noise.
+    """
+    return K.AXIS.row(
+        m=axis.mass, b=axis.damping, ks=axis.stiffness, k=axis.force_constant, u_max=axis.u_max,
+        tau=axis.current_tau, enc=0.0 if ideal else axis.encoder_resolution,
+        noise=0.0 if ideal else axis.noise_std,
+        nrip=0 if axis.ripple is None else len(axis.ripple.wavenumber), law=law,
+    )  # fmt: skip
+
+
+def friction_row(axis: AxisParams) -> np.ndarray:
+    """The axis' friction-law parameter row (N_FR,)."""
+    return law_for(axis.friction).row(axis.friction)
+
+
+def ripple_rows(axis: AxisParams) -> np.ndarray:
+    """The axis' (MAX_HARMONICS, 3) ripple table (zeros without ripple)."""
+    return np.zeros((K.MAX_HARMONICS, 3)) if axis.ripple is None else axis.ripple.as_array()
+
+
+def disturbance_row(axis: AxisParams | None, ts: float) -> np.ndarray:
+    """Pack an axis' disturbance (None: no disturbance) into the kernel row for tick ``ts``."""
+    d = None if axis is None else axis.disturbance
     if d is None:
-        return out
-    out[K.DS_STEP_T], out[K.DS_STEP_A] = d.step_time, d.step_amp
-    out[K.DS_SIN_A], out[K.DS_SIN_W], out[K.DS_SIN_PH] = (
-        d.sin_amp,
-        2.0 * math.pi * d.sin_freq,
-        d.sin_phase,
-    )
-    out[K.DS_RND_STD] = d.random_std
-    out[K.DS_RND_ALPHA] = math.exp(-2.0 * math.pi * d.random_bandwidth * ts)
-    return out
+        return K.DISTURBANCE.row()
+    return K.DISTURBANCE.row(
+        step_t=d.step_time, step_a=d.step_amp, sin_a=d.sin_amp,
+        sin_w=2.0 * math.pi * d.sin_freq, sin_ph=d.sin_phase, rnd_std=d.random_std,
+        rnd_alpha=math.exp(-2.0 * math.pi * d.random_bandwidth * ts),
+    )  # fmt: skip
 
 
 def zoh_matrices(ax_p: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
@@ -139,16 +158,17 @@ def zoh_matrices(ax_p: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
         i' = (u - i) / tau          (tau > 0; with tau = 0 the drive is u itself)
 
     Args:
-        ax_p: Axis parameter rows, shape (..., N_AX).
+        ax_p: Axis parameter rows, shape (..., AXIS.size).
         h: Substep, s.
 
     Returns:
         ``(ad, bd)`` with shapes (..., 3, 3) and (..., 3, 2).
     """
     lead = ax_p.shape[:-1]
-    p = ax_p.reshape(-1, K.N_AX)
+    p = ax_p.reshape(-1, K.AXIS.size)
     n = p.shape[0]
-    m, b, k, kf, tau = (p[:, i] for i in (K.AX_M, K.AX_B, K.AX_KS, K.AX_K, K.AX_TAU))
+    ax = K.AX
+    m, b, k, kf, tau = (p[:, i] for i in (ax.m, ax.b, ax.ks, ax.k, ax.tau))
     big = np.zeros((n, 5, 5))
     big[:, 0, 1] = 1.0
     big[:, 1, 0], big[:, 1, 1] = -k / m, -b / m

@@ -1,8 +1,8 @@
 """The compiled axis controllers of a stage for B members, outside the servo loop.
 
 For a custom loop (hardware in the loop, another simulator) or to inspect a controller: the
-same kernels :class:`contour_gym.loop.ServoLoop` calls, on the same parameter rows and state,
-with every input checked.
+same compiled laws :class:`contour_gym.loop.ServoLoop` inlines, on the same parameter rows and
+state, with every input checked.
 """
 
 from __future__ import annotations
@@ -10,40 +10,19 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from contour_gym import _compile
 from contour_gym._validate import as_finite_array
-from contour_gym.servo import _kernel as K  # noqa: N812
-from contour_gym.servo.builders import build_controller
+from contour_gym.servo import compensation
+from contour_gym.servo.compensation import STATE as COMP_STATE
 from contour_gym.servo.gains import PIDGains
 
 if TYPE_CHECKING:
     from contour_gym.plant.stage import Stage
 
 Array = NDArray[np.float64]
-
-
-@numba.njit(cache=True)
-def _control_all(kind, p, s, ins, ts, out):  # type: ignore[no-untyped-def]
-    # p, s: (B * A, N) row tables; ins: (4, B, A) reference position, velocity,
-    # acceleration and measured position
-    n_axes = ins.shape[2]
-    for b in range(ins.shape[1]):
-        for a in range(n_axes):
-            r, r_dot, r_ddot, y = ins[0, b, a], ins[1, b, a], ins[2, b, a], ins[3, b, a]
-            out[b, a] = K.axis_control(kind, p, s, b * n_axes + a, r, r_dot, r_ddot, y, ts)
-
-
-@numba.njit(cache=True)
-def _commit_all(kind, p, s, ins, ts, u_total, u_max):  # type: ignore[no-untyped-def]
-    n_axes = ins.shape[2]
-    for b in range(ins.shape[1]):
-        for a in range(n_axes):
-            r, r_dot, r_ddot, y = ins[0, b, a], ins[1, b, a], ins[2, b, a], ins[3, b, a]
-            i = b * n_axes + a
-            K.axis_commit(kind, p, s, i, r, r_dot, r_ddot, y, ts, u_total[b, a], u_max[a])
 
 
 class AxisControllers:
@@ -57,9 +36,10 @@ class AxisControllers:
         **options: The controller's options.
 
     Attributes:
-        kind: Kernel kind.
-        params: (B, A, N_CP) parameter rows (assign to change members' parameters).
-        state: (B, A, N_CS) controller state.
+        controller: The registered controller.
+        params: (B, A, P) parameter rows (assign to change members' parameters).
+        state: (B, A, S) controller state.
+        compensation: (B, A, N) friction-compensation rows.
     """
 
     def __init__(
@@ -70,23 +50,42 @@ class AxisControllers:
         batch_size: int = 1,
         **options: object,
     ) -> None:
+        from contour_gym.servo import build_controller
+
         if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
             raise ValueError(f"batch_size must be a positive int, got {batch_size!r}")
-        self.kind, self.params = build_controller(name, stage, gains, int(batch_size), **options)
+        self.controller, self.params, self.compensation = build_controller(
+            name, stage, gains, int(batch_size), **options
+        )
         self.ts = stage.ts
         self.u_max = np.array([a.u_max for a in stage.axes])
-        self.state = np.zeros(self.params.shape[:2] + (K.N_CS,))
+        b, a = self.params.shape[:2]
+        self.state = np.zeros((b, a, self.controller.state.size))
+        self.comp_state = np.zeros((b, a, COMP_STATE.size))
+        self._kernel = _compile.specialise(
+            "contour_gym.servo._bank",
+            {"CTRL_CONTROL": self.controller.control, "CTRL_COMMIT": self.controller.commit,
+             "COMP_OUTPUT": compensation.output, "COMP_COMMIT": compensation.commit},
+            f"axis controller {name}",
+        )  # fmt: skip
 
     def reset(self) -> None:
         """Zero every member's state (integrators, observer, bristle state, history)."""
         self.state[:] = 0.0
+        self.comp_state[:] = 0.0
 
-    def _tables(self) -> tuple[Array, Array]:
-        # the kernels' (B * A, N) row tables; the state's is a view, written in place
-        params = np.ascontiguousarray(self.params, dtype=np.float64).reshape(-1, K.N_CP)
-        if not self.state.flags.c_contiguous:
-            self.state = np.ascontiguousarray(self.state)
-        return params, self.state.reshape(-1, K.N_CS)
+    def _tables(self) -> tuple[Array, Array, Array, Array]:
+        # the kernels' (B * A, N) row tables; the states' are views, written in place
+        def table(arr: Array) -> Array:
+            return np.ascontiguousarray(arr, dtype=np.float64).reshape(-1, arr.shape[-1])
+
+        for attr in ("state", "comp_state"):
+            if not getattr(self, attr).flags.c_contiguous:
+                setattr(self, attr, np.ascontiguousarray(getattr(self, attr)))
+        return (
+            table(self.params), self.state.reshape(-1, self.state.shape[-1]),
+            table(self.compensation), self.comp_state.reshape(-1, self.comp_state.shape[-1]),
+        )  # fmt: skip
 
     def _input(self, value: ArrayLike, name: str) -> Array:
         arr = as_finite_array(value, name)
@@ -98,8 +97,8 @@ class AxisControllers:
 
     def _inputs(self, r: ArrayLike, r_dot: ArrayLike, r_ddot: ArrayLike, y: ArrayLike) -> Array:
         names = ("r", "r_dot", "r_ddot", "y")
-        return np.stack(
-            [self._input(v, n) for v, n in zip((r, r_dot, r_ddot, y), names, strict=True)]
+        return np.ascontiguousarray(
+            np.stack([self._input(v, n) for v, n in zip((r, r_dot, r_ddot, y), names, strict=True)])
         )
 
     def control(self, r: ArrayLike, r_dot: ArrayLike, r_ddot: ArrayLike, y: ArrayLike) -> Array:
@@ -118,7 +117,8 @@ class AxisControllers:
             ValueError: for a non-finite (NaN) input or a shape that does not broadcast.
         """
         out = np.zeros(self.params.shape[:2])
-        _control_all(self.kind, *self._tables(), self._inputs(r, r_dot, r_ddot, y), self.ts, out)
+        ins = self._inputs(r, r_dot, r_ddot, y)
+        self._kernel.control_all(*self._tables(), ins, self.ts, out)
         return out
 
     def step(
@@ -147,8 +147,8 @@ class AxisControllers:
         """
         ins = self._inputs(r, r_dot, r_ddot, y)
         total = np.zeros(self.params.shape[:2])
-        params, state = self._tables()
-        _control_all(self.kind, params, state, ins, self.ts, total)
+        tables = self._tables()
+        self._kernel.control_all(*tables, ins, self.ts, total)
         total += self._input(u_extra, "u_extra")
-        _commit_all(self.kind, params, state, ins, self.ts, total, self.u_max)
+        self._kernel.commit_all(*tables, ins, self.ts, total, self.u_max)
         return np.clip(total, -self.u_max, self.u_max)

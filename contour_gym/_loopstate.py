@@ -1,0 +1,118 @@
+"""The servo loop's arrays by name: blob layout, row layouts, and the kernels' grouped views.
+
+A :class:`~contour_gym.loop.ServoLoop` keeps every per-member array in two blobs
+(:mod:`contour_gym._blob`): floats in the order of :data:`FLOATS`, ints in :data:`INTS`. The
+compiled side rebuilds them as one named tuple of views (:func:`loop_arrays`), indexed by name
+(``F.ip_s`` is the blob index of ``ip_s``): the kernels take a handful of grouped arguments
+(this tuple, the path's :data:`PathArrays`, the scalar settings :data:`Config`) instead of
+dozens of positional arrays.
+
+Per-axis and per-contour arrays are *row tables* (all but the last dimension merged: row
+``b * A + a`` or ``b * C + c``); see :mod:`contour_gym.plant._kernel` for why the kernels index
+rows rather than take row views.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numba
+
+from contour_gym._blob import rows2, rows3, view1, view2
+from contour_gym._schema import Schema, state_schema
+
+# float blob: (name, how the kernel views it)
+FLOATS = (
+    ("ax_p", "rows2"), ("fr_p", "rows2"), ("rip", "rows3"), ("dist", "rows2"),
+    ("ad", "rows3"), ("bd", "rows3"), ("ax_s", "rows2"), ("ctrl_p", "rows2"),
+    ("ctrl_s", "rows2"), ("comp_p", "rows2"), ("comp_s", "rows2"), ("ccc_p", "rows2"),
+    ("ccc_w", "rows2"), ("ccc_s", "rows2"), ("ccc_data", "view1"), ("est_p", "view1"),
+    ("hist", "view2"), ("ip_p", "view2"), ("ip_s", "view2"), ("foot", "rows2"),
+    ("last", "rows2"), ("acc_c", "rows2"), ("acc_a", "rows2"), ("ep_c", "rows2"),
+    ("ep_a", "rows2"), ("u_cmd", "view2"), ("y_last", "view2"), ("mem", "view2"),
+    ("work", "view2"), ("c_off", "view2"),
+)  # fmt: skip
+INTS = (("c_axes", "view2"), ("status", "view1"), ("k_start", "view1"))
+FLOAT_NAMES = tuple(n for n, _ in FLOATS)
+INT_NAMES = tuple(n for n, _ in INTS)
+F = namedtuple("F", FLOAT_NAMES)(*range(len(FLOATS)))
+I = namedtuple("I", INT_NAMES)(*range(len(INTS)))  # noqa: E741
+
+LoopArrays = namedtuple("LoopArrays", FLOAT_NAMES + INT_NAMES)  # type: ignore[misc]
+# the path's arrays (its table, program and time law) in one float blob; ``kind`` apart (ints)
+PATH_FLOATS = (
+    ("s0", "view1"), ("data", "view2"), ("bound", "view2"), ("feed", "view1"),
+    ("flags", "view1"), ("vcap", "view1"), ("vj", "view1"), ("wait", "view1"),
+    ("dwell", "view1"), ("law_s", "view1"), ("law_v", "view1"),
+)  # fmt: skip
+PATH_NAMES = tuple(n for n, _ in PATH_FLOATS)
+PF = namedtuple("PF", PATH_NAMES)(*range(len(PATH_FLOATS)))
+PathArrays = namedtuple("PathArrays", ("kind",) + PATH_NAMES)  # type: ignore[misc]
+
+# the run's scalars, passed as one float row (a tuple argument costs the dispatcher ~2 us)
+CONFIG = Schema(
+    "loop config", ts=1e-3, nsub=1.0, dim=2.0, length=1.0, closed=0.0, meas_exact=1.0,
+    delay=0.0, inj_ref=0.0, record=0.0, settle_ticks=1000.0, in_band=1e-6, in_speed=1e-3,
+    law_dt=1.0, sample_every=1.0,
+)  # fmt: skip
+CF = CONFIG.col
+Config = namedtuple("Config", CONFIG.names)  # type: ignore[misc]
+
+# row layouts
+# the machine's true foot point (tracked each tick; progress unwrapped on closed paths), and the
+# foot point the exact-search estimator tracks for the encoder reading (e_*)
+FOOT = state_schema("foot", "s", "progress", "qx", "qy", "qz", "seg", "e_s", "e_qx", "e_qy", "e_qz")
+FT = FOOT.col
+LAST = state_schema("last", "true", "est")
+LS = LAST.col
+ACC_C = state_schema("contour sums", "abs", "sq", "max", "n", "s_abs", "s_n")
+AC = ACC_C.col
+ACC_A = state_schema("axis sums", "abs", "sq", "max", "tv", "s_abs")
+AA = ACC_A.col
+MEM = state_schema("member", "in_pos", "arrival", "reason", "end")
+M = MEM.col
+WORK = state_schema("work", "r0", "r", "rdot", "rddot", "x", "y", "u", "ua", "uccc", "v")
+W = WORK.col
+
+STATUS_OK, STATUS_FAILED, STATUS_PAUSED, STATUS_ARRIVED = 0, 1, 2, 3
+REASON_NONE, REASON_DIVERGED, REASON_NOT_IN_POSITION = 0.0, 1.0, 2.0
+STATE_LIMIT = 1e3  # |x| in m or |v| in m/s beyond this is a diverged member
+
+
+@numba.njit(cache=True, inline="always")
+def loop_arrays(fb, fl, ib, il):
+    """Every array of the loop's blobs as one named tuple of (borrowed) views."""
+    return LoopArrays(
+        rows2(fb, fl, F.ax_p), rows2(fb, fl, F.fr_p), rows3(fb, fl, F.rip),
+        rows2(fb, fl, F.dist), rows3(fb, fl, F.ad), rows3(fb, fl, F.bd),
+        rows2(fb, fl, F.ax_s), rows2(fb, fl, F.ctrl_p), rows2(fb, fl, F.ctrl_s),
+        rows2(fb, fl, F.comp_p), rows2(fb, fl, F.comp_s), rows2(fb, fl, F.ccc_p),
+        rows2(fb, fl, F.ccc_w), rows2(fb, fl, F.ccc_s), view1(fb, fl, F.ccc_data),
+        view1(fb, fl, F.est_p), view2(fb, fl, F.hist), view2(fb, fl, F.ip_p),
+        view2(fb, fl, F.ip_s), rows2(fb, fl, F.foot), rows2(fb, fl, F.last),
+        rows2(fb, fl, F.acc_c), rows2(fb, fl, F.acc_a), rows2(fb, fl, F.ep_c),
+        rows2(fb, fl, F.ep_a), view2(fb, fl, F.u_cmd), view2(fb, fl, F.y_last),
+        view2(fb, fl, F.mem), view2(fb, fl, F.work), view2(fb, fl, F.c_off),
+        view2(ib, il, I.c_axes), view1(ib, il, I.status), view1(ib, il, I.k_start),
+    )  # fmt: skip
+
+
+@numba.njit(cache=True, inline="always")
+def path_arrays(pk, pb, pl):
+    """The path's arrays (kind, then the float blob ``pb`` in :data:`PATH_FLOATS` order)."""
+    return PathArrays(
+        pk, view1(pb, pl, PF.s0), view2(pb, pl, PF.data), view2(pb, pl, PF.bound),
+        view1(pb, pl, PF.feed), view1(pb, pl, PF.flags), view1(pb, pl, PF.vcap),
+        view1(pb, pl, PF.vj), view1(pb, pl, PF.wait), view1(pb, pl, PF.dwell),
+        view1(pb, pl, PF.law_s), view1(pb, pl, PF.law_v),
+    )  # fmt: skip
+
+
+@numba.njit(cache=True, inline="always")
+def config(c):
+    """The :data:`CONFIG` row as a named tuple with the right types."""
+    return Config(
+        c[CF.ts], int(c[CF.nsub]), int(c[CF.dim]), c[CF.length], c[CF.closed] != 0.0,
+        c[CF.meas_exact] != 0.0, c[CF.delay] != 0.0, c[CF.inj_ref] != 0.0, c[CF.record] != 0.0,
+        c[CF.settle_ticks], c[CF.in_band], c[CF.in_speed], c[CF.law_dt], int(c[CF.sample_every]),
+    )  # fmt: skip
