@@ -1,0 +1,26 @@
+; GRBL-style job: a rounded square, then a circle entered by a ramp and a helix
+G21 G90 G17 G94
+M3 S8000
+G4 P1.5 ; spindle spin-up
+G0 Z3.000
+G0 X5.000 Y0.000
+G1 Z-0.500 F120 ; plunge
+G1 X25.000 F600
+G3 X30.000 Y5.000 I0.000 J5.000
+G1 Y25.000
+G3 X25.000 Y30.000 I-5.000 J0.000
+G1 X5.000
+G3 X0.000 Y25.000 I0.000 J-5.000
+G1 Y5.000
+G3 X5.000 Y0.000 I5.000 J0.000
+G0 Z3.000
+; circle: ramp in, one helical turn down, one flat turn
+G0 X50.000 Y15.000
+G1 Z0.000 F300
+G1 X55.000 Z-0.500 F300 ; ramp
+G2 X55.000 Y15.000 Z-1.000 I10.000 J0.000 F400 ; helix
+G2 X55.000 Y15.000 I10.000 J0.000
+G0 Z3.000
+M5
+G0 X0.000 Y0.000
+M30
