@@ -446,13 +446,13 @@ M_LOW, M_HIGH, M_STEP, M_POINTS, M_SETS = 0, 1, 2, 3, 4
 
 
 @numba.njit(cache=True, inline="always")
-def _grid_point(j, n, lo, hi, step):  # type: ignore[no-untyped-def]
+def _grid_point(j, n, lo, hi, step):
     # np.linspace(lo, hi, n)[j], bit for bit
     return hi if j == n - 1 else j * step + lo
 
 
 @numba.njit(cache=True, inline="always")
-def _has_nan(x):  # type: ignore[no-untyped-def]
+def _has_nan(x):
     for v in x:  # noqa: SIM110 (a loop: no generator or temporary array in the kernel)
         if v != v:
             return True
@@ -460,7 +460,7 @@ def _has_nan(x):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def fuzzify_into(mf, meta, x, mu):  # type: ignore[no-untyped-def]
+def fuzzify_into(mf, meta, x, mu):
     """Membership of crisp inputs in every set, as ``np.interp`` on the sampled sets.
 
     Args:
@@ -485,7 +485,7 @@ def fuzzify_into(mf, meta, x, mu):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def _fire_into(mu, ant, cons, cut):  # type: ignore[no-untyped-def]
+def _fire_into(mu, ant, cons, cut):
     # min AND over the inputs, max aggregation of the rules per output set
     cut[:, :] = 0.0
     for r in range(ant.shape[0]):
@@ -499,7 +499,7 @@ def _fire_into(mu, ant, cons, cut):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def _aggregate_at(mf, meta, o, cut, j, x):  # type: ignore[no-untyped-def]
+def _aggregate_at(mf, meta, o, cut, j, x):
     # the clipped-and-maxed membership of output o at x inside universe interval j
     lo, hi, step, n = meta[o, M_LOW], meta[o, M_HIGH], meta[o, M_STEP], int(meta[o, M_POINTS])
     uj = _grid_point(j, n, lo, hi, step)
@@ -514,7 +514,7 @@ def _aggregate_at(mf, meta, o, cut, j, x):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def _crossings(mf, meta, sup, o, t, c, buf, nb):  # type: ignore[no-untyped-def]
+def _crossings(mf, meta, sup, o, t, c, buf, nb):
     # where set t of output o crosses its cut c (skfuzzy's _interp_universe_fast): at most
     # two for a unimodal set; appended to buf[nb:], returns the new count
     lo, hi, step, n = meta[o, M_LOW], meta[o, M_HIGH], meta[o, M_STEP], int(meta[o, M_POINTS])
@@ -529,7 +529,7 @@ def _crossings(mf, meta, sup, o, t, c, buf, nb):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def _sort_prefix(buf, nb):  # type: ignore[no-untyped-def]
+def _sort_prefix(buf, nb):
     # insertion sort of buf[:nb] (nb <= 2 * sets)
     for a in range(1, nb):
         v = buf[a]
@@ -541,7 +541,7 @@ def _sort_prefix(buf, nb):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def _fired_span(meta, sup, o, cut):  # type: ignore[no-untyped-def]
+def _fired_span(meta, sup, o, cut):
     # samples of output o around the sets that fired (the aggregate is 0 elsewhere)
     n = int(meta[o, M_POINTS])
     jlo, jhi = n, -1
@@ -553,7 +553,7 @@ def _fired_span(meta, sup, o, cut):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def _centroid(mf, meta, sup, o, cut, agg, buf):  # type: ignore[no-untyped-def]
+def _centroid(mf, meta, sup, o, cut, agg, buf):
     # skfuzzy's CrispValueCalculator.defuzz: the universe upsampled at the cut crossings,
     # the aggregate sampled there, its piecewise-linear moment and area (0, 0 if empty)
     jlo, jhi, fired = _fired_span(meta, sup, o, cut)
@@ -591,7 +591,7 @@ def _centroid(mf, meta, sup, o, cut, agg, buf):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def mamdani_exact_into(  # type: ignore[no-untyped-def]
+def mamdani_exact_into(
     in_mf, in_meta, ant, cons, out_mf, out_meta, out_sup, x, mu, cut, agg, buf, out, raw
 ):
     """Exact Mamdani inference of one member, as skfuzzy's ``ControlSystemSimulation``.
@@ -635,7 +635,7 @@ def mamdani_exact_into(  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def _mamdani_exact_batch(  # type: ignore[no-untyped-def]
+def _mamdani_exact_batch(
     in_mf, in_meta, ant, cons, out_mf, out_meta, out_sup, x, out, raw
 ):
     mu = np.zeros((in_mf.shape[0], in_mf.shape[1]))
@@ -662,7 +662,7 @@ def _mamdani_exact_batch(  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def _cell(x, lo, step, n):  # type: ignore[no-untyped-def]
+def _cell(x, lo, step, n):
     # interval index and fraction of x on the nodes lo + k step, k < n, clipped to the ends
     u = (x - lo) / step
     if u <= 0.0:
@@ -674,7 +674,7 @@ def _cell(x, lo, step, n):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True, inline="always")
-def _split_square(tables, flips, o, p, i, k, t, s):  # type: ignore[no-untyped-def]
+def _split_square(tables, flips, o, p, i, k, t, s):
     # linear interpolation on the half of square (i, k) that holds (t, s); the square is
     # split along the diagonal flips[o, p, i, k] marks (0: (i, k)-(i+1, k+1), 1: the other)
     f00 = tables[o, p, i, k]
@@ -691,7 +691,7 @@ def _split_square(tables, flips, o, p, i, k, t, s):  # type: ignore[no-untyped-d
 
 
 @numba.njit(cache=True, inline="always")
-def _surface_ratio(tables, flips, empty, o, i, k, t, s):  # type: ignore[no-untyped-def]
+def _surface_ratio(tables, flips, empty, o, i, k, t, s):
     area = _split_square(tables, flips, o, 1, i, k, t, s)
     if area <= 0.0:
         return empty[o]
@@ -699,7 +699,7 @@ def _surface_ratio(tables, flips, empty, o, i, k, t, s):  # type: ignore[no-unty
 
 
 @numba.njit(cache=True, inline="always")
-def surface_eval(tables, flips, grid, empty, o, x0, x1):  # type: ignore[no-untyped-def]
+def surface_eval(tables, flips, grid, empty, o, x0, x1):
     """Output ``o`` of a two-input Mamdani surface at one point; inlinable into other kernels.
 
     The output is ``moment / area`` of the aggregate, both interpolated linearly on the
@@ -727,7 +727,7 @@ def surface_eval(tables, flips, grid, empty, o, x0, x1):  # type: ignore[no-unty
 
 
 @numba.njit(cache=True, inline="always")
-def surface_eval_into(tables, flips, grid, empty, x0, x1, out):  # type: ignore[no-untyped-def]
+def surface_eval_into(tables, flips, grid, empty, x0, x1, out):
     """Every output of a two-input Mamdani surface at one point (the cell is found once).
 
     Args:
@@ -749,13 +749,13 @@ def surface_eval_into(tables, flips, grid, empty, x0, x1, out):  # type: ignore[
 
 
 @numba.njit(cache=True)
-def _surface_batch(tables, flips, grid, empty, x, out):  # type: ignore[no-untyped-def]
+def _surface_batch(tables, flips, grid, empty, x, out):
     for b in range(x.shape[0]):
         surface_eval_into(tables, flips, grid, empty, x[b, 0], x[b, 1], out[b])
 
 
 @numba.njit(cache=True, inline="always")
-def product_basis_into(mf, meta, ant, x, mu, xi):  # type: ignore[no-untyped-def]
+def product_basis_into(mf, meta, ant, x, mu, xi):
     """Fuzzy basis functions of one member (singleton fuzzifier, product inference).
 
     ``xi_l = prod_i mu_{A_i^l}(x_i) / sum_l prod_i mu_{A_i^l}(x_i)``; all zeros if no rule
@@ -785,7 +785,7 @@ def product_basis_into(mf, meta, ant, x, mu, xi):  # type: ignore[no-untyped-def
 
 
 @numba.njit(cache=True, inline="always")
-def product_output_into(theta, xi, out):  # type: ignore[no-untyped-def]
+def product_output_into(theta, xi, out):
     """Centre-average outputs of one member, ``out[o] = sum_l theta[o, l] xi[l]``.
 
     Args:
@@ -801,7 +801,7 @@ def product_output_into(theta, xi, out):  # type: ignore[no-untyped-def]
 
 
 @numba.njit(cache=True)
-def _product_batch(mf, meta, ant, theta, x, xi, out):  # type: ignore[no-untyped-def]
+def _product_batch(mf, meta, ant, theta, x, xi, out):
     mu = np.zeros((mf.shape[0], mf.shape[1]))
     for b in range(x.shape[0]):
         product_basis_into(mf, meta, ant, x[b], mu, xi[b])
