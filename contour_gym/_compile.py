@@ -52,7 +52,12 @@ _LOCK = threading.Lock()
 
 
 def code_digest(source: str) -> str:
-    """Digest of Python source over its syntax tree, docstrings removed (comments never count)."""
+    r"""Digest of Python source over its syntax tree, docstrings removed (comments never count).
+
+    >>> documented = "def f():\n    'Doc.'\n    return 1"
+    >>> code_digest(documented) == code_digest("def f():  # a comment\n    return 1")
+    True
+    """
     tree = ast.parse(source)
     for node in ast.walk(tree):
         body = getattr(node, "body", None)

@@ -15,6 +15,15 @@ namedtuple as a constant, so ``p[i, C.kp]`` compiles to a fixed offset)::
 
 A state block is declared the same way (:func:`state_schema`), with every column starting at
 zero.
+
+>>> from contour_gym._validate import positive
+>>> pid = Schema("pid", kp=Param(check=positive), ki=0.0)
+>>> pid.row(kp=2.0).tolist(), pid.col.ki
+([2.0, 0.0], 1)
+>>> pid.row(kp=-1.0)
+Traceback (most recent call last):
+...
+ValueError: pid.kp must be > 0, got -1.0
 """
 
 from __future__ import annotations

@@ -71,7 +71,11 @@ class CCCGains:
         return (self.kp, self.ki, self.kd)
 
     def scaled(self, factor: float) -> CCCGains:
-        """All three gains times ``factor``."""
+        """All three gains times ``factor``.
+
+        >>> CCCGains(2.0, 10.0).scaled(0.5)
+        CCCGains(kp=1.0, ki=5.0, kd=0.0)
+        """
         return CCCGains(self.kp * factor, self.ki * factor, self.kd * factor)
 
 

@@ -193,7 +193,14 @@ class Program:
 
 
 def junction_speed(t_in: Array, t_out: Array, accel: float, tolerance: float) -> float:
-    """Junction-deviation speed limit between two unit directions (module docstring), m/s."""
+    """Junction-deviation speed limit between two unit directions (module docstring), m/s.
+
+    >>> import numpy as np
+    >>> round(junction_speed(np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), 1.0, 5e-5), 5)
+    0.01099
+    >>> junction_speed(np.array([1.0, 0, 0]), np.array([1.0, 0, 0]), 1.0, 5e-5)
+    inf
+    """
     if not math.isfinite(accel):
         return math.inf if tolerance > 0 else (0.0 if _corner(t_in, t_out) else math.inf)
     cos_theta = -float(np.dot(t_in, t_out))

@@ -380,7 +380,9 @@ def test_best_free_curve_estimators_within_two_percent_at_the_papers_feedrates(
 def test_python_api_equals_what_the_ccc_saw_in_the_loop(name, path_name):
     if name == "exact" and path_name == "infinity":
         pytest.skip("exact is rejected on free-form paths by the Python API")
-    sc = make_scenario("xy_dc_servo", path_name, ideal=True)  # the CCC sees the true position
+    # the CCC sees the true position (ideal); 002's machine, as in the next test, so that both
+    # share their compiled kernels (the path and ideal are data, the friction law is code)
+    sc = make_scenario("lugre_linear_motor", path_name, ideal=True)
     loop = sc.loop(ccc_gains=sc.preset.ccc_gains.as_tuple(), estimator=name, record=True)
     loop.reset(0)
     loop.step(1200)
