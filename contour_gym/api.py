@@ -47,13 +47,22 @@ class Scenario:
         )  # fmt: skip
 
     def loop(
-        self, *, batch_size: int = 1, ccc_gains: object = None, record: bool = False, **kwargs: Any
-    ) -> ServoLoop:
-        """A :class:`ServoLoop` of this scenario; ``kwargs`` are loop options overriding ours."""
-        options = {**self.options, **kwargs}
+        self, *, batch_size: int = 1, ccc_gains: Any = None, record: bool = False,
+        ccc_weights: Any = None, **kwargs: Any,
+    ) -> ServoLoop:  # fmt: skip
+        """A :class:`ServoLoop` of this scenario; ``kwargs`` are loop options overriding ours.
+
+        ``ccc_weights`` None: the preset's.
+        """
+        options = _merged_controller(
+            self.options["axis_controller"], self.options.get("controller_options") or {},
+            {**self.options, **kwargs}, kwargs,
+        )  # fmt: skip
         loop = ServoLoop(
             self.preset.stage, self.path, self.preset.axis_gains, self.interpolator(),
-            batch_size=batch_size, ccc_gains=ccc_gains, record=record, **options,  # type: ignore[arg-type]
+            batch_size=batch_size, ccc_gains=ccc_gains, record=record,
+            ccc_weights=self.preset.ccc_weights if ccc_weights is None else ccc_weights,
+            **options,
         )  # fmt: skip
         if self.feed_override != 1.0:
             loop.set_feed_override(self.feed_override)
@@ -90,9 +99,13 @@ def make_scenario(
     feedrate: float | None = None,
     *,
     feedrate_override: float | None = None,
+    laps: int | None = None,
     **options: Any,
 ) -> Scenario:
     """Resolve a machine, a path and a feedrate into a :class:`Scenario`.
+
+    The preset's paper settings are the defaults: its estimator, axis controller (with its
+    options) and CCC injection, unless ``options`` name others.
 
     Args:
         plant: Preset name, :class:`Preset`, or ``{"preset": name, **overrides}``.
@@ -100,41 +113,78 @@ def make_scenario(
             axes), or None for the preset's paper path.
         feedrate: m/s; None for a G-code part's own F words (the highest cutting one is the
             nominal), else the preset's feedrate. Given for a G-code part, it replaces its
-            F words.
-        feedrate_override: Fraction of the programmed feeds to run at (a CNC panel's override).
-        **options: Loop options (:class:`~contour_gym.loop.LoopOptions`), e.g. ``ideal=True``;
-            ``ccc_injection`` defaults to the preset's.
+            F words; given for a path with a time law, it scales the law's time so that its
+            mean speed is ``feedrate``.
+        feedrate_override: Fraction of the programmed feeds to run at (a CNC panel's override;
+            on a time-law path, the rate at which the law's time runs).
+        laps: Times to trace a closed path (None: the preset's ``laps`` on its own path, else 1).
+        **options: Loop options (:class:`~contour_gym.loop.LoopOptions`), e.g. ``ideal=True``.
 
     Returns:
         The scenario.
 
     Raises:
         ValueError: for unknown names or options, a path whose dimension does not match the
-            machine, or a non-positive feedrate.
+            machine, a non-positive feedrate, or laps of an open path.
     """
     preset = resolve_preset(plant)
     resolved = load(preset.path if path is None else path) if not isinstance(path, Path) else path
-    resolved = _on_machine(resolved, preset)
-    programmed = _programmed_feedrate(resolved) if feedrate is None else None
-    given = None if feedrate is None else positive(feedrate, "feedrate")
-    rate = given or programmed or preset.feedrate
-    if feedrate is not None:
-        options.setdefault("use_program_feeds", False)
+    own = path is None or path == preset.path
+    resolved = _on_machine(resolved, preset).repeat(
+        (preset.laps if own else 1) if laps is None else laps
+    )
     override = 1.0
     if feedrate_override is not None:
         override = positive(feedrate_override, "feedrate_override")
-    if rate * override > preset.max_feedrate:
-        warnings.warn(
-            f"feedrate {rate * override:.4g} m/s exceeds {preset.name}'s machine limit "
-            f"{preset.max_feedrate:.4g} m/s; the interpolator caps it, as a CNC does",
-            stacklevel=2,
-        )
+    given = None if feedrate is None else positive(feedrate, "feedrate")
+    if resolved.time_law is not None:
+        rate = resolved.time_law.mean_speed()
+        override *= 1.0 if given is None else given / rate
+    else:
+        rate = given or _programmed_feedrate(resolved) or preset.feedrate
+        if given is not None:
+            options.setdefault("use_program_feeds", False)
+        if rate * override > preset.max_feedrate:
+            warnings.warn(
+                f"feedrate {rate * override:.4g} m/s exceeds {preset.name}'s machine limit "
+                f"{preset.max_feedrate:.4g} m/s; the interpolator caps it, as a CNC does",
+                stacklevel=2,
+            )
     unknown = sorted(set(options) - set(LoopOptions.__dataclass_fields__))
     if unknown:
         raise ValueError(f"unknown option(s) {unknown}; accepted: "
                          f"{', '.join(sorted(LoopOptions.__dataclass_fields__))}")
-    options.setdefault("ccc_injection", preset.ccc_injection)
-    return Scenario(preset, resolved, rate, options, override)
+    return Scenario(preset, resolved, rate, _with_paper_options(preset, options), override)
+
+
+def _with_paper_options(preset: Preset, options: Mapping[str, Any]) -> dict[str, Any]:
+    """``options`` with the preset's paper settings filling what they leave open."""
+    out = {"ccc_injection": preset.ccc_injection, "estimator": preset.estimator, **options}
+    return _merged_controller(preset.axis_controller, preset.controller_options, out, options)
+
+
+def _merged_controller(
+    name: str, base: Mapping[str, Any], out: dict[str, Any], given: Mapping[str, Any]
+) -> dict[str, Any]:
+    """Put the axis controller and its options into ``out``.
+
+    Controller ``name`` with options ``base`` unless ``given`` names another controller;
+    ``given``'s own controller options update ``base`` for the same controller.
+    """
+    mine = given.get("controller_options") or {}
+    if given.get("axis_controller", name) == name:
+        out["axis_controller"], out["controller_options"] = name, {**base, **mine}
+    else:
+        out["controller_options"] = dict(mine)
+    return out
+
+
+def _scenario(
+    plant: PlantSpec, path: str | Path | None, feedrate: float | None, options: dict[str, Any]
+) -> Scenario:
+    scenario_keys = set(LoopOptions.__dataclass_fields__) | {"feedrate_override", "laps"}
+    picked = {k: options.pop(k) for k in list(options) if k in scenario_keys}
+    return make_scenario(plant, path, feedrate, **picked)
 
 
 def simulate(
@@ -164,8 +214,8 @@ def simulate(
         the error metrics are inf) and ``finished`` (1.0 when in position at the end).
 
     >>> m = simulate("xy_dc_servo", ideal=True)  # 000's servo on its 10 mm circle, no CCC
-    >>> round(m["max_contour_error"] * 1e6, 2), m["finished"]
-    (17.88, 1.0)
+    >>> round(m["max_contour_error"] * 1e6, 1), m["finished"]  # 000 reports 49 um
+    (50.6, 1.0)
     """
     loop = _run(_scenario(plant, path, feedrate, options), ccc_gains, seed, False, options)
     return {**member_metrics(loop.metrics(), 0), "failed": float(loop.failed[0]),
@@ -178,14 +228,6 @@ def run_trace(
     """Run a scenario recording every tick; returns (metrics, trace)."""
     loop = _run(scenario, ccc_gains, seed, True, options)
     return member_metrics(loop.metrics(), 0), loop.trace()
-
-
-def _scenario(
-    plant: PlantSpec, path: str | Path | None, feedrate: float | None, options: dict[str, Any]
-) -> Scenario:
-    scenario_keys = set(LoopOptions.__dataclass_fields__) | {"feedrate_override"}
-    picked = {k: options.pop(k) for k in list(options) if k in scenario_keys}
-    return make_scenario(plant, path, feedrate, **picked)
 
 
 def _run(

@@ -50,7 +50,7 @@ from contour_gym.ccc import CCC_LAWS, INJECTIONS, ccc_params
 from contour_gym.contour import ESTIMATORS, Estimator, get_estimator
 from contour_gym.contour._history import N_HIST
 from contour_gym.metrics import ErrorSums, metrics_from_sums
-from contour_gym.motion import IP, IS, TimeLaw, build_program
+from contour_gym.motion import IP, IS, build_program
 from contour_gym.paths import Path
 from contour_gym.plant._kernel import AX, DISTURBANCE, ST, STATE
 from contour_gym.plant.friction import FRICTION_LAWS, law_for
@@ -153,7 +153,6 @@ class LoopOptions:
         path_control: ``"none"``, ``"G61"``, ``"G61.1"``, ``"G64"`` or None (the path's own).
         path_tolerance: G64 tolerance, m (None: the path's own or the default).
         use_program_feeds: Run a G-code part at its own F words.
-        time_law: A prescribed reference ``s(t)``, or None.
         settle_time: Time allowed to get in position after the reference ends, s.
         sample_period: Sampling of P_e and P_eps, s (None: every tick).
     """
@@ -169,7 +168,6 @@ class LoopOptions:
     path_control: str | None = None
     path_tolerance: float | None = None
     use_program_feeds: bool = True
-    time_law: TimeLaw | None = None
     settle_time: float = DEFAULT_SETTLE
     sample_period: float | None = None
 
@@ -188,7 +186,8 @@ class ServoLoop:
         ccc_weights: Per-coordinate weights of the CCC output, broadcastable to (B, C, 3).
         record: Keep a per-tick :class:`Trace`.
         **options: The fields of :class:`LoopOptions` (axis controller, estimator, CCC law and
-            injection, ``ideal``, path control, time law, settle time, sample period).
+            injection, ``ideal``, path control, settle time, sample period). A path carrying a
+            time law (:attr:`Path.time_law`) is run on it instead of the interpolator's feeds.
     """
 
     # views into the float and int blobs (contour_gym._loopstate; always written in place)
@@ -337,13 +336,7 @@ class ServoLoop:
         self.c_axes[...] = c_axes
 
     def _build_path_blob(self) -> None:
-        t, law = self.path.table, self.opts.time_law
-        length = self.path.length
-        if law is not None and abs(law.s[-1] - length) > 1e-9 * max(1.0, length):
-            raise ValueError(
-                f"time law ends at s = {law.s[-1]:.9g} m but path {self.path.name!r} is "
-                f"{self.path.length:.9g} m long"
-            )
+        t, law = self.path.table, self.path.time_law
         names = ("feed", "flags", "vcap", "vj", "wait", "dwell")
         values = dict(zip(names, self.program.arrays(), strict=True))
         values.update(s0=t.s0, data=t.data, bound=t.bound)
@@ -365,7 +358,8 @@ class ServoLoop:
             inj_ref=float(o.ccc_injection == "reference"), record=float(self.record),
             settle_ticks=math.ceil(o.settle_time / stage.ts), in_band=stage.in_position,
             in_speed=stage.in_position_speed,
-            law_dt=o.time_law.dt if o.time_law is not None else 1.0, sample_every=every,
+            law_dt=1.0 if self.path.time_law is None else self.path.time_law.dt,
+            sample_every=every,
         )  # fmt: skip
 
     def slots(self) -> dict[str, Any]:
@@ -699,8 +693,8 @@ class ServoLoop:
         """
         ovr = float(self.ip_p[:, IP.ovr].min()) if override is None else override
         slowest = max(ovr, 1e-9)
-        if self.opts.time_law is not None:
-            return self.opts.time_law.duration / slowest + self.opts.settle_time
+        if self.path.time_law is not None:
+            return self.path.time_law.duration / slowest + self.opts.settle_time
         feed = np.minimum(self.program.feed, self.program.vcap)
         scale = np.where((self.program.flags.astype(int) & motion.RAPID) != 0, 1.0, slowest)
         speed = np.maximum(np.minimum(feed * scale, float(self.ip_p[:, IP.f_max].min())), 1e-9)
@@ -821,8 +815,6 @@ def _options(options: dict[str, Any]) -> LoopOptions:
         positive(opts.sample_period, "sample_period")
     if opts.path_tolerance is not None:
         non_negative(opts.path_tolerance, "path_tolerance")
-    if opts.time_law is not None and not isinstance(opts.time_law, TimeLaw):
-        raise ValueError(f"time_law must be a TimeLaw, got {type(opts.time_law).__name__}")
     return opts
 
 

@@ -22,8 +22,9 @@ constant-feedrate runs), ``"G61"`` (exact stop at every segment end; the next bl
 the axes are in position), ``"G61.1"`` (exact path: stops at real corners only), ``"G64"``
 (blending with the tolerance ``path_tolerance``).
 
-**Time-law mode** (:class:`TimeLaw`): the reference is a prescribed ``s(t)``, e.g. 003's
-three-leaf ``theta = 2 pi f t``; the override scales time (``tau += ovr Ts``).
+**Time-law mode** (a path carrying a :class:`~contour_gym.paths.TimeLaw`): the reference is a
+prescribed ``s(t)``, e.g. 003's three-leaf ``theta = 2 pi f t``; the override scales time
+(``tau += ovr Ts``) and the feedrate settings do not apply.
 
 Per member the kernel keeps ``ip_s`` (:data:`IS`) and reads ``ip_p`` (:data:`IP`).
 """
@@ -31,8 +32,7 @@ Per member the kernel keeps ``ip_s`` (:data:`IS`) and reads ``ip_p`` (:data:`IP`
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numba
@@ -111,52 +111,6 @@ def initial_state(batch: int) -> Array:
     out = np.zeros((batch, IP_STATE.size))
     out[:, IS.done] = -1.0
     return out
-
-
-@dataclass(frozen=True)
-class TimeLaw:
-    """A prescribed reference ``s(t)`` on a uniform grid (cubic Hermite in between).
-
-    Attributes:
-        dt: Grid step, s.
-        s: (m,) arc length at ``k dt``, m (non-decreasing, from 0 to the path length).
-        v: (m,) its time derivative, m/s.
-        label: What the law is (for reports).
-    """
-
-    dt: float
-    s: Array = field(repr=False)
-    v: Array = field(repr=False)
-    label: str = ""
-
-    def __post_init__(self) -> None:
-        positive(self.dt, "dt")
-        s, v = np.asarray(self.s, dtype=float), np.asarray(self.v, dtype=float)
-        if s.ndim != 1 or s.shape != v.shape or s.size < 2:
-            raise ValueError("time law s and v must be 1-D of the same length >= 2")
-        if not (np.all(np.isfinite(s)) and np.all(np.isfinite(v)) and np.all(np.diff(s) >= 0)):
-            raise ValueError("time law s must be finite and non-decreasing, v finite")
-        object.__setattr__(self, "s", np.ascontiguousarray(s))
-        object.__setattr__(self, "v", np.ascontiguousarray(v))
-
-    @property
-    def duration(self) -> float:
-        """Time to traverse the path at override 1, s."""
-        return self.dt * (self.s.size - 1)
-
-    @classmethod
-    def from_functions(
-        cls, s_of_t: Callable[[Array], Array], v_of_t: Callable[[Array], Array],
-        duration: float, dt: float = 1e-3, label: str = "",
-    ) -> TimeLaw:  # fmt: skip
-        """Sample ``s(t)`` and ``s'(t)`` on ``[0, duration]``."""
-        n = int(math.ceil(positive(duration, "duration") / dt))
-        t = np.linspace(0.0, n * dt, n + 1)
-        return cls(dt, np.asarray(s_of_t(t), float), np.asarray(v_of_t(t), float), label)
-
-    def mean_speed(self) -> float:
-        """Path length / duration, m/s."""
-        return float(self.s[-1] / self.duration)
 
 
 @dataclass(frozen=True)

@@ -99,10 +99,17 @@ def test_unstable_member_is_flagged_without_poisoning_others(name):
         assert np.array_equal(m["max_tracking_error"][b], m1["max_tracking_error"][0])
 
 
-@pytest.mark.parametrize("preset", PRESETS)
+# Every controller on the two hardest machines (the gantry: three axes, 10-50 um encoders,
+# ripple; 004's: Coulomb friction holding the axis short); every other machine with its own
+# controller. (Each pair compiles its own kernel: the full 5 x 5 matrix costs CI 8 minutes.)
+_HARD = ("xyy_gantry", "xy_servo_coulomb")
+STABILITY_CASES = {p: NAMES if p in _HARD else (get_preset(p).axis_controller,) for p in PRESETS}
+
+
+@pytest.mark.parametrize("preset", sorted(STABILITY_CASES))
 def test_default_parameters_give_a_stable_loop_on_every_preset(preset):
     sc = make_scenario(preset)  # on the rig: encoder quantisation and a one-tick delay
-    for name in NAMES:
+    for name in STABILITY_CASES[preset]:
         loop = sc.loop(axis_controller=name, batch_size=2)
         loop.reset([0, 1])
         m = loop.run()
@@ -184,6 +191,8 @@ def test_two_dof_pid_params_maps_the_tunable_numbers_by_name():
 def test_optimiser_population_sets_per_member_two_dof_parameters():
     sc = make_scenario("xyy_gantry")
     vals = np.repeat(two_dof_pid_values(sc.preset.axis_gains)[None], 2, axis=0)
+    vals[..., 3] = sc.preset.controller_options["alpha"]  # 003's published alpha, beta
+    vals[..., 4] = sc.preset.controller_options["beta"]
     vals[1, :, 4] = 0.8  # beta: member 1 differs
     loop = sc.loop(axis_controller="two_dof_pid", batch_size=2)
     loop.set_controller_params(two_dof_pid_params(vals))

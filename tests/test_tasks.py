@@ -1,6 +1,7 @@
 """The tasks pose the real problem: a rig, an interior optimum, failure never pays, paths and
 parts run to their end, arrival ends a contour, G-code feedrates are honoured (issue 9)."""
 
+import dataclasses
 import warnings
 
 import gymnasium as gym
@@ -9,9 +10,12 @@ import pytest
 
 import contour_gym  # noqa: F401  (registers the ids)
 from contour_gym.api import make_scenario, simulate
+from contour_gym.ccc import CCCGains
 from contour_gym.envs import CCCEnv
 from contour_gym.metrics import metrics_from_sums, sums_from_trace
 from contour_gym.paths import from_gcode, parametric
+from contour_gym.presets import get_preset
+from contour_gym.servo import PIDGains
 
 ACTIONS = (-1.0, -0.5, 0.0, 0.5, 1.0)
 
@@ -124,7 +128,13 @@ BEFORE = {  # max, mean, rms contour error, m; the reference ended at tick 1999
 
 @pytest.mark.parametrize("label", BEFORE)
 def test_ideal_reproduces_the_old_simulate_numbers_up_to_the_arrival(label):
-    sc = make_scenario("xy_dc_servo", ideal=True)
+    # the machine as it was then: Kv = 30 /s (calibration to 000 later chose 21 /s), the
+    # ground-truth error fed to the CCC
+    preset = get_preset("xy_dc_servo")
+    axis = tuple(PIDGains(kp=30.0 * a.damping / a.force_constant) for a in preset.stage.axes)
+    kp = axis[0].kp
+    then = dataclasses.replace(preset, axis_gains=axis, ccc_gains=CCCGains(kp=kp, ki=20.0 * kp))
+    sc = make_scenario(then, ideal=True, estimator="ground_truth")
     gains = None if label == "no CCC" else sc.preset.ccc_gains.as_tuple()
     loop = sc.loop(ccc_gains=gains, record=True)
     loop.reset(0)

@@ -81,9 +81,9 @@ _SPEC = """
 
     ## Arguments
     ``plant`` (name or ``{"preset": name, **overrides}``), ``path`` (name or Path),
-    ``feedrate``, ``feedrate_override``, ``ideal``, ``estimator``, ``estimator_options``,
-    ``axis_controller``, ``controller_options``, ``ccc_law``, ``ccc_law_params``,
-    ``ccc_injection``, ``path_control``, ``path_tolerance``, ``decision_ticks``,
+    ``feedrate``, ``feedrate_override``, ``laps``, ``ideal``, ``estimator``,
+    ``estimator_options``, ``axis_controller``, ``controller_options``, ``ccc_law``,
+    ``ccc_law_params``, ``ccc_injection``, ``path_control``, ``path_tolerance``, ``decision_ticks``,
     ``tolerance``, ``hard_limit``, ``failure_penalty``, ``reward``, ``reward_weights``,
     ``randomize``, ``lookahead``, ``gain_range``, ``kd_scale``, ``settle_time``,
     ``step_limit``, ``render_mode`` ("rgb_array", "human"); see

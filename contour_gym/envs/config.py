@@ -35,12 +35,13 @@ class EnvConfig:
         path: Library path name or :class:`Path` (None: the preset's paper path).
         feedrate: Nominal feedrate, m/s (None: the preset's, or a G-code part's F words).
         feedrate_override: Fraction of the programmed feeds (a CNC panel's override).
+        laps: Times to trace a closed path (None: the preset's on its own path, else 1).
         ideal: Drop the rig's encoder, noise and computation delay (the papers' simulations).
         estimator: Contour error estimator feeding the CCC and the observation (None: the
             preset's, i.e. its paper's).
         estimator_options: Its options.
-        axis_controller: Axis controller name.
-        controller_options: Its options.
+        axis_controller: Axis controller name (None: the preset's, i.e. its paper's).
+        controller_options: Its options (update the preset's for the preset's controller).
         ccc_law: CCC law name (``contour_gym.ccc.CCC_LAWS``).
         ccc_law_params: The law's parameters beyond kp, ki, kd.
         ccc_injection: ``"control"`` or ``"reference"`` (None: the preset's).
@@ -57,7 +58,8 @@ class EnvConfig:
         reward_weights: Weights of a compiled reward, by name.
         randomize: False, True (default ranges) or a dict overriding some ranges.
         lookahead: Arc lengths ahead of the reference where curvature is observed, m.
-        ccc_gains: Fixed CCC gains (feedrate env; None: the preset's), (kp, ki, kd).
+        ccc_gains: CCC env: the gains the action map is centred on (None: the preset's).
+            Feedrate env: fixed CCC gains (None: no CCC, as in 004), (kp, ki, kd).
         gain_range: CCC env: each gain's largest value is the preset's times this; the action
             map spans [0, that] on a log-like scale (see the CCC env).
         kd_scale: CCC env: largest kd as a multiple of the preset's kp, s.
@@ -74,10 +76,11 @@ class EnvConfig:
     path: str | Path | None = None
     feedrate: float | None = None
     feedrate_override: float | None = None
+    laps: int | None = None
     ideal: bool = False
     estimator: str | None = None
     estimator_options: dict[str, Any] = field(default_factory=dict)
-    axis_controller: str = "pid"
+    axis_controller: str | None = None
     controller_options: dict[str, Any] = field(default_factory=dict)
     ccc_law: str = "pid"
     ccc_law_params: dict[str, Any] = field(default_factory=dict)

@@ -27,7 +27,6 @@ from contour_gym.envs.config import HARD_LIMIT_TOLERANCES, EnvConfig
 from contour_gym.metrics import member_metrics
 from contour_gym.motion import IP, IS
 from contour_gym.plant._kernel import ST
-from contour_gym.presets import resolve_preset
 from contour_gym.rewards import (
     COMPONENTS,
     REWARDS,
@@ -63,9 +62,9 @@ class ContourTask:
         if self.hard_limit <= self.tolerance:
             raise ValueError(f"hard_limit must exceed tolerance, got {self.hard_limit!r}")
         self.g0 = np.asarray(config.ccc_gains or preset.ccc_gains.as_tuple(), dtype=float)
-        self.loop = self.scenario.loop(
-            batch_size=batch, ccc_gains=self.g0 if kind == FEEDRATE else None, record=record
-        )
+        # the feedrate env runs without CCC unless given fixed gains (004 has none)
+        fixed = config.ccc_gains if kind == FEEDRATE else None
+        self.loop = self.scenario.loop(batch_size=batch, ccc_gains=fixed, record=record)
         self.ovr_bounds = np.asarray(config.feedrate_range, dtype=float)
         self.g_max, self.g_log = self._gain_map()
         self.rngs: list[np.random.Generator] = [np.random.default_rng(0)] * batch
@@ -412,18 +411,18 @@ def _masked(values: dict[str, Any], mask: NDArray[np.bool_]) -> dict[str, Any]:
 
 def _scenario(config: EnvConfig) -> Any:
     options: dict[str, Any] = {
-        "ideal": config.ideal, "axis_controller": config.axis_controller,
-        "controller_options": config.controller_options, "ccc_law": config.ccc_law,
+        "ideal": config.ideal, "ccc_law": config.ccc_law,
         "ccc_law_params": config.ccc_law_params, "path_control": config.path_control,
         "path_tolerance": config.path_tolerance, "settle_time": config.settle_time,
         "estimator_options": config.estimator_options,
+        "controller_options": config.controller_options,
     }  # fmt: skip
-    if config.ccc_injection is not None:
-        options["ccc_injection"] = config.ccc_injection
-    options["estimator"] = config.estimator or resolve_preset(config.plant).estimator
+    for key in ("ccc_injection", "estimator", "axis_controller"):  # None: the preset's
+        if getattr(config, key) is not None:
+            options[key] = getattr(config, key)
     return make_scenario(
         config.plant, config.path, config.feedrate, feedrate_override=config.feedrate_override,
-        **options,
+        laps=config.laps, **options,
     )  # fmt: skip
 
 

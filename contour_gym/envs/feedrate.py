@@ -8,9 +8,9 @@ from contour_gym.envs.core import FEEDRATE
 _SPEC = """
     ## Description
     Paper 004's adaptive feedrate task: traverse the path as fast as possible while the
-    contour error stays within ``tolerance``. The CCC is fixed (``ccc_gains``, default: the
-    plant preset's); every step the agent changes the feedrate, which the interpolator
-    follows within the machine's acceleration limit, for ``decision_ticks`` ticks. The
+    contour error stays within ``tolerance``. No CCC runs (004 has none) unless
+    ``ccc_gains`` fixes its gains. Every step the agent changes the feedrate, which the
+    interpolator follows within the machine's acceleration limit, for ``decision_ticks`` ticks. The
     interpolator only stops where it must (the path end, exact stops and dwells of a G-code
     part): slowing for corners and curves is the agent's job, unless ``path_control`` turns
     on the CNC's own look-ahead planning (the ``cnc_lookahead`` reference policy does).

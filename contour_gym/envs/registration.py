@@ -14,20 +14,35 @@ from typing import Any
 
 import gymnasium as gym
 
-# id -> (task, env kwargs): one per paper scenario
+# 003 case 2 runs its three-leaf with the y offsets +30/+90 mm (case 1's circle: +70/+210)
+GANTRY_LEAF = {
+    "preset": "xyy_gantry",
+    "stage": {"contours": {0: {"offset": (0.0, 0.03)}, 1: {"offset": (0.0, 0.09)}}},
+}
+
+# id -> (task, env kwargs): one per paper scenario. Unset keys take the preset's paper
+# settings (estimator, tolerance, axis controller, CCC injection, laps).
 SCENARIOS: dict[str, tuple[str, dict[str, Any]]] = {
     "CCC-v0": ("CCC", {}),
     "Feedrate-v0": ("Feedrate", {"plant": "xy_servo_coulomb"}),
     "CCC-Circle-v0": ("CCC", {"plant": "xy_dc_servo", "path": "circle_r10"}),
-    "CCC-Infinity-v0": ("CCC", {"plant": "xy_dc_servo", "path": "infinity"}),
-    "CCC-Trident-v0": ("CCC", {"plant": "xy_dc_servo", "path": "trident"}),
+    "CCC-Infinity-v0": (
+        "CCC", {"plant": "xy_dc_servo", "path": "infinity", "estimator": "two_circle"}
+    ),
+    "CCC-Trident-v0": (
+        "CCC", {"plant": "xy_dc_servo", "path": "trident", "estimator": "two_circle"}
+    ),
     "CCC-PMLSM-Helix-v0": ("CCC", {"plant": "xyz_pmlsm", "path": "helix"}),
     "CCC-LuGre-BSpline-v0": ("CCC", {"plant": "lugre_linear_motor", "path": "bspline_complex"}),
     "CCC-XYYGantry-Circle-v0": ("CCC", {"plant": "xyy_gantry", "path": "circle_r50"}),
-    "CCC-XYYGantry-ThreeLeaf-v0": ("CCC", {"plant": "xyy_gantry", "path": "three_leaf"}),
+    "CCC-XYYGantry-ThreeLeaf-v0": ("CCC", {"plant": GANTRY_LEAF, "path": "three_leaf", "laps": 20}),
     "Feedrate-Circle-v0": ("Feedrate", {"plant": "xy_servo_coulomb", "path": "circle_r20"}),
-    "Feedrate-Corner-v0": ("Feedrate", {"plant": "xy_servo_coulomb", "path": "corner"}),
-}
+    "Feedrate-Corner-v0": (
+        "Feedrate",
+        {"plant": "xy_servo_coulomb", "path": "corner", "feedrate": 0.045, "path_control": "G61",
+         "tolerance": 4.5e-6},
+    ),
+}  # fmt: skip
 
 _ENTRY = {
     "CCC": ("contour_gym.envs.ccc:CCCEnv", "contour_gym.envs.ccc:CCCVectorEnv"),
@@ -54,3 +69,34 @@ def register_envs() -> None:
 
 
 ENV_IDS = tuple(f"contour_gym/{name}" for name in SCENARIOS)
+
+
+def scenario_table() -> list[dict[str, Any]]:
+    """One row per registered id with the settings it runs.
+
+    Machine, path, laps, feedrate, estimator, tolerance, axis controller and CCC injection:
+    the preset's (its paper's) where the id is silent.
+    """
+    from contour_gym.envs.config import EnvConfig
+    from contour_gym.paths import load
+    from contour_gym.presets import resolve_preset
+
+    rows = []
+    for name, (task, kwargs) in SCENARIOS.items():
+        config = EnvConfig.from_kwargs(dict(kwargs))
+        preset = resolve_preset(config.plant)
+        own = config.path is None or config.path == preset.path
+        path = config.path or preset.path
+        timed = (load(path) if isinstance(path, str) else path).time_law is not None
+        rows.append({
+            "id": f"contour_gym/{name}", "task": task, "plant": preset.name,
+            "path": config.path or preset.path,
+            "laps": config.laps or (preset.laps if own else 1),
+            "feedrate": "time law" if timed else config.feedrate or preset.feedrate,
+            "path_control": config.path_control or "none",
+            "estimator": config.estimator or preset.estimator,
+            "tolerance": config.tolerance or preset.tolerance,
+            "axis_controller": config.axis_controller or preset.axis_controller,
+            "ccc_injection": config.ccc_injection or preset.ccc_injection,
+        })  # fmt: skip
+    return rows

@@ -19,6 +19,7 @@ from contour_gym.paths._library import NAMES, load
 from contour_gym.paths._path import Path
 from contour_gym.paths._primitives import arc, circle, composite, helix, line, polyline
 from contour_gym.paths._table import PathTable
+from contour_gym.paths._timelaw import TimeLaw
 
 __all__ = [
     "HELIX",
@@ -29,6 +30,7 @@ __all__ = [
     "GcodePath",
     "Path",
     "PathTable",
+    "TimeLaw",
     "arc",
     "bspline",
     "circle",

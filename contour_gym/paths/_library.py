@@ -12,6 +12,7 @@ from contour_gym._validate import choice
 from contour_gym.paths._freeform import FloatArray, Triple, analytic_path, bspline, nurbs
 from contour_gym.paths._path import Path
 from contour_gym.paths._primitives import circle, helix, polyline
+from contour_gym.paths._timelaw import TimeLaw
 
 MM = 1e-3
 
@@ -60,13 +61,42 @@ def _rose(theta: FloatArray) -> Triple:
 
 
 def three_leaf() -> Path:
-    """Three-leaf rose of paper 003 case 2.
+    """Three-leaf rose of paper 003 case 2, with 003's time law at f = 1 Hz.
 
     ``x = r cos(3 theta) cos(theta)``, ``y = r cos(3 theta) sin(theta)``, r = 25 mm, with
     theta = 2 pi f t running over [0, pi], which traces the three leaves once (closed, passing
-    through the origin three times). The +30/+90 mm y offsets of the paper belong to the stage.
+    through the origin three times) in 1 / (2 f) = 0.5 s. The path carries that timing as its
+    :attr:`~Path.time_law`: the speed ``2 pi f r sqrt(9 sin^2 3theta + cos^2 3theta)`` runs
+    from 2 pi f r (leaf tips) to 3 times that (the origin). The +30/+90 mm y offsets of the
+    paper belong to the stage; 003's 10 s window is :meth:`Path.repeat` (20 passes).
     """
-    return analytic_path(_rose, 0.0, math.pi, 2, "three_leaf")
+    path = analytic_path(_rose, 0.0, math.pi, 2, "three_leaf")
+    return path.with_time_law(theta_law(_rose, THREE_LEAF_FREQUENCY, math.pi, path.length))
+
+
+THREE_LEAF_FREQUENCY = 1.0  # 003 case 2: "the maximum frequency f up to 1 Hz"
+
+
+def theta_law(curve: Callable[[FloatArray], Triple], frequency: float, theta_end: float,
+              length: float, dt: float = 1e-3) -> TimeLaw:
+    """Time law of a curve ``C(theta)`` run at ``theta = 2 pi f t`` from 0 to ``theta_end``.
+
+    Args:
+        curve: ``theta -> (C, C', C'')`` with ``C'`` the derivative in theta, (N, dim) each.
+        frequency: f, Hz.
+        theta_end: Parameter at the end.
+        length: The path's arc length (the law is scaled onto it: the fit's length and the
+            quadrature's agree to about 1e-12).
+        dt: Grid step, s.
+    """
+    rate = 2.0 * math.pi * frequency
+
+    def speed(t: FloatArray) -> FloatArray:
+        flat = np.minimum(rate * np.ravel(t), theta_end)
+        return np.linalg.norm(curve(flat)[1], axis=1).reshape(np.shape(t)) * rate
+
+    law = TimeLaw.from_speed(speed, theta_end / rate, dt, f"theta = 2 pi {frequency:g} t")
+    return law.scaled_to(length)
 
 
 def corner() -> Path:

@@ -10,7 +10,8 @@ from numpy.typing import ArrayLike, NDArray
 from contour_gym._validate import as_finite_array
 from contour_gym.paths import _geom
 from contour_gym.paths._geom import CLOSED_TOL, CORNER_TOL
-from contour_gym.paths._table import PathTable, transform_table
+from contour_gym.paths._table import PathTable, concat_tables, transform_table
+from contour_gym.paths._timelaw import TimeLaw
 
 FloatArray = NDArray[np.float64]
 
@@ -32,21 +33,32 @@ class Path:
         closed: True if the end point equals the start point (within 1e-9 m).
         corners: Arc lengths where the tangent is discontinuous (sorted). On a closed path whose
             end tangent differs from its start tangent, 0.0 is included.
+        time_law: The path's own reference timing ``s(t)`` (e.g. 003's three-leaf at
+            ``theta = 2 pi f t``), or None: the path is then run at a feedrate.
     """
 
-    __slots__ = ("_table", "_name", "_closed", "_corners")
+    __slots__ = ("_table", "_name", "_closed", "_corners", "_time_law")
     _table: PathTable
     _name: str
     _closed: bool
     _corners: FloatArray
+    _time_law: TimeLaw | None
 
-    def __init__(self, table: PathTable, name: str = "path") -> None:
+    def __init__(
+        self, table: PathTable, name: str = "path", time_law: TimeLaw | None = None
+    ) -> None:
         """Build a path around a compiled table.
 
         Args:
             table: The compiled segments.
             name: A label.
+            time_law: The path's own timing (its ``s`` must end at the path's length).
+
+        Raises:
+            ValueError: for a time law that is not a :class:`TimeLaw` or ends elsewhere.
         """
+        if time_law is not None:
+            _check_law(time_law, table.length, name)
         ends = _geom.segment_ends(table.kind, table.s0, table.data)
         closed = bool(np.linalg.norm(ends[0, 0, :3] - ends[-1, 1, :3]) <= CLOSED_TOL)
         jump = np.linalg.norm(ends[1:, 0, 3:] - ends[:-1, 1, 3:], axis=1) > CORNER_TOL
@@ -59,12 +71,13 @@ class Path:
         object.__setattr__(self, "_name", str(name))
         object.__setattr__(self, "_closed", closed)
         object.__setattr__(self, "_corners", corners)
+        object.__setattr__(self, "_time_law", time_law)
 
     def __setattr__(self, key: str, value: Any) -> None:
         raise AttributeError(f"{type(self).__name__} is immutable")
 
     def __reduce__(self) -> tuple[Any, ...]:
-        return (Path, (self._table, self._name))
+        return (Path, (self._table, self._name, self._time_law))
 
     def __repr__(self) -> str:
         return (f"{type(self).__name__}(name={self._name!r}, dim={self.dim}, "
@@ -99,6 +112,42 @@ class Path:
     def corners(self) -> FloatArray:
         """Arc lengths where the unit tangent jumps by more than 1e-8 (read-only array)."""
         return self._corners
+
+    @property
+    def time_law(self) -> TimeLaw | None:
+        """The path's own reference timing, or None (run at a feedrate)."""
+        return self._time_law
+
+    def with_time_law(self, time_law: TimeLaw | None) -> Path:
+        """This geometry with its own reference timing (None: run at a feedrate).
+
+        Raises:
+            ValueError: if the law does not end at this path's length, or for a path with
+                per-segment program data (a G-code part runs on its F words).
+        """
+        self._plain("with_time_law")
+        return Path(self._table, self._name, time_law)
+
+    def repeat(self, laps: int) -> Path:
+        """This closed path traced ``laps`` times (its time law, if any, repeated too).
+
+        Raises:
+            ValueError: for an open path, a bad ``laps`` or a G-code part.
+        """
+        if not isinstance(laps, (int, np.integer)) or laps < 1:
+            raise ValueError(f"laps must be a positive int, got {laps!r}")
+        if laps == 1:
+            return self
+        self._plain("repeat")
+        if not self._closed:
+            raise ValueError(f"path {self._name!r} is open: only a closed path can be repeated")
+        law = None if self._time_law is None else self._time_law.repeat(int(laps))
+        table = concat_tables([self._table] * int(laps))
+        return Path(table, f"{self._name} x{laps}", law)
+
+    def _plain(self, what: str) -> None:
+        if type(self) is not Path:
+            raise ValueError(f"{what} applies to plain paths, not {type(self).__name__}")
 
     # evaluation -----------------------------------------------------------------------------
 
@@ -242,4 +291,13 @@ class Path:
 
     def _rebuilt(self, table: PathTable) -> Path:
         """Same kind of path with another table (subclasses keep their extra data)."""
-        return Path(table, self._name)
+        return Path(table, self._name, self._time_law)
+
+
+def _check_law(law: object, length: float, name: str) -> None:
+    if not isinstance(law, TimeLaw):
+        raise ValueError(f"time_law must be a TimeLaw, got {type(law).__name__}")
+    if abs(law.length - length) > 1e-9 * max(1.0, length):
+        raise ValueError(
+            f"time law ends at s = {law.length:.9g} m but path {name!r} is {length:.9g} m long"
+        )
