@@ -60,8 +60,8 @@ def feedrate_peaks(task: object) -> tuple[float, float]:
     sc = task.scenario  # type: ignore[attr-defined]
     out = []
     for scale in cfg.feedrate_range:
-        m = simulate(plant=sc.preset, path=sc.path, ccc_gains=task.g0,  # type: ignore[attr-defined]
-                     feedrate=sc.feedrate * scale, **{k: v for k, v in sc.options.items()})
+        m = simulate(plant=sc.preset, path=sc.path, ccc_gains=cfg.ccc_gains,  # as the env runs
+                     feedrate=sc.feedrate * scale, **dict(sc.options))
         out.append(m["max_contour_error"] / task.tolerance)  # type: ignore[attr-defined]
     return out[0], out[1]
 

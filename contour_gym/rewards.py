@@ -19,7 +19,9 @@ the feedrate range allows. A reward maps them to a number:
 * a *compiled* reward (:class:`CompiledReward`, registered in :data:`REWARDS`): an njit
   ``fn(components, weights) -> float`` with named weights; it runs inside the env's compiled
   step. Built in: ``ccc`` (``-(w_contour contour + w_chatter chatter)``) and ``feedrate``
-  (``w_progress progress - w_excess excess``);
+  (``w_progress progress - w_time - w_excess excess``: the time cost of one step makes the
+  episode's return ``(L / F_nom - cycle time) / decision time - w_excess sum(excess)`` at the
+  default weights, so a faster part scores higher, as 004's objective has it);
 * a *Python* reward: any callable ``reward(components: dict[str, (B,) array]) -> (B,) array``,
   called once per step on the batch (slower; for trying ideas).
 
@@ -100,6 +102,7 @@ def ccc_reward(comp, w):
 FEEDRATE_WEIGHTS = Schema(
     "feedrate reward",
     progress=Param(1.0, non_negative, "per nominal step of progress"),
+    time=Param(1.0, non_negative, "per step taken (the cycle time's price)"),
     excess=Param(10.0, non_negative, "per tolerance the peak error exceeds it"),
 )
 
@@ -109,9 +112,9 @@ _FW = FEEDRATE_WEIGHTS.col
 
 @numba.njit(cache=True, inline="always")
 def feedrate_reward(comp, w):
-    """``w_progress progress - w_excess excess`` (module docstring)."""
+    """``w_progress progress - w_time - w_excess excess`` (module docstring)."""
     c = _FW
-    return w[c.progress] * comp[RC.progress] - w[c.excess] * comp[RC.excess]
+    return w[c.progress] * comp[RC.progress] - w[c.time] - w[c.excess] * comp[RC.excess]
 
 
 CCC = register_reward(
@@ -124,7 +127,9 @@ CCC = register_reward(
 FEEDRATE = register_reward(
     CompiledReward(
         "feedrate", FEEDRATE_WEIGHTS, feedrate_reward,
-        doc="1 per nominal step of progress, minus 10 per tolerance of excess peak error",
+        doc="1 per nominal step of progress, minus 1 per step taken, minus 10 per tolerance "
+        "of excess peak error: the return is the cycle time saved over the nominal feedrate's, "
+        "in decisions, less the excess",
     )
 )  # fmt: skip
 

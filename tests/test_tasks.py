@@ -69,6 +69,15 @@ def test_a_failed_episode_returns_less_than_a_completed_one():
     assert bad < ok
 
 
+def test_the_feedrate_task_pays_for_time_and_for_error():
+    # Feedrate-Circle (004's circle at its 5 um bound): the nominal feedrate beats both the
+    # slowest (time costs) and the fastest (the error breaks the tolerance)
+    ret, failed, _ = constant_action_sweep("contour_gym/Feedrate-Circle-v0")
+    slowest, nominal, fastest = ret[0], ret[2], ret[-1]
+    assert nominal > slowest and nominal > fastest, ret
+    assert not failed[[0, 2]].any()
+
+
 def user_path_183mm():
     # a 2:1 Lissajous-like curve, 183 mm long
     path = parametric(
