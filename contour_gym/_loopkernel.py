@@ -312,12 +312,20 @@ def _in_position(A, cfg, b, n_axes):
 
 
 @numba.njit(cache=True, inline="always")
-def _arrived(A, cfg, b, inpos):
+def _arrived(A, P, cfg, b, inpos):
     if not (inpos and A.ip_s[b, IS.done] >= 0.0):
         return False
     n_c = A.c_axes.shape[0]
+    band = 2.0 * cfg.in_band
     for c in range(n_c):
-        if A.foot[b * n_c + c, FT.progress] < cfg.length - 2.0 * cfg.in_band - 1e-9:
+        f = b * n_c + c
+        if A.foot[f, FT.progress] >= cfg.length - band - 1e-9:
+            continue
+        # a part whose moves retrace each other (a retract, then the return over the same
+        # line): the foot may lie on the earlier pass, at the end point all the same
+        ex, ey, ez = eval_path(P.kind, P.s0, P.data, cfg.length)[:3]
+        dx, dy, dz = A.foot[f, FT.qx] - ex, A.foot[f, FT.qy] - ey, A.foot[f, FT.qz] - ez
+        if dx * dx + dy * dy + dz * dz > band * band:
             return False
     return True
 
@@ -365,7 +373,7 @@ def member_run(b, n, k0, cfg, A, P, noise, rec):
         for a in range(n_axes):
             A.y_last[b, a] = A.work[W.y, a]
         A.mem[b, M.in_pos] = 1.0 if inpos else 0.0
-        if _arrived(A, cfg, b, inpos):
+        if _arrived(A, P, cfg, b, inpos):
             A.mem[b, M.arrival], A.mem[b, M.end] = k + 1, k + 1
             return STATUS_ARRIVED
         done = A.ip_s[b, IS.done]

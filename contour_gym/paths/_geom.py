@@ -408,11 +408,17 @@ def _lower_bound(bound, j, px, py, pz):
     return math.sqrt(dx * dx + dy * dy + dz * dz) - bound[j, 3]
 
 
+# Squared distances within this (1 pm squared) are a tie: the point farthest along the path
+# wins. A part that retraces a line (a retract, then the return over it; a plunge after a
+# rapid down the same line) has two equally near points, and a machine moves forward.
+TIE_D2 = 1e-24
+
+
 @numba.njit(cache=True, inline="always")
 def _visit(kind, s0, data, bound, j, px, py, pz, s_lo, s_hi, best_s, best_d2):
     """Search segment ``j`` over the window unless its bounding sphere rules it out."""
     lb = _lower_bound(bound, j, px, py, pz)
-    if lb > 0.0 and lb * lb >= best_d2:
+    if lb > 0.0 and lb * lb > best_d2 + TIE_D2:
         return best_s, best_d2
     a = s0[j]
     b = s0[j + 1]
@@ -422,9 +428,9 @@ def _visit(kind, s0, data, bound, j, px, py, pz, s_lo, s_hi, best_s, best_d2):
     if tb < ta:
         tb = ta
     t, d2 = nearest_segment(kind, data, bound, j, seg_len, px, py, pz, ta, tb)
-    if d2 < best_d2:
-        s = b if t >= seg_len else a + t
-        s = min(max(s, s_lo), s_hi)
+    s = b if t >= seg_len else a + t
+    s = min(max(s, s_lo), s_hi)
+    if d2 < best_d2 - TIE_D2 or (d2 <= best_d2 + TIE_D2 and s > best_s):
         return s, d2
     return best_s, best_d2
 
@@ -434,8 +440,8 @@ def nearest_window(kind, s0, data, bound, px, py, pz, s_lo, s_hi):
     """Exact nearest point with arc length in [s_lo, s_hi] (clamped to [0, L]): (s_foot, dist2).
 
     The segment holding the window centre is searched first, then its neighbours outward;
-    segments whose bounding sphere cannot beat the best distance so far are skipped. Ties keep
-    the first point found.
+    segments whose bounding sphere cannot beat the best distance so far are skipped. Ties
+    (within ``TIE_D2``) keep the point farthest along the path.
     """
     n = kind.shape[0]
     total = s0[n]
