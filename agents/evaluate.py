@@ -1,0 +1,149 @@
+"""One policy on one env: run episodes to their end and return the episode's metrics.
+
+:func:`run_policy` runs one episode; :func:`run_policy_batch` runs ``num_envs`` episodes at
+once as members of the native vector env (member i seeded ``seed + i``, so member i equals
+``run_policy(..., seed=seed + i)`` bit for bit). The env is built with the policy's
+:attr:`~agents.policies.Policy.env_kwargs` merged into the explicit env arguments; an
+explicit argument that conflicts with what the policy needs raises ValueError. The policy's
+arguments override the registered id's own defaults (e.g. ``Feedrate-Corner-v0``'s G61).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, cast
+
+import gymnasium as gym
+import numpy as np
+from numpy.typing import NDArray
+
+import contour_gym  # noqa: F401  (registers the ids)
+from agents.policies import Policy
+from contour_gym.envs.base import ContourVectorEnv
+
+EnvSpec = str | Mapping[str, Any]
+
+
+def env_arguments(
+    env_id_or_kwargs: EnvSpec, policy: Policy, env_kwargs: Mapping[str, Any]
+) -> tuple[str, dict[str, Any]]:
+    """The env id and the keyword arguments to build it with for ``policy``.
+
+    Args:
+        env_id_or_kwargs: A registered id, or a dict ``{"id": id, **env kwargs}``.
+        policy: The policy (its ``env_kwargs`` are merged in).
+        env_kwargs: Explicit env keyword arguments (on top of the dict's).
+
+    Raises:
+        ValueError: for a dict without an ``"id"``, an argument given twice with different
+            values, or an explicit argument that conflicts with the policy's, naming both.
+    """
+    if isinstance(env_id_or_kwargs, str):
+        env_id, explicit = env_id_or_kwargs, {}
+    elif isinstance(env_id_or_kwargs, Mapping) and isinstance(env_id_or_kwargs.get("id"), str):
+        explicit = dict(env_id_or_kwargs)
+        env_id = explicit.pop("id")
+    else:
+        raise ValueError(f"expected an env id or a dict with an 'id', got {env_id_or_kwargs!r}")
+    _merge(explicit, env_kwargs, "the keyword arguments")
+    merged = dict(explicit)
+    _merge(merged, policy.env_kwargs, f"policy {policy.name!r} (it needs the env built so)")
+    return env_id, merged
+
+
+def _merge(into: dict[str, Any], more: Mapping[str, Any], what: str) -> None:
+    for key, value in more.items():
+        if key in into and not _same(into[key], value):
+            raise ValueError(f"env argument {key}={into[key]!r} conflicts with {key}={value!r} "
+                             f"from {what}")  # fmt: skip
+        into[key] = value
+
+
+def _same(a: Any, b: Any) -> bool:
+    # numbers and sequences of numbers compare by value ((0.2, 2.0) == [0.2, 2.0] == array)
+    try:
+        if all(isinstance(x, (int, float, np.number, tuple, list, np.ndarray)) for x in (a, b)):
+            return bool(np.array_equal(a, b))
+        return a is b or bool(a == b)
+    except (TypeError, ValueError):  # an ambiguous or failing comparison counts as a conflict
+        return False
+
+
+def run_policy_batch(
+    env_id_or_kwargs: EnvSpec,
+    policy: Policy,
+    *,
+    num_envs: int = 1,
+    seed: int = 0,
+    **env_kwargs: Any,
+) -> dict[str, NDArray[Any]]:
+    """Run one episode per member of a native vector env with ``policy``, each to its end.
+
+    Args:
+        env_id_or_kwargs: A registered id, or a dict ``{"id": id, **env kwargs}``.
+        policy: The policy; ``reset(env)`` is called once, then ``act`` on every step.
+        num_envs: Members (episodes) B.
+        seed: Member i is seeded ``seed + i``.
+        **env_kwargs: Explicit env keyword arguments.
+
+    Returns:
+        Arrays (B,): the episode's ``info["metrics"]`` (``cycle_time``, ``max_contour_error``,
+        ``finished``, ...), ``return`` (the sum of the rewards), ``failed`` (the env's failure
+        rule ended it), ``truncated``, ``steps``, and ``tolerance`` (the env's, m).
+
+    Raises:
+        ValueError: see :func:`env_arguments`; and whatever the env raises for its arguments.
+    """
+    env_id, kwargs = env_arguments(env_id_or_kwargs, policy, env_kwargs)
+    venv = gym.make_vec(env_id, num_envs=num_envs, **kwargs)
+    try:
+        obs, _ = venv.reset(seed=seed)
+        policy.reset(venv)
+        out = _episodes(venv, policy, obs, num_envs)
+        task = cast(ContourVectorEnv, venv.unwrapped).task
+        out["tolerance"] = np.full(num_envs, task.tolerance)
+    finally:
+        venv.close()
+    return out
+
+
+def _episodes(venv: Any, policy: Policy, obs: Mapping[str, Any], n: int) -> dict[str, NDArray[Any]]:
+    # each member's first episode, to its end (later, auto-reset episodes are ignored)
+    live = np.ones(n, dtype=bool)
+    out: dict[str, NDArray[Any]] = {
+        "return": np.zeros(n), "failed": np.zeros(n, dtype=bool),
+        "truncated": np.zeros(n, dtype=bool), "steps": np.zeros(n, dtype=np.int64),
+    }  # fmt: skip
+    metrics: dict[str, NDArray[Any]] = {}
+    while live.any():
+        obs, reward, terminated, truncated, info = venv.step(policy.act(obs))
+        out["return"][live] += reward[live]
+        out["steps"][live] += 1
+        ended = live & (terminated | truncated)
+        if ended.any():
+            out["failed"][ended] = info["failure"][ended]
+            out["truncated"][ended] = truncated[ended]
+            for key, value in info["metrics"].items():
+                if not key.startswith("_"):
+                    metrics.setdefault(key, np.zeros_like(value))[ended] = value[ended]
+        live &= ~ended
+    return {**metrics, **out}
+
+
+def run_policy(
+    env_id_or_kwargs: EnvSpec, policy: Policy, *, seed: int = 0, **env_kwargs: Any
+) -> dict[str, Any]:
+    """Run one episode of the env with ``policy`` to its end (see :func:`run_policy_batch`).
+
+    Returns:
+        The episode's ``info["metrics"]`` (``cycle_time`` s, ``max_contour_error`` m,
+        ``finished``, ...) plus ``return``, ``failed``, ``truncated``, ``steps`` and
+        ``tolerance`` (m), as Python floats, ints and bools.
+
+    >>> from agents.policies import make_policy
+    >>> m = run_policy("contour_gym/Feedrate-Corner-v0", make_policy("cnc_lookahead", mode="G61"))
+    >>> m["finished"], m["max_contour_error"] <= m["tolerance"]
+    (True, True)
+    """
+    batch = run_policy_batch(env_id_or_kwargs, policy, num_envs=1, seed=seed, **env_kwargs)
+    return {key: value[0].item() for key, value in batch.items()}
