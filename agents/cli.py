@@ -1,20 +1,32 @@
 """The ``contour-gym`` command.
 
-``contour-gym simulate`` runs a preset on its paper's path (or any library path) without and
-with PID CCC, prints the metrics side by side (um, s) and writes the contour plot.
+``contour-gym simulate`` runs a preset on its paper's path (or any library path), or a G-code
+part file (``--gcode PART.nc``) at the program's own feeds, without and with PID CCC, prints
+the metrics side by side (um, s) and writes the plot: for a library path the path and the
+magnified contour, for a part its tool path coloured by the contour error.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import tempfile
-from collections.abc import Sequence
+import warnings
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path as FilePath
 
-from contour_gym.api import make_scenario, run_trace
+import numpy as np
+
+from contour_gym.api import Scenario, make_scenario, run_trace
+from contour_gym.paths import GcodeError, GcodePath, from_gcode
+from contour_gym.paths._gcode import _WORK_SYSTEMS as WORK_SYSTEMS
 from contour_gym.presets import PRESETS
+
+DEFAULT_PLANT = "xy_dc_servo"
+PART_PLANTS = {2: "xy_servo_coulomb", 3: "xyz_pmlsm"}  # default machine of a part, by its dim
 
 ROWS = (
     ("max_contour_error", "max |contour error| (um)", 1e6),
@@ -26,15 +38,84 @@ ROWS = (
 )
 
 
+class InputFileError(Exception):
+    """An input file that cannot be run; the message names the file (and the line)."""
+
+
+def _finite(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+    return value
+
+
+def _positive(text: str) -> float:
+    value = _finite(text)
+    if value <= 0.0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
+    return value
+
+
+def _key_value(text: str, form: str) -> tuple[str, str]:
+    key, sep, value = text.partition("=")
+    if not sep or not key.strip() or not value.strip():
+        raise argparse.ArgumentTypeError(f"expected {form}, got {text!r}")
+    return key.strip(), value
+
+
+def _work_offset(text: str) -> tuple[str, tuple[float, ...]]:
+    """``G54=X,Y[,Z]`` (mm) -> ("G54", (x, y[, z])) in m."""
+    name, value = _key_value(text, "G54=X,Y[,Z]")
+    name = name.upper()
+    if name not in WORK_SYSTEMS:
+        raise argparse.ArgumentTypeError(f"unknown work offset {name!r}; accepted: "
+                                         f"{', '.join(WORK_SYSTEMS)}")  # fmt: skip
+    coords = tuple(_finite(v) * 1e-3 for v in value.split(","))
+    if len(coords) not in (2, 3):
+        raise argparse.ArgumentTypeError(f"expected X,Y or X,Y,Z (mm), got {value!r}")
+    return name, coords
+
+
+def _tool_length(text: str) -> tuple[int, float]:
+    """``H=LENGTH`` (mm) -> (H, length in m)."""
+    number, value = _key_value(text, "H=LENGTH")
+    if not number.isdigit() or int(number) < 1:
+        raise argparse.ArgumentTypeError(f"tool number must be an integer >= 1, got {number!r}")
+    return int(number), _finite(value) * 1e-3
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="contour-gym", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
-    sim = sub.add_parser("simulate", help="no CCC vs PID CCC on one preset and path")
-    sim.add_argument("--plant", default="xy_dc_servo", choices=PRESETS)
-    sim.add_argument("--path", default=None, help="library path name (default: the paper's)")
-    sim.add_argument("--feedrate", type=float, default=None, help="mm/min (default: the paper's)")
+    sim = sub.add_parser("simulate", help="no CCC vs PID CCC on one preset and path or part")
+    sim.add_argument(
+        "--plant", default=None, choices=PRESETS,
+        help=f"machine (default: {DEFAULT_PLANT}; for a part, {PART_PLANTS[2]} if it is 2-D, "
+        f"{PART_PLANTS[3]} if 3-D)",
+    )  # fmt: skip
+    where = sim.add_mutually_exclusive_group()
+    where.add_argument("--path", default=None, help="library path name (default: the paper's)")
+    where.add_argument("--gcode", default=None, metavar="PART.nc",
+                       help="G-code part file, run at its own F words")  # fmt: skip
+    sim.add_argument(
+        "--feedrate", type=_positive, default=None,
+        help="mm/min (default: the paper's, or a part's own F words, which it replaces)",
+    )  # fmt: skip
+    sim.add_argument("--feedrate-override", type=_positive, default=1.0, metavar="FRACTION",
+                     help="feed override, fraction of the programmed feeds (default 1)")
+    part = sim.add_argument_group("G-code part setup (mm)")
+    part.add_argument("--work-offset", type=_work_offset, action="append", default=[],
+                      metavar="G54=X,Y[,Z]", help="a work offset's machine position (repeat)")
+    part.add_argument("--tool-length", type=_tool_length, action="append", default=[],
+                      metavar="H=LENGTH", help="tool length of H number H (repeat)")
+    part.add_argument("--cut-z", type=_finite, default=0.0, metavar="Z",
+                      help="program Z at or below which a feed move cuts (default 0)")
     sim.add_argument("--seed", type=int, default=0)
     sim.add_argument("--out", default="contour_gym_simulate.png", help="plot file")
+    sim.add_argument("--dpi", type=_positive, default=120.0, help="plot resolution")
     train = sub.add_parser("train", help="train a stable-baselines3 agent (needs the rl extra)")
     train.add_argument("--env", default="contour_gym/CCC-Circle-v0", help="registered env id")
     train.add_argument("--algo", default="ppo", choices=("ppo", "sac"))
@@ -55,39 +136,117 @@ def format_table(columns: dict[str, dict[str, float]]) -> str:
     return "\n".join(lines)
 
 
-def _save_atomically(fig: object, target: FilePath) -> None:
+def _save_atomically(fig: object, target: FilePath, dpi: float = 120.0) -> None:
     # Write next to the target, then rename: an interrupted run never leaves half a file.
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(suffix=target.suffix, dir=target.parent)
     os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # a plain new file's mode, not mkstemp's private 0600
     try:
-        fig.savefig(tmp, dpi=120)  # type: ignore[attr-defined]
+        fig.savefig(tmp, dpi=dpi)  # type: ignore[attr-defined]
         os.replace(tmp, target)
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
 
 
+def read_part(args: argparse.Namespace) -> GcodePath:
+    """Read and parse the ``--gcode`` file with the part setup options.
+
+    Args:
+        args: The parsed ``simulate`` arguments (``gcode``, ``work_offset``, ``tool_length``,
+            ``cut_z``; lengths in mm).
+
+    Returns:
+        The part in machine coordinates, before it is mapped onto a machine's axes.
+
+    Raises:
+        InputFileError: the file cannot be read or run (``PART.nc: line N: ...``).
+    """
+    name = args.gcode
+    try:
+        text = FilePath(name).read_text(encoding="utf-8", errors="replace")
+    except OSError as exc:
+        raise InputFileError(f"{name}: {exc.strerror or exc}") from None
+    with _naming(name):
+        return from_gcode(text, work_offsets=dict(args.work_offset) or None,
+                          tool_lengths=dict(args.tool_length) or None,
+                          cut_z=args.cut_z * 1e-3)  # fmt: skip
+
+
+@contextmanager
+def _naming(name: str) -> Iterator[None]:
+    """Turn a G-code or value error into an :class:`InputFileError` naming file ``name``."""
+    try:
+        yield
+    except GcodeError as exc:
+        raise InputFileError(f"{name}: line {exc.line}: {exc.message}") from None
+    except ValueError as exc:
+        raise InputFileError(f"{name}: {exc}") from None
+
+
+def scenario_of(args: argparse.Namespace) -> Scenario:
+    """The scenario ``contour-gym simulate`` runs: a preset on a library path or a part.
+
+    A part runs at its own F words (or ``--feedrate``) times ``--feedrate-override``, on
+    ``--plant`` or, by default, on :data:`PART_PLANTS`'s machine of its dimension.
+
+    Args:
+        args: The parsed ``simulate`` arguments.
+
+    Returns:
+        The scenario.
+
+    Raises:
+        InputFileError: the ``--gcode`` file cannot be read or run on the machine.
+        ValueError: unknown library path, or a bad combination of options.
+    """
+    feedrate = None if args.feedrate is None else args.feedrate / 60e3
+    if args.gcode is None:
+        return make_scenario(args.plant or DEFAULT_PLANT, args.path, feedrate,
+                             feedrate_override=args.feedrate_override)  # fmt: skip
+    part = read_part(args)
+    with _naming(args.gcode):  # mapping onto the machine's axes can reject a line
+        return make_scenario(args.plant or PART_PLANTS[part.dim], part, feedrate,
+                             feedrate_override=args.feedrate_override)  # fmt: skip
+
+
+def _headline(scenario: Scenario, part: str | None) -> str:
+    preset, path = scenario.preset, scenario.path
+    line = f"plant {preset.name} (paper {preset.paper}), "
+    if part is None:
+        line += f"path {path.name} ({path.length * 1e3:.1f} mm), "
+        line += f"feedrate {scenario.feedrate * 60e3:.0f} mm/min"
+    else:
+        cutting = np.asarray(getattr(path, "cutting", True), dtype=bool)
+        cut = float(np.diff(path.table.s0)[cutting].sum())
+        line += f"part {part} ({path.length * 1e3:.1f} mm, {cut * 1e3:.1f} mm cutting), "
+        line += f"feeds up to {scenario.feedrate * 60e3:.0f} mm/min"
+    if scenario.feed_override != 1.0:
+        line += f", feed override {scenario.feed_override:g}"
+    return line
+
+
 def simulate_command(args: argparse.Namespace) -> int:
     """Run ``contour-gym simulate``."""
-    from contour_gym.render import contour_figure
+    from contour_gym.render import contour_figure, part_figure
 
-    feedrate = None if args.feedrate is None else args.feedrate / 60e3
-    scenario = make_scenario(args.plant, args.path, feedrate)
+    scenario = scenario_of(args)
     columns, traces = {}, {}
     for label, gains in (("no CCC", None), ("PID CCC", scenario.preset.ccc_gains.as_tuple())):
         columns[label], traces[label] = run_trace(scenario, gains, args.seed)
-    preset = scenario.preset
-    print(
-        f"plant {preset.name} (paper {preset.paper}), path {scenario.path.name} "
-        f"({scenario.path.length * 1e3:.1f} mm), feedrate {scenario.feedrate * 60e3:.0f} mm/min"
-    )
+    print(_headline(scenario, args.gcode))
     print(format_table(columns))
-    contour = preset.stage.contours[0]
-    fig = contour_figure(
-        scenario.path, traces, axes=contour.axes[:2], offset=(contour.offset or (0.0, 0.0))[:2]
-    )
-    _save_atomically(fig, FilePath(args.out))
+    contour = scenario.preset.stage.contours[0]
+    axes, offset = contour.axes[:2], (contour.offset or (0.0, 0.0))[:2]
+    if args.gcode is None:
+        fig = contour_figure(scenario.path, traces, axes=axes, offset=offset)
+    else:
+        fig = part_figure(scenario.path, traces, axes=axes, offset=offset,
+                          title=FilePath(args.gcode).name)  # fmt: skip
+    _save_atomically(fig, FilePath(args.out), args.dpi)
     print(f"plot written to {args.out}")
     return 0
 
@@ -106,10 +265,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     command = {"simulate": simulate_command, "train": train_command}[args.command]
     try:
-        return command(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            return command(args)
+    except InputFileError as exc:
+        print(exc, file=sys.stderr)
+        return 2
     except ValueError as exc:
         print(f"contour-gym: error: {exc}", file=sys.stderr)
         return 2
+
+
+def _show_warning(message: Warning | str, *_: object, **__: object) -> None:
+    """Print a warning as one line, without the source line that raised it."""
+    print(f"contour-gym: warning: {message}", file=sys.stderr)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Plots: the path with the actual contour's error magnified, and contour error vs time.
+"""Plots: a path with the contour error magnified and vs time; a part coloured by the error.
 
 mm and um appear here only (SI inside).
 """
@@ -9,11 +9,28 @@ from collections.abc import Mapping
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import LineCollection
+from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 from contour_gym.loop import Trace
 from contour_gym.paths import Path
+
+
+def _path_positions(
+    path: Path, trace: Trace, axes: tuple[int, ...], offset: tuple[float, ...], member: int
+) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """The ticks a member ran, and its axis positions there in path coordinates, m.
+
+    ``axes`` and ``offset`` place the first two path coordinates; a 3-D path's z is axis 2.
+    """
+    live = np.all(np.isfinite(trace.x[member]), axis=1)  # rows after the end are NaN
+    x = trace.x[member][live]
+    pos = x[:, list(axes)] - np.asarray(offset)
+    if path.dim == 3:
+        pos = np.column_stack([pos, x[:, 2]])
+    return live, pos
 
 
 def magnified(
@@ -63,11 +80,7 @@ def contour_figure(
     dense = path.point(np.linspace(0.0, path.length, 2000))
     left.plot(dense[:, 0] * 1e3, dense[:, 1] * 1e3, "k-", lw=1.0, label="path")
     for label, tr in runs.items():
-        live = np.all(np.isfinite(tr.x[member]), axis=1)  # rows after the end are NaN
-        x = tr.x[member][live]
-        pos = x[:, list(axes)] - np.asarray(offset)
-        if path.dim == 3:
-            pos = np.column_stack([pos, x[:, 2]])
+        live, pos = _path_positions(path, tr, axes, offset, member)
         big = magnified(path, pos, tr.s[member][live], magnify)
         left.plot(big[:, 0] * 1e3, big[:, 1] * 1e3, lw=1.0, label=f"{label} (error x{magnify:g})")
         err = np.abs(tr.eps[member][live]).max(axis=1) * 1e6
@@ -79,6 +92,96 @@ def contour_figure(
         ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
+
+
+def part_figure(
+    path: Path,
+    runs: Mapping[str, Trace],
+    *,
+    axes: tuple[int, ...] = (0, 1),
+    offset: tuple[float, ...] = (0.0, 0.0),
+    member: int = 0,
+    title: str | None = None,
+) -> Figure:
+    """A part's tool path per run (x-y, mm), the cutting moves coloured by |contour error| (um).
+
+    One panel per run: the machine's actual positions on the cutting moves as a line coloured
+    by the |contour error| there, on one colour scale shared by the runs (the colour bar), and
+    the program's rapids and other non-cutting moves as thin dashed grey lines. A tick is on a
+    cutting move when its foot point (the exact nearest point, searched near the reference)
+    lies on a cutting segment; a path without ``cutting`` flags cuts everywhere. The metrics
+    count ticks by the loop's own foot, searched near its previous one: where a cut turns
+    sharply into a rapid, that foot can stay on the cut a few ticks longer, so the metrics'
+    peak can exceed the plot's. A 3-D part is drawn from above.
+
+    Args:
+        path: The part as the machine runs it (a G-code part mapped onto its axes).
+        runs: Label -> trace of one run each.
+        axes: The stage axes drawing the first two path coordinates.
+        offset: The contour's offset in those coordinates, m.
+        member: Batch member to plot.
+        title: Name of the part in the panel titles (default: the path's name).
+
+    Returns:
+        The figure (caller saves or converts it).
+    """
+    n = path.table.n_segments
+    cutting = np.asarray(getattr(path, "cutting", np.ones(n, dtype=bool)), dtype=bool)
+    drawn = {label: _cutting_strokes(path, tr, cutting, axes, offset, member)
+             for label, tr in runs.items()}  # fmt: skip
+    top = max((float(err.max()) for _, err in drawn.values() if err.size), default=0.0)
+    norm = Normalize(0.0, top if top > 0.0 else 1.0)
+    idle = _idle_points(path, cutting) * 1e3
+    width, height = np.ptp(path.point(np.linspace(0.0, path.length, 2000))[:, :2], axis=0)
+    aspect = float(np.clip(width / max(height, 1e-9), 0.5, 2.5))  # panel shape, as drawn
+    fig = Figure(figsize=(len(drawn) * (3.3 * aspect + 0.7) + 1.0, 4.6), layout="compressed")
+    FigureCanvasAgg(fig)
+    panels = fig.subplots(1, len(drawn), squeeze=False)[0]
+    for ax, (label, (strokes, err)) in zip(panels, drawn.items(), strict=True):
+        ax.plot(idle[:, 0], idle[:, 1], "--", lw=0.6, color="0.6", label="rapid / non-cutting")
+        lines = LineCollection(list(strokes * 1e3), cmap="viridis", norm=norm, linewidths=1.8)
+        lines.set_array(err)
+        ax.add_collection(lines)
+        ax.autoscale_view()
+        ax.set(xlabel="x (mm)", ylabel="y (mm)", title=f"{title or path.name}: {label}",
+               aspect="equal")  # fmt: skip
+        ax.grid(alpha=0.3)
+    if drawn:
+        fig.colorbar(lines, ax=list(panels), label="|contour error| (um)")
+        if idle.size:
+            fig.legend(handles=panels[0].get_lines()[:1], loc="outside lower center", fontsize=8)
+    return fig
+
+
+def _cutting_strokes(
+    path: Path, trace: Trace, cutting: NDArray[np.bool_], axes: tuple[int, ...],
+    offset: tuple[float, ...], member: int,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    """(N, 2, 2) x-y strokes between consecutive ticks on cutting moves (m), and their error (um).
+
+    A stroke's error is the larger |contour error| of its two ticks (over contours).
+    """
+    live, pos = _path_positions(path, trace, axes, offset, member)
+    foot, _ = path.nearest(pos, s_hint=trace.s[member][live])
+    t = path.table
+    seg = np.clip(np.searchsorted(t.s0, foot, side="right") - 1, 0, t.n_segments - 1)
+    cut = cutting[seg]
+    err = np.abs(trace.eps[member][live]).max(axis=1) * 1e6
+    both = cut[:-1] & cut[1:]
+    strokes = np.stack([pos[:-1, :2], pos[1:, :2]], axis=1)[both]
+    return strokes, np.maximum(err[:-1], err[1:])[both]
+
+
+def _idle_points(path: Path, cutting: NDArray[np.bool_], per_segment: int = 48
+                 ) -> NDArray[np.float64]:  # fmt: skip
+    """x-y points along the non-cutting segments (m); a NaN row ends each unbroken run."""
+    idle = np.flatnonzero(~cutting)
+    s0 = path.table.s0
+    pieces = []
+    for run in np.split(idle, np.flatnonzero(np.diff(idle) != 1) + 1) if idle.size else ():
+        s = np.concatenate([np.linspace(s0[i], s0[i + 1], per_segment) for i in run])
+        pieces += [path.point(s)[:, :2], np.full((1, 2), np.nan)]
+    return np.concatenate(pieces) if pieces else np.empty((0, 2))
 
 
 def figure_to_array(fig: Figure) -> NDArray[np.uint8]:
