@@ -27,31 +27,21 @@ import gymnasium as gym
 import numpy as np
 
 import contour_gym
+from agents.evaluate import run_policy_batch
+from agents.policies import make_policy
 from contour_gym.api import simulate
 
 ACTIONS = (-1.0, -0.5, 0.0, 0.5, 1.0)
 
 
 def sweep(env_id: str, seed: int = 0) -> dict[str, object]:
-    """Returns, failures and ends of one episode per constant action."""
-    n = len(ACTIONS)
-    venv = gym.make_vec(env_id, num_envs=n)
-    task = venv.unwrapped.task
+    """Returns and failures of one episode per constant action (member i: action i)."""
+    task = gym.make(env_id).unwrapped.task  # the env's step limit, reward range and scenario
     actions = np.repeat(np.asarray(ACTIONS)[:, None], task.n_actions, axis=1)
-    venv.reset(seed=seed)
-    returns, failed = np.zeros(n), np.zeros(n, dtype=bool)
-    finished, live = np.zeros(n, dtype=bool), np.ones(n, dtype=bool)
-    while live.any():
-        _, r, te, tr, info = venv.step(actions)
-        returns[live] += r[live]
-        failed |= live & info["failure"]
-        ended = live & (te | tr)
-        if ended.any():
-            finished[ended] = info["metrics"]["finished"][ended]
-        live &= ~ended
+    out = run_policy_batch(env_id, make_policy("constant", action=actions),
+                           num_envs=len(ACTIONS), seed=seed)  # fmt: skip
     floor = task.max_episode_steps * min(task.reward_range[0], 0.0) - task.config.failure_penalty
-    return {"returns": returns, "failed": failed, "finished": finished, "floor": floor,
-            "task": task}  # fmt: skip
+    return {"returns": out["return"], "failed": out["failed"], "floor": floor, "task": task}
 
 
 def feedrate_peaks(task: object) -> tuple[float, float]:

@@ -30,6 +30,7 @@ class Scenario:
         options: Loop options (:class:`~contour_gym.loop.LoopOptions` fields) every loop of
             this scenario gets unless a call overrides them.
         feed_override: Fraction of the programmed feeds the loops start at.
+        laps: Times ``path`` traces the closed contour it was built from (already repeated).
     """
 
     preset: Preset
@@ -37,6 +38,7 @@ class Scenario:
     feedrate: float
     options: dict[str, Any] = field(default_factory=dict)
     feed_override: float = 1.0
+    laps: int = 1
 
     def interpolator(self, feedrate: float | None = None) -> Interpolator:
         """The interpolator at ``feedrate`` (default: the scenario's) with the machine's limits."""
@@ -130,9 +132,9 @@ def make_scenario(
     preset = resolve_preset(plant)
     resolved = load(preset.path if path is None else path) if not isinstance(path, Path) else path
     own = path is None or path == preset.path
-    resolved = _on_machine(resolved, preset).repeat(
-        (preset.laps if own else 1) if laps is None else laps
-    )
+    if laps is None:
+        laps = preset.laps if own else 1
+    resolved = _on_machine(resolved, preset).repeat(laps)
     override = 1.0
     if feedrate_override is not None:
         override = positive(feedrate_override, "feedrate_override")
@@ -154,7 +156,7 @@ def make_scenario(
     if unknown:
         raise ValueError(f"unknown option(s) {unknown}; accepted: "
                          f"{', '.join(sorted(LoopOptions.__dataclass_fields__))}")
-    return Scenario(preset, resolved, rate, _with_paper_options(preset, options), override)
+    return Scenario(preset, resolved, rate, _with_paper_options(preset, options), override, laps)
 
 
 def _with_paper_options(preset: Preset, options: Mapping[str, Any]) -> dict[str, Any]:
@@ -217,7 +219,7 @@ def simulate(
     >>> round(m["max_contour_error"] * 1e6, 1), m["finished"]  # 000 reports 49 um
     (50.6, 1.0)
     """
-    loop = _run(_scenario(plant, path, feedrate, options), ccc_gains, seed, False, options)
+    loop = run_scenario(_scenario(plant, path, feedrate, options), ccc_gains, seed, **options)
     return {**member_metrics(loop.metrics(), 0), "failed": float(loop.failed[0]),
             "finished": float(loop.done[0])}  # fmt: skip
 
@@ -226,17 +228,23 @@ def run_trace(
     scenario: Scenario, ccc_gains: object, seed: int = 0, **options: Any
 ) -> tuple[dict[str, float], Trace]:
     """Run a scenario recording every tick; returns (metrics, trace)."""
-    loop = _run(scenario, ccc_gains, seed, True, options)
+    loop = run_scenario(scenario, ccc_gains, seed, record=True, **options)
     return member_metrics(loop.metrics(), 0), loop.trace()
 
 
-def _run(
-    scenario: Scenario, ccc_gains: object, seed: int, record: bool, options: dict[str, Any]
-) -> ServoLoop:
+def run_scenario(
+    scenario: Scenario, ccc_gains: object = None, seed: int = 0, *, record: bool = False,
+    **options: Any,
+) -> ServoLoop:  # fmt: skip
+    """Run one member of ``scenario`` from ``seed`` to its end; returns the finished loop.
+
+    ``options`` override the scenario's loop options; ``loop.metrics()`` holds the run's
+    metrics (per-contour arrays included) and, with ``record``, ``loop.trace()`` every tick.
+    """
     loop = scenario.loop(ccc_gains=ccc_gains, record=record, **options)
     loop.reset(seed)
     loop.run()
     return loop
 
 
-__all__ = ["Scenario", "make_scenario", "run_trace", "simulate"]
+__all__ = ["Scenario", "make_scenario", "run_scenario", "run_trace", "simulate"]

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from contour_gym.api import make_scenario
+from contour_gym.api import make_scenario, run_scenario
 from contour_gym.envs.registration import GANTRY_LEAF
 
 Metrics = Mapping[str, Any]
@@ -62,9 +62,7 @@ class BaselineRow:
         """Our value of the row (rig unless ``ideal``)."""
         scenario = make_scenario(self.plant, self.path, ideal=ideal, **self.options)
         gains = scenario.preset.ccc_gains if self.ccc else None
-        loop = scenario.loop(ccc_gains=gains)
-        loop.reset(seed)
-        return self.metric(loop.run())
+        return self.metric(run_scenario(scenario, gains, seed).metrics())
 
     def verdict(self, ours: float) -> str:
         """``HOLDS``, ``FALLS SHORT`` against the band, or ``reported`` without one."""

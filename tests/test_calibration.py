@@ -176,5 +176,5 @@ def test_preset_pid_ccc_mean_error_is_within_a_decade_of_the_tolerance(name):
     loop = scenario.loop(ccc_gains=scenario.preset.ccc_gains)
     loop.reset(0)
     m = member_metrics(loop.run(), 0)
-    tolerance = config.tolerance or scenario.preset.tolerance
+    tolerance = config.tolerance_for(scenario.preset)
     assert 0.1 * tolerance <= m["mean_contour_error"] <= 10.0 * tolerance, (m, tolerance)

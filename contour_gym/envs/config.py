@@ -11,6 +11,7 @@ from contour_gym._validate import as_finite_array, non_negative, positive
 from contour_gym.ccc import INJECTIONS
 from contour_gym.motion import PATH_CONTROLS
 from contour_gym.paths import Path
+from contour_gym.presets import Preset
 
 # Default domain randomisation (``randomize=True``): relative +- spread of mass, damping and
 # force constant per axis and episode, and [low, high] scale ranges of friction and
@@ -146,6 +147,10 @@ class EnvConfig:
         if unknown:
             raise ValueError(f"unknown argument(s) {unknown}; accepted: {', '.join(sorted(names))}")
         return cls(**kwargs)
+
+    def tolerance_for(self, preset: Preset) -> float:
+        """The contour tolerance the env scores against: ``tolerance``, else the preset's."""
+        return self.tolerance if self.tolerance is not None else preset.tolerance
 
     def randomization(self) -> dict[str, Any] | None:
         """The randomisation ranges in force, or None when off."""

@@ -57,7 +57,7 @@ class ContourTask:
         preset, path = self.scenario.preset, self.scenario.path
         self.path, self.stage, self.preset = path, preset.stage, preset
         self.n_contours, self.n_axes = len(self.stage.contours), self.stage.n_axes
-        self.tolerance = config.tolerance if config.tolerance is not None else preset.tolerance
+        self.tolerance = config.tolerance_for(preset)
         self.hard_limit = config.hard_limit or HARD_LIMIT_TOLERANCES * self.tolerance
         if self.hard_limit <= self.tolerance:
             raise ValueError(f"hard_limit must exceed tolerance, got {self.hard_limit!r}")

@@ -74,29 +74,23 @@ ENV_IDS = tuple(f"contour_gym/{name}" for name in SCENARIOS)
 def scenario_table() -> list[dict[str, Any]]:
     """One row per registered id with the settings it runs.
 
-    Machine, path, laps, feedrate, estimator, tolerance, axis controller and CCC injection:
-    the preset's (its paper's) where the id is silent.
+    Machine, path, laps, feedrate, estimator, tolerance, axis controller and CCC injection, read
+    from the scenario the env builds (the preset's paper settings where the id is silent).
     """
     from contour_gym.envs.config import EnvConfig
-    from contour_gym.paths import load
-    from contour_gym.presets import resolve_preset
+    from contour_gym.envs.core import _scenario
 
     rows = []
     for name, (task, kwargs) in SCENARIOS.items():
         config = EnvConfig.from_kwargs(dict(kwargs))
-        preset = resolve_preset(config.plant)
-        own = config.path is None or config.path == preset.path
-        path = config.path or preset.path
-        timed = (load(path) if isinstance(path, str) else path).time_law is not None
+        sc = _scenario(config)
         rows.append({
-            "id": f"contour_gym/{name}", "task": task, "plant": preset.name,
-            "path": config.path or preset.path,
-            "laps": config.laps or (preset.laps if own else 1),
-            "feedrate": "time law" if timed else config.feedrate or preset.feedrate,
+            "id": f"contour_gym/{name}", "task": task, "plant": sc.preset.name,
+            "path": config.path or sc.preset.path, "laps": sc.laps,
+            "feedrate": "time law" if sc.path.time_law is not None else sc.feedrate,
             "path_control": config.path_control or "none",
-            "estimator": config.estimator or preset.estimator,
-            "tolerance": config.tolerance or preset.tolerance,
-            "axis_controller": config.axis_controller or preset.axis_controller,
-            "ccc_injection": config.ccc_injection or preset.ccc_injection,
+            "estimator": sc.options["estimator"], "tolerance": config.tolerance_for(sc.preset),
+            "axis_controller": sc.options["axis_controller"],
+            "ccc_injection": sc.options["ccc_injection"],
         })  # fmt: skip
     return rows

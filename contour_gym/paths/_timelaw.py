@@ -48,10 +48,17 @@ class TimeLaw:
         s, v = np.asarray(self.s, dtype=float), np.asarray(self.v, dtype=float)
         if s.ndim != 1 or s.shape != v.shape or s.size < 2:
             raise ValueError("time law s and v must be 1-D of the same length >= 2")
-        if not (np.all(np.isfinite(s)) and np.all(np.isfinite(v))):
-            raise ValueError("time law s and v must be finite")
-        if s[0] != 0.0 or np.any(np.diff(s) < 0) or np.any(v < 0):
-            raise ValueError("time law s must start at 0 and not decrease, v must be >= 0")
+        for name, arr in (("s", s), ("v", v)):
+            bad = np.flatnonzero(~np.isfinite(arr))
+            if bad.size:
+                raise ValueError(f"time law {name} must be finite, got {arr[bad[0]]} at {bad[0]}")
+        drop = np.flatnonzero(np.diff(s) < 0)
+        if s[0] != 0.0 or drop.size:
+            at = f"s[0] = {s[0]}" if s[0] != 0.0 else f"s[{drop[0] + 1}] = {s[drop[0] + 1]}"
+            raise ValueError(f"time law s must start at 0 and not decrease, got {at}")
+        neg = np.flatnonzero(v < 0)
+        if neg.size:
+            raise ValueError(f"time law v must be >= 0, got v[{neg[0]}] = {v[neg[0]]}")
         for name, arr in (("s", s), ("v", v)):
             arr = np.ascontiguousarray(arr)
             arr.flags.writeable = False
