@@ -21,8 +21,7 @@ from pathlib import Path as FilePath
 import numpy as np
 
 from contour_gym.api import Scenario, make_scenario, run_trace
-from contour_gym.paths import GcodeError, GcodePath, from_gcode
-from contour_gym.paths._gcode import _WORK_SYSTEMS as WORK_SYSTEMS
+from contour_gym.paths import WORK_SYSTEMS, GcodeError, GcodePath, from_gcode
 from contour_gym.presets import PRESETS
 
 DEFAULT_PLANT = "xy_dc_servo"

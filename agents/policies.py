@@ -193,8 +193,9 @@ class CNCLookahead(Policy):
     The env is built with ``path_control=mode`` (and ``path_tolerance=tolerance`` under G64)
     and ``feedrate_override=1.0`` (:attr:`env_kwargs`); the policy acts 0 in the feedrate env,
     ``F(k) = F(k-1) + 0``, so every cutting move runs at its programmed feed wherever the
-    interpolator's planning allows. A G-code part's own per-block modes (including its stops
-    at rapid/feed changes) are replaced by ``mode`` on every junction; dwells still stop.
+    interpolator's planning allows. A G-code part's own G61/G61.1/G64 choices are replaced by
+    ``mode``; its mandatory stops (M codes, G28, dwells, changes between rapid and feed:
+    ``GcodePath.mandatory_stops``) stay.
 
     The planning is :func:`contour_gym.motion.build_program`'s; at the junction of segment j
     (end direction ``t_j``) and j + 1 (start direction ``t_(j+1)``), with ``a`` the machine's

@@ -22,6 +22,13 @@ constant-feedrate runs), ``"G61"`` (exact stop at every segment end; the next bl
 the axes are in position), ``"G61.1"`` (exact path: stops at real corners only), ``"G64"``
 (blending with the tolerance ``path_tolerance``).
 
+**Acc/dec time constant** (``Interpolator.time_constant`` T, a CNC's "cutting feed acc/dec
+time constant"): with T > 0 the path speed changes at ``min(accel, F / T)``, ``F`` the
+commanded feed of the current block (times the override; held through a deceleration, so a
+stop brakes at one rate), so that every speed change takes about T whatever the feedrate, as
+on a CNC whose acc/dec is set by time constants: a faster feed accelerates and stops harder,
+and the error at its stops grows with it. T = 0 (default) keeps ``accel`` at every feed.
+
 **Time-law mode** (a path carrying a :class:`~contour_gym.paths.TimeLaw`): the reference is a
 prescribed ``s(t)``, e.g. 003's three-leaf ``theta = 2 pi f t``; the override scales time
 (``tau += ovr Ts``) and the feedrate settings do not apply.
@@ -53,9 +60,12 @@ IP_PARAMS = Schema(
     a_max=Param(math.inf, positive_or_inf, "tangential acceleration limit, m/s^2"),
     j_max=Param(math.inf, positive_or_inf, "tangential jerk limit, m/s^3"),
     f_max=Param(math.inf, positive_or_inf, "machine's maximum feedrate, m/s"),
+    t_acc=Param(0.0, non_negative, "acc/dec time constant, s (0: accel = a_max)"),
 )
 IP = IP_PARAMS.col
-IP_STATE = state_schema("interpolator state", "s", "v", "a", "done", "seg", "hold", "wait", "tau")
+IP_STATE = state_schema(
+    "interpolator state", "s", "v", "a", "done", "seg", "hold", "wait", "tau", "fa"
+)
 IS = IP_STATE.col
 
 RAPID, CUTTING = 1, 2  # Program.flags bits
@@ -74,6 +84,8 @@ class Interpolator:
         jerk: Tangential jerk limit, m/s^3 (``inf`` = none).
         max_feedrate: The machine's feedrate limit, m/s (commanded feeds are capped to it).
         rapid_rate: Speed of rapid (G0) moves, m/s (default ``max_feedrate``).
+        time_constant: The CNC's acc/dec time constant T, s (module docstring): the path
+            speed changes at ``min(accel, F / T)``; 0 (default) = at ``accel`` whatever F.
     """
 
     feedrate: float
@@ -81,6 +93,7 @@ class Interpolator:
     jerk: float = math.inf
     max_feedrate: float = math.inf
     rapid_rate: float | None = None
+    time_constant: float = 0.0
 
     def __post_init__(self) -> None:
         positive(self.feedrate, "feedrate")
@@ -90,6 +103,17 @@ class Interpolator:
                 raise ValueError(f"{name} must be > 0 (inf allowed), got {value!r}")
         if self.rapid_rate is not None:
             positive(self.rapid_rate, "rapid_rate")
+        non_negative(self.time_constant, "time_constant")
+
+    @property
+    def planning_accel(self) -> float:
+        """Acceleration the look-ahead plans with, m/s^2.
+
+        ``accel``, or ``F / T`` at the nominal feedrate under a time constant if lower.
+        """
+        if self.time_constant > 0.0:
+            return min(self.accel, self.feedrate / self.time_constant)
+        return self.accel
 
     @property
     def rapid(self) -> float:
@@ -101,7 +125,8 @@ class Interpolator:
     def params(self, batch: int, override: float = 1.0) -> Array:
         """Kernel parameter rows (batch, IP_PARAMS.size)."""
         row = IP_PARAMS.row(
-            ovr=override, a_max=self.accel, j_max=self.jerk, f_max=self.max_feedrate
+            ovr=override, a_max=self.accel, j_max=self.jerk, f_max=self.max_feedrate,
+            t_acc=self.time_constant,
         )
         return np.repeat(row[None], batch, axis=0)
 
@@ -225,7 +250,9 @@ def build_program(
         interpolator: Feedrate, limits, rapid rate.
         ts: Servo tick, s (dwell ticks).
         path_control: ``"none"``, ``"G61"``, ``"G61.1"``, ``"G64"``, or None for the path's
-            own modes (a G-code part's; ``"none"`` for other paths).
+            own modes (a G-code part's; ``"none"`` for other paths). A given mode replaces a
+            part's own G61/G61.1/G64 choices; its mandatory stops (``mandatory_stops``: M
+            codes, G28, dwells, changes between rapid and feed) stay.
         path_tolerance: Blending tolerance of ``"G64"``, m (default: a G-code part's own P
             words, else :data:`DEFAULT_TOLERANCE`).
         use_program_feeds: Run a G-code part at its own F words (else every cutting segment at
@@ -251,9 +278,10 @@ def build_program(
     dwell_s = _dwell_after(path, n)
     if mode == "program":
         stop = np.asarray(stop, dtype=bool) | (dwell_s > 0)
-    else:
-        stop = np.full(n, mode == "G61") | (dwell_s > 0)
-    a = interpolator.accel
+    else:  # the mode replaces the part's G61/G64 choices, never its mandatory stops
+        kept = np.asarray(getattr(path, "mandatory_stops", np.zeros(n, bool)), dtype=bool)
+        stop = np.full(n, mode == "G61") | kept | (dwell_s > 0)
+    a = interpolator.planning_accel
     t_in, t_out, lengths = _segment_ends(path)
     vcap = np.full(n, math.inf)
     vj = np.full(n, math.inf)
@@ -319,12 +347,30 @@ def _cap(p, b, prog_feed, prog_flags, prog_vcap, j):
 
 
 @numba.njit(cache=True, inline="always")
-def _target(p, st, b, s0, prog_feed, prog_flags, prog_vcap, prog_vj, ts):
+def _accel(p, st, b, prog_feed, prog_flags):
+    # this tick's acceleration limit: a_max, or F / T under an acc/dec time constant T, with
+    # F the commanded feed (held through a deceleration, so that a stop brakes at one rate)
+    a_max, t_acc = p[b, IP.a_max], p[b, IP.t_acc]
+    if t_acc <= 0.0:
+        return a_max
+    seg = int(st[b, IS.seg])
+    f = prog_feed[seg]
+    if (int(prog_flags[seg]) & RAPID) == 0:
+        f *= p[b, IP.ovr]
+    f = min(f, p[b, IP.f_max])
+    v = st[b, IS.v]
+    fa = f if f >= v else max(st[b, IS.fa], v)
+    st[b, IS.fa] = fa
+    return min(a_max, max(fa, 1e-9) / t_acc)
+
+
+@numba.njit(cache=True, inline="always")
+def _target(p, st, b, s0, prog_feed, prog_flags, prog_vcap, prog_vj, ts, a_max):
     # target speed: the current segment's cap and every junction limit in braking reach
     n = prog_feed.shape[0]
     seg = int(st[b, IS.seg])
     s, v = st[b, IS.s], st[b, IS.v]
-    a_max, j_max = p[b, IP.a_max], p[b, IP.j_max]
+    j_max = p[b, IP.j_max]
     target = _cap(p, b, prog_feed, prog_flags, prog_vcap, seg)
     for j in range(seg, min(seg + LOOKAHEAD, n)):
         v_end = prog_vj[j]
@@ -337,9 +383,9 @@ def _target(p, st, b, s0, prog_feed, prog_flags, prog_vcap, prog_vj, ts):
 
 
 @numba.njit(cache=True, inline="always")
-def _advance(p, st, b, target, ts):
+def _advance(p, st, b, target, ts, a_max):
     s, v, a = st[b, IS.s], st[b, IS.v], st[b, IS.a]
-    a_max, j_max = p[b, IP.a_max], p[b, IP.j_max]
+    j_max = p[b, IP.j_max]
     if math.isinf(a_max):
         return s + target * ts, target, 0.0
     dv = target - v
@@ -418,8 +464,9 @@ def interp_tick(p, st, b, k, ts, s0, prog, law, law_dt, in_position):
     if _hold(st, b, in_position):
         st[b, IS.v], st[b, IS.a] = 0.0, 0.0
         return
-    target = _target(p, st, b, s0, feed, flags, vcap, vj, ts)
-    s_new, v_new, a_new = _advance(p, st, b, target, ts)
+    a_max = _accel(p, st, b, feed, flags)
+    target = _target(p, st, b, s0, feed, flags, vcap, vj, ts, a_max)
+    s_new, v_new, a_new = _advance(p, st, b, target, ts, a_max)
     seg = int(st[b, IS.seg])
     while seg < n - 1 and s_new >= s0[seg + 1] - 1e-12:
         if vj[seg] == 0.0:  # a stop at this junction: arrive at rest and hold

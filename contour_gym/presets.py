@@ -62,6 +62,8 @@ class Preset:
         feedrate: The paper's feedrate on that path, m/s.
         accel: Interpolator acceleration limit, m/s^2 (inf = time-parameterised reference).
         jerk: Interpolator jerk limit, m/s^3 (inf = none).
+        time_constant: The CNC's acc/dec time constant, s (0: ``accel`` at every feed;
+            :class:`contour_gym.motion.Interpolator`).
         max_feedrate: The machine's feedrate limit, m/s (commanded feeds are capped to it).
         rapid_rate: Speed of rapid moves, m/s (None: ``max_feedrate``).
         ccc_injection: Where the paper's CCC acts: ``"control"`` or ``"reference"``.
@@ -85,6 +87,7 @@ class Preset:
     feedrate: float
     accel: float = math.inf
     jerk: float = math.inf
+    time_constant: float = 0.0
     max_feedrate: float = math.inf
     rapid_rate: float | None = None
     ccc_injection: str = "control"
@@ -336,15 +339,19 @@ def _xy_servo_coulomb() -> Preset:
     kp = 0.1 * gains[0].kp  # 004 has no CCC: a tenth of the axis kp is stable on its rig
     return Preset(
         "xy_servo_coulomb", "004", stage, gains, CCCGains(kp=kp, ki=kp * 10.0),
-        path="circle_r20", feedrate=0.053, accel=0.25, max_feedrate=0.1, estimator="window",
-        tolerance=5e-6,
+        path="circle_r20", feedrate=0.053, accel=1.0, time_constant=0.053 / 0.25,
+        max_feedrate=0.1, estimator="window", tolerance=5e-6,
         notes="004 table 4.3: R = 20 mm circle, peak 5.00 um in 2.57 s at constant feedrate; "
         "corner +45/-45 degrees, peak 4.476 um in 1.465 s. 004 implies but does not publish "
-        "the interpolator: a 0.25 m/s^2 acceleration ramp (chosen), so that 53 mm/s on the "
-        "circle (chosen) takes 2.58 s from rest to rest; the corner (Feedrate-Corner-v0) "
-        "runs at 45 mm/s with an exact stop at the vertex (G61; the error bound of 4.5 um "
-        "cannot be held through a 90 degree turn at speed). Estimator: 004's variable "
-        "window; tolerances 5.0 um (circle) and 4.5 um (corner) are 004's error bounds.",
+        "the interpolator: acc/dec with a time constant of 0.212 s (chosen: a CNC's "
+        "cutting-feed acc/dec time constant, so every speed change takes 0.212 s and a "
+        "faster feed stops harder), i.e. a 0.25 m/s^2 ramp at 53 mm/s, with which 53 mm/s "
+        "on the circle (chosen) takes 2.58 s from rest to rest; 1 m/s^2 machine limit "
+        "(chosen, never reached below 0.1 m/s). The corner (Feedrate-Corner-v0) runs at "
+        "48 mm/s (chosen: 004's 1.465 s) with an exact stop at the vertex (G61; the error "
+        "bound of 4.5 um cannot be held through a 90 degree turn at speed). Estimator: 004's "
+        "variable window; tolerances 5.0 um (circle) and 4.5 um (corner) are 004's error "
+        "bounds.",
     )  # fmt: skip
 
 

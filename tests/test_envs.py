@@ -210,6 +210,9 @@ def test_gain_mapping_reaches_zero_and_round_trips_exactly():
     for gains in (env.task.preset.ccc_gains.as_tuple(), (0.0, 0.0, 0.0)):
         back = env.action_to_gains(env.gains_to_action(gains))[0]
         np.testing.assert_allclose(back, gains, rtol=1e-9, atol=0.0)
+    venv = CCCVectorEnv(num_envs=2)  # the vector env maps alike
+    np.testing.assert_array_equal(venv.gains_to_action(g), env.gains_to_action(g))
+    np.testing.assert_array_equal(venv.action_to_gains(a), env.action_to_gains(a))
     # log-like: equal action steps multiply the gain by about the same factor high up
     hi = env.action_to_gains(np.array([[0.5, 0.5, 0.5], [0.75, 0.75, 0.75], [1.0, 1.0, 1.0]]))
     r1, r2 = hi[1, 0, 0] / hi[0, 0, 0], hi[2, 0, 0] / hi[1, 0, 0]

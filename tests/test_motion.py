@@ -84,8 +84,49 @@ def test_feedrate_change_follows_accel_limit():
         dict(feedrate=float("nan")),
         dict(feedrate=0.1, accel=-1.0),
         dict(feedrate=0.1, jerk=0.0),
+        dict(feedrate=0.1, time_constant=-0.1),
     ],
 )
 def test_bad_interpolator_settings(kwargs):
     with pytest.raises(ValueError):
         Interpolator(**kwargs)
+
+
+@pytest.mark.parametrize("feed", [0.01, 0.04])
+def test_a_time_constant_makes_every_speed_change_take_it_whatever_the_feed(feed):
+    # a CNC's acc/dec time constant T: the speed ramps at F / T, so start and stop take T
+    T, ts = 0.1, 1e-3
+    s, v, a, done = profile(0.05, Interpolator(feed, accel=10.0, time_constant=T), ts)
+    moving = np.flatnonzero(v > 0)
+    k_full = int(np.argmax(v >= feed * (1 - 1e-12)))
+    assert k_full * ts == pytest.approx(T, abs=2 * ts)
+    assert np.max(np.abs(a)) == pytest.approx(feed / T, rel=1e-9)
+    braking = np.flatnonzero(a < 0)
+    assert (braking[-1] - braking[0] + 1) * ts == pytest.approx(T, abs=2 * ts)
+    assert s[-1] == 0.05 and v[-1] == 0.0 and done == moving[-1] + 1
+
+
+def test_a_time_constant_brakes_at_the_feed_it_cruised_at_when_the_feed_drops():
+    # the override falls mid-move: the deceleration keeps the rate of the feed it left
+    T, ts = 0.1, 1e-3
+    _, v, a, _ = profile(0.2, Interpolator(0.04, accel=10.0, time_constant=T), ts,
+                         changes={600: 0.01})  # fmt: skip
+    assert a[601] == pytest.approx(-0.04 / T, rel=1e-9)
+    assert v[700] == pytest.approx(0.01)
+
+
+def test_an_explicit_path_control_keeps_a_parts_mandatory_stops():
+    from contour_gym.paths import from_gcode
+
+    part = from_gcode("G21 G90 G64\nG0 X0 Y0\nG1 X10 F600\nY10\nG0 X20\nM5\nG1 Y20\nM30")
+    interp = Interpolator(0.01, accel=1.0, rapid_rate=0.05)
+    own = build_program(part, interp, 1e-3)
+    for mode in ("none", "G64", "G61.1"):
+        prog = build_program(part, interp, 1e-3, path_control=mode)
+        assert np.all(prog.vj[part.mandatory_stops] == 0.0), mode
+        assert part.mandatory_stops.sum() >= 3
+    # under G64 the cut's own corner (X10 -> Y10) blends, as in the part's own program
+    corner = int(np.flatnonzero(~part.rapid)[0])
+    assert own.vj[corner] > 0.0
+    assert build_program(part, interp, 1e-3, path_control="G64").vj[corner] > 0.0
+    assert build_program(part, interp, 1e-3, path_control="G61").vj[corner] == 0.0

@@ -46,7 +46,22 @@ def _figure(task: ContourTask, kind: str, member: int = 0) -> NDArray[np.uint8]:
     return figure_to_array(fig)
 
 
-class ContourEnv(gym.Env):
+class GainsMap:
+    """CCC gains <-> actions of a CCC env, single or vector (reference policies speak in gains)."""
+
+    task: ContourTask
+
+    def action_to_gains(self, action: Any) -> NDArray[np.float64]:
+        """CCC gains (C, 3) of an action (3C,); see :meth:`ContourTask.action_to_gains`."""
+        return self.task.action_to_gains(np.asarray(action))
+
+    def gains_to_action(self, gains: Any) -> NDArray[np.float64]:
+        """The action (3C,) that sets CCC gains (C, 3) (or (3,) for every contour)."""
+        g = np.broadcast_to(np.asarray(gains, dtype=float), (self.task.n_contours, 3))
+        return self.task.gains_to_action(g)
+
+
+class ContourEnv(GainsMap, gym.Env):
     """Base of the single envs; subclasses set ``kind`` and document the spec."""
 
     kind: ClassVar[str]
@@ -68,16 +83,6 @@ class ContourEnv(gym.Env):
         self.observation_space = self.task.observation_space()
         self.max_episode_steps = self.task.max_episode_steps
         self._needs_reset = True
-
-    # reference policies speak in gains; these convert (CCC env)
-    def action_to_gains(self, action: Any) -> NDArray[np.float64]:
-        """CCC gains (C, 3) of an action; see :meth:`ContourTask.action_to_gains`."""
-        return self.task.action_to_gains(np.asarray(action))
-
-    def gains_to_action(self, gains: Any) -> NDArray[np.float64]:
-        """The action (3C,) that sets CCC gains (C, 3) (or (3,) for every contour)."""
-        g = np.broadcast_to(np.asarray(gains, dtype=float), (self.task.n_contours, 3))
-        return self.task.gains_to_action(g)
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -122,7 +127,7 @@ def _show(image: NDArray[np.uint8]) -> None:
     plt.pause(0.001)
 
 
-class ContourVectorEnv(VectorEnv):
+class ContourVectorEnv(GainsMap, VectorEnv):
     """Base of the native vector envs: one batched array program over ``num_envs`` members.
 
     Autoreset is NEXT_STEP: the step after a member's episode ends returns its reset

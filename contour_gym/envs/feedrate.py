@@ -38,12 +38,12 @@ _SPEC = """
     | feedrate | (2,) | the override F / F_nom, actual path speed / F_nom | - |
 
     ## Reward
-    By default ``r = progress - 1 - 10 excess`` (``contour_gym.rewards``): ``progress`` the
+    By default ``r = progress - 1 - 30 excess`` (``contour_gym.rewards``): ``progress`` the
     arc length advanced in the decision over ``F_nom x decision time`` (1 per step at the
     nominal feedrate), 1 the price of a step, ``excess = max(0, peak - 1)`` with ``peak`` the
     decision's max |true contour error| in tolerances. Summed, the progress is the path's
     length in nominal steps whatever the speed, so the return is the time saved over the
-    nominal feedrate (in decisions) less 10 per tolerance of excess: faster within the
+    nominal feedrate (in decisions) less 30 per tolerance of excess: faster within the
     tolerance scores higher. Clipped to the reward's range ``[r_lo, r_hi]``;
     ``info["reward_components"]`` holds the components.
 

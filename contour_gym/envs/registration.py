@@ -39,7 +39,7 @@ SCENARIOS: dict[str, tuple[str, dict[str, Any]]] = {
     "Feedrate-Circle-v0": ("Feedrate", {"plant": "xy_servo_coulomb", "path": "circle_r20"}),
     "Feedrate-Corner-v0": (
         "Feedrate",
-        {"plant": "xy_servo_coulomb", "path": "corner", "feedrate": 0.045, "path_control": "G61",
+        {"plant": "xy_servo_coulomb", "path": "corner", "feedrate": 0.048, "path_control": "G61",
          "tolerance": 4.5e-6},
     ),
 }  # fmt: skip

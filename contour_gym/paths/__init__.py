@@ -13,7 +13,7 @@ to the left of the direction of travel.
 from __future__ import annotations
 
 from contour_gym.paths._freeform import bspline, nurbs, parametric
-from contour_gym.paths._gcode import GcodeError, GcodePath, from_gcode
+from contour_gym.paths._gcode import WORK_SYSTEMS, GcodeError, GcodePath, from_gcode
 from contour_gym.paths._geom import HELIX, LINE, POLY5
 from contour_gym.paths._library import NAMES, load
 from contour_gym.paths._path import Path
@@ -30,6 +30,7 @@ __all__ = [
     "GcodePath",
     "Path",
     "PathTable",
+    "WORK_SYSTEMS",
     "TimeLaw",
     "arc",
     "bspline",

@@ -85,7 +85,8 @@ _MACRO = re.compile(r"[A-Za-z]?\s*#\s*(?:<[^>]*>|\d+)?")
 _EXPR = re.compile(r"[A-Za-z]*\s*\[[^\]]*\]?")
 _UNIT = {20: 0.0254, 21: 0.001}
 _PLANES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
-_WORK_SYSTEMS = ("G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3")
+WORK_SYSTEMS = ("G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3")
+"""The work coordinate systems a program may select (keys of ``from_gcode``'s ``work_offsets``)."""
 _G_GROUP: dict[float, str] = {
     0.0: "motion", 1.0: "motion", 2.0: "motion", 3.0: "motion",
     4.0: "non-modal", 28.0: "non-modal", 53.0: "non-modal",
@@ -93,7 +94,7 @@ _G_GROUP: dict[float, str] = {
     90.0: "distance", 91.0: "distance", 90.1: "arc distance", 91.1: "arc distance",
     43.0: "tool length", 49.0: "tool length", 61.0: "path control", 61.1: "path control",
     64.0: "path control", 40.0: "cutter compensation", 80.0: "canned cycle", 94.0: "feed mode",
-    **{float(name[1:]): "coordinate system" for name in _WORK_SYSTEMS},
+    **{float(name[1:]): "coordinate system" for name in WORK_SYSTEMS},
 }
 _G_NOOP = {40.0, 80.0, 94.0}
 _G_REJECT: dict[float, str] = {
@@ -226,11 +227,16 @@ class GcodePath(Path):
         object.__setattr__(self, "_dwell_end", _non_negative(dwell_after_end, "dwell_after_end"))
         object.__setattr__(self, "_exact", self._implied_stops())
 
-    def _implied_stops(self) -> NDArray[np.bool_]:
+    def _mandatory_stops(self) -> NDArray[np.bool_]:
+        # the stops no path-control mode lifts: asked for (M codes, G28), dwells, rapid <-> feed
         stops = self._stops.copy()
         stops[-1] = True
         stops[:-1] |= self._dwell[1:] > 0.0
         stops[:-1] |= self._rapid[:-1] != self._rapid[1:]
+        return stops
+
+    def _implied_stops(self) -> NDArray[np.bool_]:
+        stops = self._mandatory_stops()
         block_end = np.ones_like(stops)
         block_end[:-1] = self._lines[:-1] != self._lines[1:]
         stops |= (self._control == 61.0) & block_end
@@ -271,6 +277,16 @@ class GcodePath(Path):
     def exact_stop(self) -> NDArray[np.bool_]:
         """True where the motion must be at rest at the end of the segment."""
         return self._exact
+
+    @property
+    def mandatory_stops(self) -> NDArray[np.bool_]:
+        """``exact_stop`` less the stops of G61/G61.1: those any path-control mode keeps.
+
+        The last segment, M0/M6/spindle codes, G28, dwells, changes between rapid and feed.
+        """
+        out = self._mandatory_stops()
+        out.flags.writeable = False
+        return out
 
     @property
     def blend_tolerance(self) -> FloatArray:
@@ -998,8 +1014,8 @@ def _work_offsets(value: Mapping[str, ArrayLike] | None) -> dict[str, FloatArray
     out: dict[str, FloatArray] = {}
     for key, off in value.items():
         name = str(key).strip().upper()
-        if name not in _WORK_SYSTEMS:
-            raise ValueError(f"work_offsets key {key!r} is not one of {', '.join(_WORK_SYSTEMS)}")
+        if name not in WORK_SYSTEMS:
+            raise ValueError(f"work_offsets key {key!r} is not one of {', '.join(WORK_SYSTEMS)}")
         arr = as_finite_array(off, f"work_offsets[{key!r}]", ndim=1)
         if arr.shape[0] not in (2, 3):
             raise ValueError(f"work_offsets[{key!r}] must be (x, y) or (x, y, z), m")
