@@ -70,6 +70,14 @@ loop kernel, per member and tick::
     sf = fuzzy_pid_000().compiled.surface        # outside: tables, flips, grid, empty
     surface_eval_into(sf.tables, sf.flips, sf.grid, sf.empty, k_e * eps, k_de * deps, d_k)
 
+A component that gets one constant float vector (a CCC law's ``data``,
+:mod:`contour_gym.ccc`) takes the surface flattened by :func:`surface_table` and reads it with
+:func:`surface_eval_flat` (views of the same numbers, then :func:`surface_eval`: bit for bit
+the same output)::
+
+    data = surface_table(fuzzy_pid_000().compiled.surface)    # outside, once
+    d_kp = surface_eval_flat(data, 0, k_e * eps, k_de * deps)  # inside, per output
+
 and for 001, with workspaces ``mu`` (n_in, S) and ``xi`` (L,)::
 
     c = adaptive_fuzzy_001().compiled
@@ -752,6 +760,72 @@ def surface_eval_into(tables, flips, grid, empty, x0, x1, out):
 def _surface_batch(tables, flips, grid, empty, x, out):
     for b in range(x.shape[0]):
         surface_eval_into(tables, flips, grid, empty, x[b, 0], x[b, 1], out[b])
+
+
+# a surface as one float64 vector: header (n_out, G0, G1, grid[4]), empty (n_out,), tables
+# (n_out, 2, G0, G1), flips (n_out, 2, G0 - 1, G1 - 1) as 0.0 / 1.0, all C order
+FLAT_HEADER = 7
+
+
+def surface_table(surface: Surface) -> Array:
+    """A surface flattened into one float64 vector (the layout :func:`surface_views` reads).
+
+    Header ``n_out, G0, G1`` and the 4 grid numbers, then ``empty``, ``tables`` and ``flips``
+    (as 0.0 / 1.0), each in C order.
+
+    Args:
+        surface: A tabulated surface (``compile_system(system).surface``).
+
+    Returns:
+        The (7 + n_out + 2 n_out G0 G1 + 2 n_out (G0 - 1) (G1 - 1),) vector.
+    """
+    n_out, _, g0, g1 = surface.tables.shape
+    head = np.array([n_out, g0, g1], dtype=np.float64)
+    parts = (head, surface.grid, surface.empty, surface.tables, surface.flips)
+    return np.concatenate([np.asarray(a, dtype=np.float64).ravel() for a in parts])
+
+
+@numba.njit(cache=True, inline="always")
+def surface_views(data):
+    """``tables, flips, grid, empty`` of a :func:`surface_table` vector, as views (no copy).
+
+    ``flips`` is a float view (0.0 / 1.0); :func:`surface_eval` compares it with 0 either way.
+    """
+    n_out, g0, g1 = int(data[0]), int(data[1]), int(data[2])
+    a = FLAT_HEADER
+    grid = data[3:a]
+    empty = data[a : a + n_out]
+    a += n_out
+    size = n_out * 2 * g0 * g1
+    tables = data[a : a + size].reshape((n_out, 2, g0, g1))
+    a += size
+    size = n_out * 2 * (g0 - 1) * (g1 - 1)
+    flips = data[a : a + size].reshape((n_out, 2, g0 - 1, g1 - 1))
+    return tables, flips, grid, empty
+
+
+@numba.njit(cache=True, inline="always")
+def surface_eval_flat(data, o, x0, x1):
+    """:func:`surface_eval` on a :func:`surface_table` vector (the same output, bit for bit).
+
+    Args:
+        data: The flattened surface.
+        o: Output index.
+        x0: First crisp input; clipped to the grid.
+        x1: Second crisp input; clipped to the grid.
+
+    Returns:
+        The output (NaN if an input is NaN).
+    """
+    tables, flips, grid, empty = surface_views(data)
+    return surface_eval(tables, flips, grid, empty, o, x0, x1)
+
+
+@numba.njit(cache=True)
+def _surface_flat_batch(data, x, out):
+    for b in range(x.shape[0]):
+        for o in range(out.shape[1]):
+            out[b, o] = surface_eval_flat(data, o, x[b, 0], x[b, 1])
 
 
 @numba.njit(cache=True, inline="always")

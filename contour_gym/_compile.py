@@ -145,13 +145,40 @@ def generated_dir() -> Path:
 
 
 def identity(value: Any) -> str:
-    """What a slot is bound to, for the generated module's header (changes recompile)."""
+    """What a slot is bound to, for the generated module's header (changes recompile).
+
+    A function is named with a digest of its module's source and of every module outside
+    this package whose compiled functions that module uses, directly or through others (a
+    user's law calling a user's kernel library); the package's own modules are covered by
+    :func:`package_digest`.
+    """
     func = getattr(value, "py_func", value)
     if inspect.isfunction(func):
         module = sys.modules.get(func.__module__)
         source = inspect.getsource(module) if module is not None else inspect.getsource(func)
-        return f"{func.__module__}.{func.__qualname__} @ {code_digest(source)[:12]}"
+        deps = "".join(f" + {name} @ {code_digest(text)[:12]}" for name, text in _used(module))
+        return f"{func.__module__}.{func.__qualname__} @ {code_digest(source)[:12]}{deps}"
     return repr(value)
+
+
+def _used(module: ModuleType | None) -> list[tuple[str, str]]:
+    # (name, source) of the modules outside the package whose njit functions `module` uses
+    if module is None:
+        return []
+    seen, todo, out = {module.__name__}, [module], []
+    while todo:
+        for obj in list(vars(todo.pop()).values()):
+            name = getattr(getattr(obj, "py_func", None), "__module__", None)
+            if not isinstance(name, str) or name in seen or name.split(".")[0] == _PACKAGE.name:
+                continue
+            dep = sys.modules.get(name)
+            if dep is None:
+                continue
+            seen.add(dep.__name__)
+            with contextlib.suppress(OSError, TypeError):
+                out.append((dep.__name__, inspect.getsource(dep)))
+                todo.append(dep)
+    return sorted(out)
 
 
 def _template_body(template: str) -> str:

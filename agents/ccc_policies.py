@@ -1,0 +1,139 @@
+"""Reference policies of the CCC env: no CCC, the PID CCC, and paper 000's fuzzy PID CCC.
+
+Each holds constant CCC gains, mapped to the env's action by its ``gains_to_action`` at
+:meth:`~agents.policies.ConstantPolicy.reset` (they are :class:`ConstantPolicy` s):
+
+- ``no_ccc``: every gain 0 (action -1: the axis controllers alone).
+- ``pid_ccc``: the env's own PID CCC gains (``task.g0``: the env's ``ccc_gains``, else the
+  preset's), the classic CCC (Koren 1980).
+- ``fuzzy_pid_ccc``: paper 000's fuzzy PID CCC. Its :attr:`~FuzzyPIDCCC.env_kwargs` build
+  the env with the compiled law ``fuzzy_pid`` (:mod:`agents.ccc_laws`) and the law's
+  quantisation and proportional factors; the action holds the base gains ``Kp0, Ki0, Kd0``
+  (default the env's PID CCC gains), and the law reschedules the gains from the contour
+  error every servo tick inside the compiled loop, as 000 does (``decision_ticks`` only sets
+  how often the constant action is re-sent).
+
+Measured with :func:`agents.evaluate.run_policy` (seed 0, one episode; law defaults), max /
+mean true contour error over the cut in um, on the rig (default) and with ``ideal=True``::
+
+    env               policy          rig max  rig mean   ideal max  ideal mean
+    CCC-Circle-v0     no_ccc            46.13     42.56       50.60       46.62
+                      pid_ccc           22.77      1.97       23.85        2.15
+                      fuzzy_pid_ccc     21.03      1.92       21.83        2.09
+    CCC-Infinity-v0   no_ccc            67.10     13.29       73.46       14.62
+                      pid_ccc           12.80      2.42       14.04        2.66
+                      fuzzy_pid_ccc     12.81      2.42       14.22        2.66
+    CCC-Trident-v0    no_ccc           343.03     16.73      364.11       18.30
+                      pid_ccc          221.72      6.91      232.28        7.38
+                      fuzzy_pid_ccc    211.94      6.74      222.03        7.19
+
+    run_policy(env_id, make_policy(name), ideal=ideal)  # for each row
+
+The circle's peaks with CCC are its start and stop transients (the reference starts and stops
+at full speed); both CCCs hold the lap itself well within the tolerance (7.6 um).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from agents.ccc_laws import FUZZY_PID, FUZZY_PID_PARAMS
+from agents.policies import ConstantPolicy, register_policy
+
+_FACTORS = ("k_e", "k_de", "k_pf", "k_if", "k_df")
+
+
+class HeldGains(ConstantPolicy):
+    """Constant CCC gains; ``None`` takes the env's own PID CCC gains at :meth:`reset`.
+
+    Args:
+        gains: (kp, ki, kd) for every contour, or (C, 3); None: the env's ``task.g0`` (its
+            ``ccc_gains`` argument, else the preset's), read at :meth:`reset`.
+
+    Raises:
+        ValueError: as :class:`ConstantPolicy` for bad gains.
+    """
+
+    name = "held_gains"
+
+    def __init__(self, gains: ArrayLike | None = None) -> None:
+        super().__init__(gains=(0.0, 0.0, 0.0) if gains is None else gains)
+        self._env_gains = gains is None
+
+    def reset(self, env: Any = None) -> None:
+        """Read the env's gains (when none were given), then map them to its action.
+
+        Raises:
+            ValueError: without a contour_gym CCC env, or for gains beyond its range.
+        """
+        task = getattr(getattr(env, "unwrapped", None), "task", None)
+        if self._env_gains and task is not None:
+            self.gains = np.array(task.g0, dtype=np.float64)
+        super().reset(env)
+
+
+class NoCCC(ConstantPolicy):
+    """No cross-coupled control (``no_ccc``): every CCC gain 0, i.e. action -1."""
+
+    name = "no_ccc"
+
+    def __init__(self) -> None:
+        super().__init__(gains=(0.0, 0.0, 0.0))
+
+
+class PIDCCC(HeldGains):
+    """The classic PID CCC (``pid_ccc``): the env's own PID CCC gains, held."""
+
+    name = "pid_ccc"
+
+    def __init__(self) -> None:
+        super().__init__(None)
+
+
+class FuzzyPIDCCC(HeldGains):
+    """Paper 000's fuzzy PID CCC (``fuzzy_pid_ccc``; the law is :mod:`agents.ccc_laws`).
+
+    Args:
+        k_e: Quantisation factor of the contour error, 1/m (None: the law's default).
+        k_de: Quantisation factor of its rate, s/m (None: the law's default).
+        k_pf: Proportional factor of dKp, units of kp (None: the law's default).
+        k_if: Proportional factor of dKi, units of ki (None: the law's default).
+        k_df: Proportional factor of dKd, units of kd (None: the law's default).
+        base_gains: The base gains (Kp0, Ki0, Kd0), (3,) or (C, 3), which the action
+            holds; None: the env's PID CCC gains.
+
+    Raises:
+        ValueError: for a NaN, infinite or negative factor or bad base gains, naming it.
+    """
+
+    name = "fuzzy_pid_ccc"
+
+    def __init__(
+        self,
+        k_e: float | None = None,
+        k_de: float | None = None,
+        k_pf: float | None = None,
+        k_if: float | None = None,
+        k_df: float | None = None,
+        base_gains: ArrayLike | None = None,
+    ) -> None:
+        super().__init__(base_gains)
+        given = dict(zip(_FACTORS, (k_e, k_de, k_pf, k_if, k_df), strict=True))
+        defaults = FUZZY_PID_PARAMS.defaults()
+        self.factors: dict[str, float] = {
+            name: FUZZY_PID_PARAMS.value(name, defaults[name] if value is None else value)
+            for name, value in given.items()
+        }
+
+    @property
+    def env_kwargs(self) -> dict[str, Any]:
+        """``ccc_law="fuzzy_pid"`` and ``ccc_law_params`` with the five factors."""
+        return {"ccc_law": FUZZY_PID.name, "ccc_law_params": dict(self.factors)}
+
+
+register_policy("no_ccc", NoCCC)
+register_policy("pid_ccc", PIDCCC)
+register_policy("fuzzy_pid_ccc", FuzzyPIDCCC)
