@@ -6,6 +6,8 @@ once as members of the native vector env (member i seeded ``seed + i``, so membe
 :attr:`~agents.policies.Policy.env_kwargs` merged into the explicit env arguments; an
 explicit argument that conflicts with what the policy needs raises ValueError. The policy's
 arguments override the registered id's own defaults (e.g. ``Feedrate-Corner-v0``'s G61).
+:func:`evaluate` runs several episodes of a policy (or a policy's name) the same way and
+averages their metrics.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 import contour_gym  # noqa: F401  (registers the ids)
-from agents.policies import Policy
+from agents.policies import Policy, make
 from contour_gym.envs.base import ContourVectorEnv
 
 EnvSpec = str | Mapping[str, Any]
@@ -146,4 +148,49 @@ def run_policy(
     (True, True)
     """
     batch = run_policy_batch(env_id_or_kwargs, policy, num_envs=1, seed=seed, **env_kwargs)
-    return {key: value[0].item() for key, value in batch.items()}
+    return _episode(batch, 0)
+
+
+def evaluate(
+    policy: Policy | str, env: EnvSpec, n_episodes: int = 1, seed: int = 0
+) -> dict[str, Any]:
+    """Run ``n_episodes`` episodes of ``policy`` to their ends and average their metrics.
+
+    The episodes are the members of one native vector env (:func:`run_policy_batch`; episode
+    i is seeded ``seed + i``, so it equals ``run_policy(env, policy, seed=seed + i)``).
+
+    Args:
+        policy: A policy, or a registered policy's name (made with its default parameters
+            by :func:`agents.policies.make`).
+        env: A registered id, or a dict ``{"id": id, **env kwargs}``.
+        n_episodes: Episodes (members), >= 1.
+        seed: Seed of the first episode.
+
+    Returns:
+        Every key :func:`run_policy` returns (the episode's ``info["metrics"]``:
+        ``cycle_time`` s, ``max_contour_error`` m, ``finished``, ...; plus ``return``,
+        ``failed``, ``truncated``, ``steps``, ``tolerance``) as the mean over the episodes, a
+        float (booleans as the fraction of episodes; a ``cycle_time`` of ``inf``, an episode
+        that did not arrive, makes the mean ``inf``), and ``"episodes"``: the list of the
+        episodes' own dicts, as :func:`run_policy` returns them.
+
+    Raises:
+        ValueError: for ``n_episodes`` < 1, an unknown policy name; see :func:`env_arguments`.
+
+    >>> m = evaluate("constant_feedrate", "contour_gym/Feedrate-Corner-v0", n_episodes=2)
+    >>> len(m["episodes"]), m["finished"], m["max_contour_error"] <= m["tolerance"]
+    (2, 1.0, True)
+    """
+    if isinstance(n_episodes, bool) or not isinstance(n_episodes, int) or n_episodes < 1:
+        raise ValueError(f"n_episodes must be a positive int, got {n_episodes!r}")
+    if isinstance(policy, str):
+        policy = make(policy)
+    batch = run_policy_batch(env, policy, num_envs=n_episodes, seed=seed)
+    out: dict[str, Any] = {key: float(np.mean(value)) for key, value in batch.items()}
+    out["episodes"] = [_episode(batch, i) for i in range(n_episodes)]
+    return out
+
+
+def _episode(batch: Mapping[str, NDArray[Any]], i: int) -> dict[str, Any]:
+    # member i's values as Python floats, ints and bools
+    return {key: value[i].item() for key, value in batch.items()}

@@ -313,3 +313,44 @@ def make_policy(name: str, **params: Any) -> Policy:
 
 register_policy("constant", ConstantPolicy)
 register_policy("cnc_lookahead", CNCLookahead)
+
+
+def available() -> list[str]:
+    """Sorted names of the registered policies, the reference policy modules' included.
+
+    Imports every ``agents/*_policies.py`` module first (e.g. :mod:`agents.feedrate_policies`),
+    which registers its policies.
+    """
+    import importlib
+    import pkgutil
+
+    import agents
+
+    for module in pkgutil.iter_modules(agents.__path__):
+        if module.name.endswith("_policies"):
+            importlib.import_module(f"agents.{module.name}")
+    return list(POLICIES.names())
+
+
+def make(name: str, env: Any = None, **params: Any) -> Policy:
+    """A new policy ``name`` (:func:`make_policy`), reset on ``env`` if one is given.
+
+    Resetting checks that the policy fits the env (its action map, range or kind) before a
+    harness steps it.
+
+    Args:
+        name: A registered name, those of the ``agents/*_policies.py`` modules included
+            (:func:`available`).
+        env: An env (single or native vector) to :meth:`Policy.reset` the policy on, or None.
+        **params: The policy's parameters.
+
+    Raises:
+        ValueError: see :func:`make_policy`; and whatever :meth:`Policy.reset` raises for an
+            env the policy cannot act in.
+    """
+    if name not in POLICIES:
+        available()
+    policy = make_policy(name, **params)
+    if env is not None:
+        policy.reset(env)
+    return policy

@@ -15,6 +15,16 @@ part ``tests/data/gcode/part_2d.ngc`` (on ``contour_gym/Feedrate-v0`` with plant
 Prints a Markdown table of the cycle time, the peak contour error (um and / tolerance) and
 whether the run finished within the tolerance, then the sweep (peak / tolerance per override),
 then the run time. Not a test: ``tests/test_policies.py`` checks G61 against G64 on the corner.
+
+Then (``--table fuzzy``, or both by default) paper 004's comparison on the same cases, under the
+env's own path control: ``fuzzy_feedrate`` (``agents.feedrate_policies``, 004's defaults;
+``--fuzzy-units`` adds a row per other reading of dF's unit) against ``constant_feedrate`` at
+1.0 and at the fastest override that keeps the tolerance. That override is searched with one
+native vector env per round (``--members`` overrides spanning ``feedrate_range``, then as many
+between the fastest feasible one and the next): member i ramps the override from the range's
+low end to its target at the env's top rate (ahead of the machine's acceleration from rest)
+and holds it, which is the constant run bit for bit; the row is the confirming
+``constant_feedrate`` run (marked ``!`` if it differs from its search member).
 """
 
 from __future__ import annotations
@@ -28,8 +38,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.evaluate import env_arguments, run_policy
-from agents.policies import make_policy
+from agents.evaluate import env_arguments, run_policy, run_policy_batch
+from agents.feedrate_policies import DEFAULT_DF_UNIT, DF_UNITS, feedrate_task
+from agents.policies import Actions, Observation, Policy, batch_size, make, make_policy
 from contour_gym.paths import from_gcode
 
 PART = pathlib.Path(__file__).resolve().parents[1] / "tests" / "data" / "gcode" / "part_2d.ngc"
@@ -61,7 +72,7 @@ def run(spec: Any, policy_name: str, **kwargs: Any) -> dict[str, Any]:
     params = kwargs.pop("params", {})
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        out = run_policy(spec, make_policy(policy_name, **params), seed=0, **kwargs)
+        out = run_policy(spec, make(policy_name, **params), seed=0, **kwargs)
     out["capped"] = any("machine limit" in str(w.message) for w in caught)
     out["ok"] = bool(out["finished"] and out["max_contour_error"] <= out["tolerance"])
     return out
@@ -103,13 +114,8 @@ def _override(c: float, r: dict[str, Any]) -> str:
     return f"{c:.3f}{'*' if r['capped'] else ''}"
 
 
-def main() -> None:
-    """Print the tables."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--grid", type=int, default=12, help="overrides swept (default 12)")
-    parser.add_argument("--tolerances", type=float, nargs="*", default=[0.001, 0.01, 0.05],
-                        help="G64 tolerances of cnc_lookahead, mm")  # fmt: skip
-    args = parser.parse_args()
+def baseline_tables(args: argparse.Namespace) -> None:
+    """Print the constant sweep and cnc_lookahead tables."""
     t0 = time.perf_counter()
     rows, sweeps, times = [], [], []
     for label, spec in cases().items():
@@ -149,6 +155,139 @@ def main() -> None:
               + " |")  # fmt: skip
     print("\nrun time: " + ", ".join(f"{label} {s:.1f} s" for label, s in times)
           + f"; total {time.perf_counter() - t0:.1f} s")  # fmt: skip
+
+
+class OverrideRamp(Policy):
+    """Member i ramps the feed override to ``targets[i]`` at the env's top rate, then holds it.
+
+    The env must start at or below every target (``feedrate_override`` = the lowest); the last
+    step of the ramp lands on the target exactly (the action is nudged by ulps until the env's
+    ``clip(ovr + a max_feedrate_change)`` gives it), so a member equals ``constant_feedrate``
+    at its target whenever the override stays ahead of the machine's speed during the ramp.
+    """
+
+    name = "override_ramp"
+
+    def __init__(self, targets: np.ndarray) -> None:
+        self.targets = np.asarray(targets, dtype=float)
+        self._ovr = np.zeros(0)
+        self._dovr, self._range = 0.0, (0.0, 0.0)
+
+    def reset(self, env: Any = None) -> None:
+        """Read the env's start override, rate and range."""
+        task = feedrate_task(env, self.name)
+        self._dovr = task.config.max_feedrate_change
+        lo, hi = task.config.feedrate_range
+        self._range = (float(lo), float(hi))
+        self._ovr = np.full(self.targets.size, task.scenario.feed_override)
+
+    def _next(self, ovr: float, a: float) -> float:  # the env's own arithmetic
+        return min(max(ovr + a * self._dovr, self._range[0]), self._range[1])
+
+    def act(self, obs: Observation) -> Actions:
+        """Each member's step towards its target (tracking the override the env holds)."""
+        actions = np.zeros((batch_size(obs), 1))
+        for i, (ovr, target) in enumerate(zip(self._ovr, self.targets, strict=True)):
+            a = min(max((target - ovr) / self._dovr, -1.0), 1.0)
+            for _ in range(8):
+                got = self._next(ovr, a)
+                if got == target or abs(a) == 1.0:
+                    break
+                a = float(np.nextafter(a, np.inf if got < target else -np.inf))
+            actions[i, 0] = a
+            self._ovr[i] = self._next(ovr, a)
+        return actions
+
+
+def search_round(spec: Any, targets: np.ndarray, start: float) -> list[dict[str, Any]]:
+    """One episode per target override, as members of one native vector env (seed 0)."""
+    out = run_policy_batch(spec, OverrideRamp(targets), num_envs=targets.size, seed=0,
+                           feedrate_override=start)  # fmt: skip
+    return [{k: v[i].item() for k, v in out.items()} for i in range(targets.size)]
+
+
+def fastest_constant(
+    spec: Any, lo: float, hi: float, members: int
+) -> tuple[float, dict[str, Any]] | None:
+    """The fastest override in [lo, hi] that finishes within the tolerance, and its run."""
+    grid = np.linspace(lo, hi, members)
+    found = [(float(c), r) for c, r in zip(grid, search_round(spec, grid, lo), strict=True)]
+    feasible = [(c, r) for c, r in found if _within(r)]
+    if not feasible:
+        return None
+    c_best = min(feasible, key=lambda cr: cr[1]["cycle_time"])[0]
+    above = grid[grid > c_best]
+    if above.size:  # refine up to the next override of the first round
+        fine = np.linspace(c_best, above[0], members + 2)[1:-1]
+        found = [(float(c), r) for c, r in zip(fine, search_round(spec, fine, lo), strict=True)]
+        feasible += [(c, r) for c, r in found if _within(r)]
+    return min(feasible, key=lambda cr: cr[1]["cycle_time"])
+
+
+def _within(r: dict[str, Any]) -> bool:
+    return bool(r["finished"] and r["max_contour_error"] <= r["tolerance"])
+
+
+def fuzzy_row(label: str, policy: str, override: str, r: dict[str, Any], ref: float) -> str:
+    """One Markdown row of the fuzzy table (``ref``: constant 1.0's cycle time)."""
+    verdict = "yes" if r["ok"] else ("FAILED" if r["failed"] else "no")
+    change = r["cycle_time"] / ref - 1.0
+    return (f"| {label} | {policy} | {override} | {r['cycle_time']:.3f} | {change:+.1%} | "
+            f"{r['max_contour_error'] * 1e6:.2f} | {r['max_contour_error'] / r['tolerance']:.2f} | "
+            f"{verdict} |")  # fmt: skip
+
+
+def fuzzy_table(args: argparse.Namespace) -> None:
+    """Print 004's comparison: fuzzy_feedrate against constant overrides."""
+    t0 = time.perf_counter()
+    units = [DEFAULT_DF_UNIT] + ([u for u in DF_UNITS if u != DEFAULT_DF_UNIT]
+                                 if args.fuzzy_units else [])  # fmt: skip
+    rows = []
+    for label, spec in cases().items():
+        _, (lo, hi) = env_settings(spec)
+        ref = run(spec, "constant_feedrate")
+        rows.append(fuzzy_row(label, "constant_feedrate", "1", ref, ref["cycle_time"]))
+        best = fastest_constant(spec, lo, hi, args.members)
+        if best is None:
+            rows.append(f"| {label} | constant_feedrate: NONE within tol in [{lo:g}, {hi:g}] "
+                        "| | | | | | |")  # fmt: skip
+        else:
+            c, member = best
+            r = run(spec, "constant_feedrate", params={"override": c})
+            same = all(r[k] == member[k] for k in ("cycle_time", "max_contour_error"))
+            rows.append(fuzzy_row(label, "constant_feedrate, fastest within tol",
+                                  f"{_override(c, r)}{'' if same else '!'}", r,
+                                  ref["cycle_time"]))  # fmt: skip
+        for unit in units:
+            r = run(spec, "fuzzy_feedrate", params={"unit": unit})
+            rows.append(fuzzy_row(label, f"fuzzy_feedrate, dF in {unit}", "varies", r,
+                                  ref["cycle_time"]))  # fmt: skip
+    print("\n004's fuzzy feedrate controller against constant overrides (seed 0, the env's "
+          "own path control; cycle vs the constant 1.0 run's):\n")  # fmt: skip
+    print("| path | policy | override | cycle time (s) | cycle vs 1.0 | peak error (um) | "
+          "peak / tol | within tol |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|")
+    print("\n".join(rows))
+    print(f"\nrun time {time.perf_counter() - t0:.1f} s; ! = the confirming constant run "
+          "differs from its search member; * = feed capped at the machine's limit")  # fmt: skip
+
+
+def main() -> None:
+    """Print the tables."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--grid", type=int, default=12, help="overrides swept (default 12)")
+    parser.add_argument("--tolerances", type=float, nargs="*", default=[0.001, 0.01, 0.05],
+                        help="G64 tolerances of cnc_lookahead, mm")  # fmt: skip
+    parser.add_argument("--table", choices=("baselines", "fuzzy", "both"), default="both")
+    parser.add_argument("--members", type=int, default=24,
+                        help="overrides per round of the fuzzy table's search")  # fmt: skip
+    parser.add_argument("--fuzzy-units", action="store_true",
+                        help="a fuzzy_feedrate row per reading of dF's unit")  # fmt: skip
+    args = parser.parse_args()
+    if args.table in ("baselines", "both"):
+        baseline_tables(args)
+    if args.table in ("fuzzy", "both"):
+        fuzzy_table(args)
 
 
 if __name__ == "__main__":
