@@ -1,4 +1,4 @@
-"""Compiled CCC laws of the papers beyond the built-in PID: paper 000's fuzzy PID.
+"""Compiled CCC laws of the papers beyond the built-in PID: 000's fuzzy PID, 001's adaptive one.
 
 Importing this module registers the laws with :func:`contour_gym.ccc.register_ccc_law`; the
 servo loop then binds them into its specialised kernel like a built-in component (build an
@@ -53,6 +53,81 @@ larger ``k_if`` (Ki up to several times ki0) cuts the circle's transients by a t
 more than doubles the peak on the free curves. These defaults lower the circle's peak and
 mean against the PID CCC by a few percent and stay within a few percent of it on the free
 curves (measured: the table in :mod:`agents.ccc_policies`).
+
+``adaptive_fuzzy_pid`` (paper 001, "Adaptive fuzzy PID cross coupled control for multi-axis
+motion system based on sliding mode disturbance observation", section "Design of CCC based
+on adaptive fuzzy PID"). What survived extraction: adaptive fuzzy systems approximate the
+PID gains (eqs. 23-25), built from the contour error and its derivative (membership figure
+and rule table 1 lost) with singleton fuzzifier, product inference and centre-average
+defuzzifier, so each gain is ``theta^T xi(x)``; "for the adaptive controllers (23-25), the
+adaptive weights" follow update laws whose equations (after eq. 25, presumably 26-28) and
+rates were lost. Reconstructed here in the standard form, Wang's direct adaptive fuzzy
+law ``theta' = gamma e xi`` with each gain's regressor ``dU/dK`` (the MIT gradient rule on
+``e^2 / 2`` for a plant of positive gain, which a CCC is: a positive gain pushes the tool
+back onto the path)::
+
+    xi = basis(k_e e, k_de de)                                 (25 rules, sums to 1)
+    Kp = max(kp + theta_p . xi, 0),  Ki = max(ki + theta_i . xi, 0),  Kd = max(kd + theta_d . xi, 0)
+    U  = Kp e + Ki (I + e ts) + Kd de                          (the PID's terms, as fuzzy_pid)
+    theta_p' = gamma_p e e xi,   theta_i' = gamma_i e (I + e ts) xi,   theta_d' = gamma_d e de xi
+
+``e`` is the error the CCC sees (in 3-D each signed component, its own state row), ``de``
+its backward difference (0 on the first tick), ``I`` its integral so far. ``basis`` is
+:func:`agents.fuzzy.adaptive_fuzzy_001` with 5 Gaussian sets per input on [-3, 3] (001's
+sets were lost: chosen there), evaluated by :func:`agents.fuzzy.product_basis_into` on the
+sampled sets the law's data table holds. Its consequents are all ``ZO`` (``initial_theta``
+is 0), so theta starts at 0 with the rest of the state and the gains start at the base gains:
+001's PID CCC, which the adaptation then moves.
+
+**Discretisation** (ours), every servo tick ``ts``: the output uses theta(k); the commit
+takes one forward Euler step with the tick's ``e``, regressor and basis (the ones the output
+used, kept in the state row's scratch columns), then projects::
+
+    theta_j(k+1) = clip(theta_j(k) + ts gamma_j e(k) phi_j(k) xi(k), -dk_max_j, dk_max_j)
+
+with ``phi = (e, I + e ts, de)``, then the PID state (integral, previous error) as ``pid``.
+
+**Projection** (ours: 001 gives no bound, and a controller must not adapt gains without
+one): every weight of gain ``j`` is kept in the box ``[-dkj_max, dkj_max]`` (the Euclidean
+projection onto it, the standard parameter projection); the basis is a convex combination,
+so ``|K_j - K0_j| <= dkj_max``. Without it the gains run away: ``theta_p' = gamma_p e^2 xi
+>= 0`` only grows, and the sampled ``e de = (e^2 - e_prev^2) / (2 ts) + (e - e_prev)^2 /
+(2 ts)`` has a non-negative part that encoder quantisation alone feeds, so ``theta_d``
+drifts up as well. The bound is what keeps the loop stable: with twice the default Kd bound
+the rig diverged on the helix (below).
+
+Parameters (:data:`ADAPTIVE_FUZZY_PID_PARAMS`, all finite and >= 0): ``kp, ki, kd`` the base
+gains (the CCC env's action); ``k_e`` (1/m), ``k_de`` (s/m) the input scalings;
+``gamma_p`` (kp / (s m^2)), ``gamma_i`` (ki / (s^2 m^2)), ``gamma_d`` (kd / m^2) the
+adaptation rates; ``dkp_max, dki_max, dkd_max`` the projection bounds, in the units of kp,
+ki, kd. State per error row (:data:`ADAPTIVE_STATE`): the PID's ``integral, e_prev,
+started``, the tick's scratch ``x_e, x_de, mu_<input>_<set>, xi_<rule>, dkp, dki, dkd``, then
+``theta_<gain>_<rule>`` (rule ``<set of e>_<set of de>``, e.g. ``theta_kd_PS_NB``).
+
+**Defaults**, computed from 001's preset (``xyz_pmlsm``: tolerance ``tol`` 2.9 um, PID CCC
+gains ``kp0 = 3000`` A/m, ``ki0 = 10 kp0`` per s, ``kd0 = 0``, ts 1 ms) at import:
+
+- ``k_e = 3 / (32 tol) = 3.2e4`` 1/m: the error input reaches the universe's end at 92 um,
+  above the rig's peaks (~35 um); 8 and 16 tolerances were worse on the rig.
+- ``k_de = 3 / (3 mm/s) = 1000`` s/m, as fuzzy_pid's (one encoder count per tick is 1 of 3).
+- bounds ``dkp_max = kp0 / 4``, ``dki_max = ki0 / 2``, ``dkd_max = 6 kp0 ts = 18`` A s/m.
+- rates from adaptation times ``T = (10, 1, 0.03)`` s, the time a regressor at its reference
+  value takes to move a weight by its bound: ``gamma_p = dkp_max / (T_p tol^2)``,
+  ``gamma_i = dki_max / (T_i tol I_ref)``, ``gamma_d = dkd_max / (T_d tol de_ref)`` with
+  ``I_ref = tol kp0 / ki0`` (the PI corner) and ``de_ref = 1`` mm/s.
+
+Chosen by a sweep on 001's machine (``CCC-PMLSM-Helix-v0`` on ``smc_dob`` axes, seeds 1 and
+2 (not the reported seed 0), the helix and a user saddle path ``(20 cos, 20 sin, 5 sin 2)``
+mm, rig and ideal; checked on a 3-D Lissajous path): the gain comes from the derivative.
+Adapting Kd alone with bound 3, 6, 8, 10, 12 ``kp0 ts`` (T_d 0.03 s) took the helix's mean
+contour error from 7.71 um (PID CCC) to 6.66, 6.14, 6.15, 6.82 um and divergence on the rig,
+and from 3.27 to 2.74, 2.37, 2.19, 2.04, 1.92 um ideal: the bound is half the one that
+diverged. Adapting Kp helps ideal and hurts the rig, where a larger Kp amplifies the
+encoder's quantisation (bound kp0, T_p 0.1 s: ideal 2.97, rig 12.3 um): kept small and slow.
+Adapting Ki changed nothing measurable (< 0.5 %, bound ki0, T_i 0.1 s). A fixed PID CCC with
+``kd = 6 kp0 ts`` does better than the adapted one (helix rig 5.78, ideal 2.25 um): against
+001's PID CCC without derivative, the improvement is the derivative action the adaptation
+adds (measured: the table in :class:`agents.ccc_policies.AdaptiveFuzzyPIDCCC`).
 """
 
 from __future__ import annotations
@@ -62,10 +137,19 @@ import functools
 import numba
 import numpy as np
 
-from agents.fuzzy import CompiledMamdani, fuzzy_pid_000, surface_eval_flat, surface_table
-from contour_gym._schema import Param, Schema
+from agents.fuzzy import (
+    CompiledMamdani,
+    CompiledProduct,
+    adaptive_fuzzy_001,
+    fuzzy_pid_000,
+    product_basis_into,
+    product_output_into,
+    surface_eval_flat,
+    surface_table,
+)
+from contour_gym._schema import Param, Schema, state_schema
 from contour_gym._validate import non_negative
-from contour_gym.ccc import CCCLaw, pid_commit, register_ccc_law
+from contour_gym.ccc import PID_PARAMS, CCCLaw, pid_commit, register_ccc_law
 from contour_gym.presets import get_preset
 from contour_gym.servo.pid import STATE as PID_STATE
 from contour_gym.servo.pid import pid_terms
@@ -96,6 +180,19 @@ _C, _S = FUZZY_PID_PARAMS.col, PID_STATE.col
 
 
 @numba.njit(cache=True, inline="always")
+def error_rate(s, row, e, ts):
+    """``de/dt`` of the contour error as the PID differentiates it (0 on the first tick).
+
+    Args:
+        s: (rows, n) state rows starting with the PID state (:data:`PID_STATE`).
+        row: State row.
+        e: Contour error of this tick, m.
+        ts: Sample time, s.
+    """
+    return (e - s[row, _S.e_prev]) / ts if s[row, _S.started] > 0.0 else 0.0
+
+
+@numba.njit(cache=True, inline="always")
 def fuzzy_pid_gains(p, s, data, q, row, e, ts):
     """``(Kp, Ki, Kd)`` of this tick: the base gains plus the scaled fuzzy outputs, >= 0.
 
@@ -108,7 +205,7 @@ def fuzzy_pid_gains(p, s, data, q, row, e, ts):
         e: Contour error, m.
         ts: Sample time, s.
     """
-    de = (e - s[row, _S.e_prev]) / ts if s[row, _S.started] > 0.0 else 0.0
+    de = error_rate(s, row, e, ts)
     x0, x1 = p[q, _C.k_e] * e, p[q, _C.k_de] * de
     kp = max(p[q, _C.kp] + p[q, _C.k_pf] * surface_eval_flat(data, 0, x0, x1), 0.0)
     ki = max(p[q, _C.ki] + p[q, _C.k_if] * surface_eval_flat(data, 1, x0, x1), 0.0)
@@ -138,5 +235,182 @@ FUZZY_PID = register_ccc_law(
         "fuzzy_pid", FUZZY_PID_PARAMS, PID_STATE, fuzzy_pid_output, pid_commit,
         data=fuzzy_pid_table,
         doc="fuzzy PID on the contour error, gains K0 + k_f dK(k_e e, k_de de) (paper 000)",
+    )
+)  # fmt: skip
+
+
+# ----------------------------------------------------------------------------------------
+# paper 001: adaptive fuzzy PID
+# ----------------------------------------------------------------------------------------
+
+# defaults on 001's machine (module docstring): its tolerance and PID CCC gains
+_MACHINE_001 = get_preset("xyz_pmlsm")
+_G0_001 = _MACHINE_001.ccc_gains
+N_SETS_001 = 5  # Gaussian sets per input (agents.fuzzy.adaptive_fuzzy_001): L = 25 rules
+E_SATURATES_001 = 32.0  # k_e: the error input saturates at this many tolerances
+DE_SATURATES_001 = 3e-3  # k_de: the de/dt input saturates here, m/s (3 encoder counts per tick)
+KD_UNIT_001 = _G0_001.kp * _MACHINE_001.stage.ts  # a derivative gain of kp0 times one tick
+DK_MAX_001 = (0.25, 0.5, 6.0)  # projection bounds in units of kp0, ki0 and KD_UNIT_001
+T_ADAPT_001 = (10.0, 1.0, 0.03)  # s: a regressor at its reference moves a weight by its bound
+E_REF_001 = _MACHINE_001.tolerance  # reference error, m
+I_REF_001 = E_REF_001 * _G0_001.kp / _G0_001.ki  # reference integral: tol over the PI corner, m s
+DE_REF_001 = DE_SATURATES_001 / UNIVERSE  # reference de/dt: one count per tick, m/s
+K_E_001 = UNIVERSE / (E_SATURATES_001 * _MACHINE_001.tolerance)
+K_DE_001 = UNIVERSE / DE_SATURATES_001
+DKP_MAX_001 = DK_MAX_001[0] * _G0_001.kp
+DKI_MAX_001 = DK_MAX_001[1] * _G0_001.ki
+DKD_MAX_001 = DK_MAX_001[2] * KD_UNIT_001
+GAMMA_P_001 = DKP_MAX_001 / (T_ADAPT_001[0] * E_REF_001 * E_REF_001)
+GAMMA_I_001 = DKI_MAX_001 / (T_ADAPT_001[1] * E_REF_001 * I_REF_001)
+GAMMA_D_001 = DKD_MAX_001 / (T_ADAPT_001[2] * E_REF_001 * DE_REF_001)
+
+ADAPTIVE_FUZZY_PID_PARAMS = Schema(
+    "ccc adaptive_fuzzy_pid",
+    **PID_PARAMS.params,  # the base gains kp, ki, kd: the pid law's
+    k_e=Param(K_E_001, non_negative, "scaling of the error input, 1/m"),
+    k_de=Param(K_DE_001, non_negative, "scaling of the de/dt input, s/m"),
+    gamma_p=Param(GAMMA_P_001, non_negative, "adaptation rate of theta_kp, kp / (s m^2)"),
+    gamma_i=Param(GAMMA_I_001, non_negative, "adaptation rate of theta_ki, ki / (s^2 m^2)"),
+    gamma_d=Param(GAMMA_D_001, non_negative, "adaptation rate of theta_kd, kd / m^2"),
+    dkp_max=Param(DKP_MAX_001, non_negative, "bound on |theta_kp|, i.e. on the Kp change"),
+    dki_max=Param(DKI_MAX_001, non_negative, "bound on |theta_ki|, i.e. on the Ki change"),
+    dkd_max=Param(DKD_MAX_001, non_negative, "bound on |theta_kd|, i.e. on the Kd change"),
+)
+ADAPTED = ("kp", "ki", "kd")  # the adapted gains, in the order of the theta blocks
+_SYSTEM_001 = adaptive_fuzzy_001(N_SETS_001)
+_RULES_001 = tuple("_".join(rule.when) for rule in _SYSTEM_001.rules)
+_INPUTS_001 = tuple(v.name for v in _SYSTEM_001.inputs)
+
+
+def adaptive_state_schema() -> Schema:
+    """The law's state per error row: the PID's, the tick's scratch, then theta (3 x L).
+
+    The scratch (the tick's inputs, memberships, basis and gain changes) is written by the
+    output and read by the commit, so the adaptation uses the basis the gains used.
+
+    Columns: ``integral, e_prev, started`` (the PID's), ``x_e, x_de`` (the scaled inputs),
+    ``mu_<input>_<set>`` (memberships), ``xi_<set e>_<set de>`` (the basis, one per rule),
+    ``dkp, dki, dkd`` (``theta^T xi``), ``theta_<gain>_<set e>_<set de>`` (the adapted
+    weights, gain-major).
+    """
+    sets = _SYSTEM_001.inputs[0].set_names
+    columns = (
+        *PID_STATE.names,
+        *(f"x_{v}" for v in _INPUTS_001),
+        *(f"mu_{v}_{name}" for v in _INPUTS_001 for name in sets),
+        *(f"xi_{rule}" for rule in _RULES_001),
+        *(f"d{g}" for g in ADAPTED),
+        *(f"theta_{g}_{rule}" for g in ADAPTED for rule in _RULES_001),
+    )
+    return state_schema("ccc adaptive_fuzzy_pid state", *columns)
+
+
+ADAPTIVE_STATE = adaptive_state_schema()
+_A, _P = ADAPTIVE_STATE.col, ADAPTIVE_FUZZY_PID_PARAMS.col
+N_IN_001, N_RULES_001 = len(_INPUTS_001), len(_RULES_001)
+_X0, _MU0, _XI0 = _A.x_e, _A.mu_e_NB, _A.xi_NB_NB
+_DK0, _TH0 = _A.dkp, _A.theta_kp_NB_NB
+assert ADAPTIVE_STATE.names[: PID_STATE.size] == PID_STATE.names
+assert _TH0 + len(ADAPTED) * N_RULES_001 == ADAPTIVE_STATE.size
+
+
+@functools.cache
+def adaptive_fuzzy_pid_table() -> np.ndarray:
+    """The law's constant data: 001's basis as one float64 vector (cached, read-only).
+
+    Header ``n_in, S, N, L``, then the input universes ``meta`` (n_in, 5), the sampled sets
+    ``mf`` (n_in, S, N) and the rules' antecedent set indices ``ant`` (L, n_in, as whole
+    floats), each in C order: the arrays :func:`agents.fuzzy.product_basis_into` reads
+    (:class:`agents.fuzzy.SampledVariables`), views of which :func:`basis_views` returns.
+    """
+    compiled = _SYSTEM_001.compiled
+    assert isinstance(compiled, CompiledProduct)
+    mf, meta, ant = compiled.inputs.mf, compiled.inputs.meta, compiled.ant
+    head = np.array([mf.shape[0], mf.shape[1], mf.shape[2], ant.shape[0]], dtype=np.float64)
+    parts = (head, meta, mf, ant)
+    table = np.concatenate([np.asarray(a, dtype=np.float64).ravel() for a in parts])
+    table.setflags(write=False)
+    return table
+
+
+BASIS_HEADER = 4
+
+
+@numba.njit(cache=True, inline="always")
+def basis_views(data):
+    """``mf, meta, ant`` of an :func:`adaptive_fuzzy_pid_table` vector, as views (no copy)."""
+    n_in, n_s, n_p, n_r = int(data[0]), int(data[1]), int(data[2]), int(data[3])
+    a = BASIS_HEADER
+    meta = data[a : a + 5 * n_in].reshape((n_in, 5))
+    a += 5 * n_in
+    mf = data[a : a + n_in * n_s * n_p].reshape((n_in, n_s, n_p))
+    a += n_in * n_s * n_p
+    ant = data[a : a + n_r * n_in].reshape((n_r, n_in))
+    return mf, meta, ant
+
+
+@numba.njit(cache=True, inline="always")
+def adaptive_fuzzy_pid_gains(p, s, data, q, row, e, ts):
+    """``(Kp, Ki, Kd)`` of this tick: base gains plus ``theta^T xi(k_e e, k_de de)``, >= 0.
+
+    Writes the tick's inputs, memberships, basis and gain changes into the state row's
+    scratch columns (:func:`adaptive_state_schema`), which the commit reads.
+
+    Args:
+        p: (rows, ADAPTIVE_FUZZY_PID_PARAMS.size) parameter rows.
+        s: (rows, ADAPTIVE_STATE.size) state rows.
+        data: :func:`adaptive_fuzzy_pid_table`.
+        q: Parameter row.
+        row: State row.
+        e: Contour error, m.
+        ts: Sample time, s.
+    """
+    s[row, _A.x_e] = p[q, _P.k_e] * e
+    s[row, _A.x_de] = p[q, _P.k_de] * error_rate(s, row, e, ts)
+    mf, meta, ant = basis_views(data)
+    mu = s[row, _MU0 : _MU0 + mf.shape[0] * mf.shape[1]].reshape((mf.shape[0], mf.shape[1]))
+    xi = s[row, _XI0 : _XI0 + N_RULES_001]
+    product_basis_into(mf, meta, ant, s[row, _X0 : _X0 + N_IN_001], mu, xi)
+    theta = s[row, _TH0 : _TH0 + 3 * N_RULES_001].reshape((3, N_RULES_001))
+    dk = s[row, _DK0 : _DK0 + 3]
+    product_output_into(theta, xi, dk)
+    kp = max(p[q, _P.kp] + dk[0], 0.0)
+    ki = max(p[q, _P.ki] + dk[1], 0.0)
+    kd = max(p[q, _P.kd] + dk[2], 0.0)
+    return kp, ki, kd
+
+
+@numba.njit(cache=True, inline="always")
+def adaptive_fuzzy_pid_output(p, s, data, q, row, e, ts):
+    """PID on the contour error with the adapted gains (module docstring)."""
+    kp, ki, kd = adaptive_fuzzy_pid_gains(p, s, data, q, row, e, ts)
+    return pid_terms(kp, ki, kd, s, row, e, ts)
+
+
+@numba.njit(cache=True, inline="always")
+def _adapt(s, row, first, rate, bound):
+    # theta <- clip(theta + rate xi, -bound, bound) for one gain's L weights
+    for rule in range(N_RULES_001):
+        theta = s[row, first + rule] + rate * s[row, _XI0 + rule]
+        s[row, first + rule] = min(max(theta, -bound), bound)
+
+
+@numba.njit(cache=True, inline="always")
+def adaptive_fuzzy_pid_commit(p, s, data, q, row, e, ts, out, saturated):
+    """Adapt theta (projected Euler step of 001's law, module docstring), then the PID state."""
+    de = error_rate(s, row, e, ts)
+    integral = s[row, _S.integral] + e * ts
+    _adapt(s, row, _TH0, ts * p[q, _P.gamma_p] * e * e, p[q, _P.dkp_max])
+    _adapt(s, row, _TH0 + N_RULES_001, ts * p[q, _P.gamma_i] * e * integral, p[q, _P.dki_max])
+    _adapt(s, row, _TH0 + 2 * N_RULES_001, ts * p[q, _P.gamma_d] * e * de, p[q, _P.dkd_max])
+    pid_commit(p, s, data, q, row, e, ts, out, saturated)
+
+
+ADAPTIVE_FUZZY_PID = register_ccc_law(
+    CCCLaw(
+        "adaptive_fuzzy_pid", ADAPTIVE_FUZZY_PID_PARAMS, ADAPTIVE_STATE,
+        adaptive_fuzzy_pid_output, adaptive_fuzzy_pid_commit, data=adaptive_fuzzy_pid_table,
+        doc="adaptive fuzzy PID on the contour error, gains K0 + theta^T xi(k_e e, k_de de), "
+        "theta adapted by the error (paper 001)",
     )
 )  # fmt: skip

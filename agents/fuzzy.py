@@ -838,7 +838,8 @@ def product_basis_into(mf, meta, ant, x, mu, xi):
     Args:
         mf: (n_in, S, N) sampled input sets (:class:`SampledVariables`).
         meta: (n_in, 5) input universes and set counts.
-        ant: (L, n_in) antecedent set indices.
+        ant: (L, n_in) antecedent set indices (integers, or whole floats: a table read
+            from one float vector).
         x: (n_in,) crisp inputs (any NaN: every basis function NaN).
         mu: (n_in, S) workspace.
         xi: (L,) result.
@@ -851,7 +852,7 @@ def product_basis_into(mf, meta, ant, x, mu, xi):
     for rule in range(ant.shape[0]):
         w = 1.0
         for i in range(ant.shape[1]):
-            w *= mu[i, ant[rule, i]]
+            w *= mu[i, int(ant[rule, i])]
         xi[rule] = w
         total += w
     for rule in range(ant.shape[0]):

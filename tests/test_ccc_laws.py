@@ -6,13 +6,18 @@ import math
 
 import numpy as np
 import pytest
+from _law_checks import (
+    assert_ccc_params_name_the_bad_value,
+    assert_members_equal_single_runs,
+    assert_runs_as_the_pid_law,
+)
 
 from agents import ccc_laws
 from agents import fuzzy as F  # noqa: N812
 from contour_gym import _compile
 from contour_gym._loopstate import W
 from contour_gym.api import make_scenario
-from contour_gym.ccc import CCC_LAWS, ccc_params
+from contour_gym.ccc import CCC_LAWS
 from contour_gym.loop import ServoLoop
 
 TICKS = 300
@@ -90,45 +95,22 @@ def test_the_compiled_law_equals_numpy_on_the_recorded_error() -> None:
 def test_batch_members_with_their_own_factors_equal_single_runs() -> None:
     defaults = {k: float(v or 0.0) for k, v in ccc_laws.FUZZY_PID_PARAMS.defaults().items()}
     rows = [dict(BOLD), {k: defaults[k] for k in BOLD}, {**BOLD, "k_e": 1e5, "k_if": 0.0}]
-    batch = make_loop("fuzzy_pid", {}, batch=len(rows))
-    batch.set_ccc_params(**{k: np.array([[r[k]] for r in rows]) for k in rows[0]})
-    batch.step(TICKS)
-    for b, params in enumerate(rows):
-        single = make_loop("fuzzy_pid", params)
-        single.step(TICKS)
-        np.testing.assert_array_equal(batch.ccc_p[b], single.ccc_p[0])
-        np.testing.assert_array_equal(batch.trace().eps_est[b], single.trace().eps_est[0])
-        np.testing.assert_array_equal(batch.trace().u[b], single.trace().u[0])
-        np.testing.assert_array_equal(batch.ccc_s[b], single.ccc_s[0])
-    assert not np.array_equal(batch.trace().u[0], batch.trace().u[2])
+    assert_members_equal_single_runs(make_loop, "fuzzy_pid", rows, TICKS)
 
 
 def test_zero_output_factors_are_the_pid_law_bit_for_bit() -> None:
-    fuzzy = make_loop("fuzzy_pid", {**BOLD, "k_pf": 0.0, "k_if": 0.0, "k_df": 0.0})
-    pid = make_loop("pid", {})
-    fuzzy.step(TICKS)
-    pid.step(TICKS)
-    a, b = fuzzy.trace(), pid.trace()
-    np.testing.assert_array_equal(a.u, b.u)
-    np.testing.assert_array_equal(a.eps_est, b.eps_est)
-    np.testing.assert_array_equal(a.x, b.x)
+    zero = {**BOLD, "k_pf": 0.0, "k_if": 0.0, "k_df": 0.0}
+    fuzzy, pid = assert_runs_as_the_pid_law(make_loop, "fuzzy_pid", zero, TICKS)
     np.testing.assert_array_equal(fuzzy.ccc_s, pid.ccc_s)
 
 
 @pytest.mark.parametrize("name", ["kp", "k_e", "k_de", "k_pf", "k_if", "k_df"])
 @pytest.mark.parametrize("value", [float("nan"), -1.5, float("inf")])
 def test_bad_parameters_raise_naming_the_value(name: str, value: float) -> None:
-    law = ccc_laws.FUZZY_PID
-    with pytest.raises(ValueError, match=rf"{'ccc_gains' if name == 'kp' else name}.*{value}"):
-        if name == "kp":
-            ccc_params((value, 0.0, 0.0), 1, 1, law)
-        else:
-            ccc_params(BASE, 1, 1, law, **{name: value})
+    assert_ccc_params_name_the_bad_value(ccc_laws.FUZZY_PID, BASE, name, value)
     if name != "kp":
         with pytest.raises(ValueError, match=rf"fuzzy_pid\.{name} must"):
             make_scenario("xy_dc_servo", ccc_law="fuzzy_pid", ccc_law_params={name: value}).loop()
-    with pytest.raises(ValueError, match="k_typo"):
-        ccc_params(BASE, 1, 1, law, k_typo=1.0)
 
 
 def test_the_kernel_cache_key_follows_the_fuzzy_module_the_law_calls() -> None:
