@@ -36,9 +36,8 @@ always reported in the parameters' own (SI) units.
 settings, seed, optimiser, wall time and the best-so-far fitness after every generation),
 written atomically after every generation (``"status": "running"``, the history so far),
 once more at the end (``"complete"``; ``"interrupted"`` on Ctrl-C and ``"failed"`` on an
-error, then re-raised);
-``convergence.png``; and for the PSO family ``schedules.png``, the ``(w, c1, c2)`` of every
-generation as :func:`agents.optim.pso.schedules` computes them.
+error, then re-raised); ``convergence.png``; and for the PSO family ``schedules.png``, the
+``(w, c1, c2)`` of every generation as :func:`agents.optim.pso.schedules` computes them.
 
 Protocol ``"000"`` (paper 000, section "Adaptive fuzzy PID cross-coupled control based on
 improved PSO algorithm"): see :func:`fuzzy_pid_000_params` for the box and :data:`FITNESSES`
@@ -53,7 +52,9 @@ command; the issue's target is 15 s); ``000`` (all three paths, 15150 episodes) 
 ``000`` reaches 1.283 um (circle 0.920, "infinity" 1.083, trident 1.848 um; the law's
 defaults give 1.92, 2.42, 6.74 um), with ``k_pf`` at the top of its box. Standard PSO against
 improved PSO on ``000_circle``, seeds 0-9: median best 0.388 against 0.390 um (ranges
-0.372-0.402 and 0.378-0.405 um): even, not the improvement 000's figures 10 and 13 show.
+0.372-0.402 and 0.378-0.405 um); on ``000``, seeds 0-2: median 1.286 against 1.283 um
+(1.285-1.290 and 1.281-1.289 um, 84-102 s a run): even, not the clear gain 000's figures 10
+and 13 show.
 What the factors do to the peak errors, and 000's claims: :mod:`agents.ccc_policies`.
 """
 
