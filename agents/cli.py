@@ -4,6 +4,10 @@
 part file (``--gcode PART.nc``) at the program's own feeds, without and with PID CCC, prints
 the metrics side by side (um, s) and writes the plot: for a library path the path and the
 magnified contour, for a part its tool path coloured by the contour error.
+
+``contour-gym tune PROTOCOL`` runs a tuning protocol of :mod:`agents.tune` (``000``: paper
+000's improved PSO over the fuzzy PID CCC's five factors) with any optimiser of
+:mod:`agents.optim` and writes ``result.json`` and the plots into its run folder.
 """
 
 from __future__ import annotations
@@ -11,6 +15,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import shlex
 import sys
 import tempfile
 import warnings
@@ -20,6 +25,7 @@ from pathlib import Path as FilePath
 
 import numpy as np
 
+from contour_gym._validate import choice
 from contour_gym.api import Scenario, make_scenario, run_trace
 from contour_gym.paths import WORK_SYSTEMS, GcodeError, GcodePath, from_gcode
 from contour_gym.presets import PRESETS
@@ -121,6 +127,21 @@ def _parser() -> argparse.ArgumentParser:
     train.add_argument("--steps", type=int, default=50_000, help="env steps")
     train.add_argument("--seed", type=int, default=0)
     train.add_argument("--out", default="runs", help="folder for checkpoints and the model")
+    tune = sub.add_parser("tune", help="tune a controller's parameters by a protocol "
+                          "(agents.tune: 000 = paper 000's improved PSO fuzzy PID CCC)")
+    tune.add_argument("protocol", metavar="PROTOCOL", help="tuning protocol name, e.g. 000")
+    tune.add_argument("--optimizer", default=None, metavar="NAME",
+                      help="optimiser of agents.optim (default: the protocol's)")
+    tune.add_argument("--seed", type=int, default=0, help="optimiser seed (default 0)")
+    tune.add_argument("--iterations", type=int, default=None, metavar="T",
+                      help="generations after the initial one (default: the protocol's)")
+    tune.add_argument("--population", type=int, default=None, metavar="M",
+                      help="candidates per generation (default: the protocol's)")
+    tune.add_argument("--out", default=None, metavar="DIR",
+                      help="run folder (default runs/tune/PROTOCOL-OPTIMIZER-seedN[-ideal])")
+    tune.add_argument("--ideal", action="store_true",
+                      help="no encoder, noise or delay (the papers' pure simulations)")
+    tune.add_argument("--quiet", action="store_true", help="no progress bar")
     return parser
 
 
@@ -259,10 +280,42 @@ def train_command(args: argparse.Namespace) -> int:
     return 0
 
 
+def tune_command(args: argparse.Namespace) -> int:
+    """Run ``contour-gym tune``: writes the run folder and prints the best parameters."""
+    from agents.optim import OPTIMIZERS
+    from agents.tune import get_protocol, tune
+
+    protocol = get_protocol(args.protocol)  # unknown names list the accepted ones
+    optimizer = choice(args.optimizer or protocol.optimizer, "optimizer", OPTIMIZERS)
+    out = args.out
+    if out is None:
+        suffix = "-ideal" if args.ideal else ""
+        out = os.path.join("runs", "tune", f"{protocol.name}-{optimizer}-seed{args.seed}{suffix}")
+    argv = ["contour-gym", "tune", protocol.name, "--optimizer", optimizer, "--seed",
+            str(args.seed)]  # fmt: skip
+    for flag, value in (("--population", args.population), ("--iterations", args.iterations)):
+        if value is not None:
+            argv += [flag, str(value)]
+    argv += ["--ideal"] * args.ideal + ["--out", out]
+    result = tune(protocol, optimizer, seed=args.seed, population=args.population,
+                  iterations=args.iterations, ideal=args.ideal, out=out,
+                  progress=not args.quiet, command=shlex.join(argv))  # fmt: skip
+    print(f"protocol {result.protocol}, {result.optimizer}, seed {result.seed}: best fitness "
+          f"{result.fitness * 1e6:.6g} um ({result.settings['fitness']}) after "
+          f"{result.nfev} candidates in {result.wall_time:.1f} s")  # fmt: skip
+    for name, value in result.params.items():
+        print(f"  {name} = {value:.6g}")
+    for env_id, value in result.per_scenario.items():
+        print(f"  {env_id}: {value * 1e6:.6g} um")
+    print(f"results written to {out}")
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``contour-gym`` command."""
     args = _parser().parse_args(argv)
-    command = {"simulate": simulate_command, "train": train_command}[args.command]
+    command = {"simulate": simulate_command, "train": train_command,
+               "tune": tune_command}[args.command]  # fmt: skip
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _show_warning

@@ -10,21 +10,25 @@ zero. Budget: ``nfev = population * (iterations + 1)`` (generation 0 is the rand
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable
 from functools import partial
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from agents.optim._base import (
+    FloatArray,
     Objective,
     OptimResult,
     Problem,
     clip_unit,
+    positive_int,
     progress,
     run,
 )
-from contour_gym._validate import finite, positive
+from contour_gym._validate import choice, finite, positive
 
 # (fraction of the run done) -> (w, c1, c2)
 Schedule = Callable[[float], tuple[float, float, float]]
@@ -95,14 +99,33 @@ def pso(
     Returns:
         The run's :class:`OptimResult`.
     """
-    w0, w1 = finite(w_start, "w_start"), finite(w_end, "w_end")
-    k1, k2 = finite(c1, "c1"), finite(c2, "c2")
-
-    def schedule(tau: float) -> tuple[float, float, float]:
-        return w0 - (w0 - w1) * tau, k1, k2
-
+    schedule = partial(
+        linear_coefficients,
+        w_start=finite(w_start, "w_start"),
+        w_end=finite(w_end, "w_end"),
+        c1=finite(c1, "c1"),
+        c2=finite(c2, "c2"),
+    )
     core = partial(_swarm, schedule=schedule, v_max=positive(v_max, "v_max"))
     return run("pso", core, objective, bounds, population, iterations, seed, keep_population)
+
+
+def linear_coefficients(
+    tau: float, w_start: float = 0.9, w_end: float = 0.4, c1: float = 2.0, c2: float = 2.0
+) -> tuple[float, float, float]:
+    """Inertia weight and learning factors of the standard PSO (:func:`pso`).
+
+    Args:
+        tau: Fraction of the run done, 0 at the first generation and 1 at the last.
+        w_start: Inertia weight at the first generation.
+        w_end: Inertia weight at the last generation.
+        c1: Cognitive learning factor (constant).
+        c2: Social learning factor (constant).
+
+    Returns:
+        ``(w, c1, c2)`` with ``w = w_start - (w_start - w_end) tau``.
+    """
+    return w_start - (w_start - w_end) * tau, c1, c2
 
 
 def improved_coefficients(
@@ -224,4 +247,45 @@ def improved_pso(
     )
 
 
-__all__ = ["improved_coefficients", "improved_pso", "pso"]
+_COEFFICIENTS: dict[str, Callable[..., tuple[float, float, float]]] = {
+    "pso": linear_coefficients,
+    "improved_pso": improved_coefficients,
+}
+
+
+def schedules(name: str, iterations: int, **options: Any) -> FloatArray:
+    """The ``(w, c1, c2)`` a PSO run uses at each of its generations, as the run computes them.
+
+    Args:
+        name: ``"pso"`` or ``"improved_pso"``.
+        iterations: Generations of the run (after the initial swarm), >= 1.
+        **options: The optimiser's keyword options (as given to :func:`pso` or
+            :func:`improved_pso`); those that do not shape the schedule (``v_max``,
+            ``keep_population``) are ignored.
+
+    Returns:
+        ``(iterations, 3)`` array: row ``t - 1`` holds ``(w, c1, c2)`` of generation ``t``.
+
+    Raises:
+        ValueError: for a name other than the two PSO variants or a bad ``iterations``.
+
+    >>> schedules("pso", 3)[:, 0].tolist()
+    [0.9, 0.65, 0.4]
+    """
+    coefficients = _COEFFICIENTS[choice(name, "PSO variant", _COEFFICIENTS)]
+    iterations = positive_int(iterations, "iterations")
+    shaping = set(inspect.signature(coefficients).parameters) - {"tau"}
+    kwargs = {k: float(v) for k, v in options.items() if k in shaping}
+    return np.array(
+        [coefficients(progress(t, iterations), **kwargs) for t in range(1, iterations + 1)],
+        dtype=np.float64,
+    )
+
+
+__all__ = [
+    "improved_coefficients",
+    "improved_pso",
+    "linear_coefficients",
+    "pso",
+    "schedules",
+]

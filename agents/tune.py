@@ -1,0 +1,721 @@
+"""Tuning protocols: a controller's parameters searched by any optimiser on a paper's scenarios.
+
+A :class:`Protocol` names the parameters it searches and their box, the registered env ids it
+runs (its scenarios), its fitness, and its default optimiser and budget; :data:`PROTOCOLS`
+holds them by name. :func:`tune` runs one with any optimiser of :mod:`agents.optim` and, given
+a folder, writes the run there (``contour-gym tune PROTOCOL`` on the command line)::
+
+    result = tune("000", seed=0, out="runs/tune/000")   # paper 000, improved PSO, 50 x 100
+    result.params                                         # {"k_e": ..., "k_de": ..., ...}
+
+**One batch per generation.** The objective (:class:`PopulationObjective`) evaluates a whole
+population at once: one batched :class:`~contour_gym.loop.ServoLoop` per scenario, each
+candidate one batch member with its own CCC law parameters
+(:meth:`~contour_gym.loop.ServoLoop.set_ccc_params`), every member reset from the same
+episode seed, so a candidate's fitness depends on its parameters only, never on the other
+members or the batch size (the test checks it bit for bit). The scenario of an env id is the
+env's own (its machine, path, estimator, tolerance; ``ideal`` as asked), with the protocol's
+CCC law and the env's PID CCC gains as the law's base gains ``kp, ki, kd``, as the reference
+policy :class:`~agents.ccc_policies.FuzzyPIDCCC` builds it.
+
+**Failures.** A candidate fails on a scenario when its member does not get in position at the
+path end (the loop's divergence test, or not in position ``settle_time`` after the reference
+ended), when its largest true contour error exceeds the env's hard limit (``hard_limit``, by
+default 100 tolerances: the envs' failure rule), or when its fitness is not finite (NaN never
+continues). A candidate that fails on any scenario gets the finite penalty
+``PENALTY_HARD_LIMITS * H = 2 H``, ``H`` the largest hard limit of the protocol's scenarios
+(1.52 mm on 000's machine): every fitness of :data:`FITNESSES` is at most the largest contour
+error, which a candidate that did not fail keeps below ``H``, so a failure never wins and
+never crashes the run.
+
+**Search scale.** Parameters marked ``log`` are searched in ``log10`` (the optimiser's box is
+``log10`` of theirs; :meth:`Protocol.to_params` maps back), the others linearly. Results are
+always reported in the parameters' own (SI) units.
+
+**Run folder** (``out``): ``result.json`` (best parameters by name, best fitness, the
+settings, seed, optimiser, wall time and the best-so-far fitness after every generation),
+written atomically after every generation (``"status": "running"``, the history so far),
+once more at the end (``"complete"``; ``"interrupted"`` on Ctrl-C and ``"failed"`` on an
+error, then re-raised); ``convergence.png``; and for the PSO family ``schedules.png``, the
+``(w, c1, c2)`` of every generation as :func:`agents.optim.pso.schedules` computes them.
+
+Protocol ``"000"`` (paper 000, section "Adaptive fuzzy PID cross-coupled control based on
+improved PSO algorithm"): see :func:`fuzzy_pid_000_params` for the box and :data:`FITNESSES`
+for eq. 15. 000 tunes each path on its own; ``"000"`` tunes one set of factors on all three
+of its paths (the mean of the three eq.-15 values), and ``"000_circle"``, ``"000_infinity"``,
+``"000_trident"`` tune one path each, as 000 does.
+
+Measured on this project's 2-core machine (shared with other jobs; seed 0, 50 x 101
+candidates, rig): ``000_circle`` (5050 episodes of the 2 s circle at 1 kHz, fuzzy PID every
+tick) searches in 6.2-8.7 s (9.4-12 s for the whole ``contour-gym tune 000_circle``
+command; the issue's target is 15 s); ``000`` (all three paths, 15150 episodes) in 98-151 s.
+``000`` reaches 1.283 um (circle 0.920, "infinity" 1.083, trident 1.848 um; the law's
+defaults give 1.92, 2.42, 6.74 um), with ``k_pf`` at the top of its box. Standard PSO against
+improved PSO on ``000_circle``, seeds 0-9: median best 0.388 against 0.390 um (ranges
+0.372-0.402 and 0.378-0.405 um); on ``000``, seeds 0-2: median 1.286 against 1.283 um
+(1.285-1.290 and 1.281-1.289 um, 84-102 s a run): even, not the clear gain 000's figures 10
+and 13 show.
+What the factors do to the peak errors, and 000's claims: :mod:`agents.ccc_policies`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shlex
+import tempfile
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+import agents.ccc_laws  # noqa: F401  (registers the fuzzy_pid law)
+import contour_gym  # noqa: F401  (registers the env ids)
+from agents.ccc_laws import K_DE_000, K_E_000
+from agents.optim import OPTIMIZERS, OptimResult, minimize, options_of
+from agents.optim.pso import schedules
+from contour_gym._registry import Registry
+from contour_gym._validate import choice
+from contour_gym.api import Scenario
+from contour_gym.envs.config import HARD_LIMIT_TOLERANCES, EnvConfig
+from contour_gym.envs.core import _scenario as env_scenario
+from contour_gym.loop import ServoLoop
+from contour_gym.presets import get_preset
+
+FloatArray = NDArray[np.float64]
+PENALTY_HARD_LIMITS = 2.0  # a failed candidate's fitness, in hard limits (module docstring)
+FUZZY_OUTPUT_PEAK = 8.0 / 3.0  # largest |output| of fuzzy_pid_000 (centroids span [-8/3, 8/3])
+PSO_FAMILY = ("pso", "improved_pso")
+
+
+# ------------------------------------------------------------------------------- fitness
+def _cea(metrics: Mapping[str, FloatArray]) -> FloatArray:
+    return np.asarray(metrics["cea"], dtype=np.float64)
+
+
+def _rms(metrics: Mapping[str, FloatArray]) -> FloatArray:
+    return np.asarray(metrics["rms_contour_error"], dtype=np.float64)
+
+
+def _max(metrics: Mapping[str, FloatArray]) -> FloatArray:
+    return np.asarray(metrics["max_contour_error"], dtype=np.float64)
+
+
+FITNESSES: dict[str, Callable[[Mapping[str, FloatArray]], FloatArray]] = {
+    "cea": _cea,
+    "rms": _rms,
+    "max": _max,
+}
+"""Fitness of one scenario from a loop's metrics, (B,), m; each is at most the max |error|.
+
+``cea``: paper 000's eq. (15), ``J = (1/N) sum_i |eps_i|`` over the N servo samples of the
+run, ``eps_i`` the true contour error at sample i: the equation was lost in extraction; the
+text keeps "where N is the sampling point. eps_i is the contour error modulus at position i",
+i.e. a mean of moduli over the samples, which is 000's own CEA ("module average", its
+Table 4). Reconstructed as that mean (not a sum, so paths of different durations weigh
+alike; not squared, as the text speaks of the modulus). ``rms`` and ``max``: the RMS and the
+largest contour error, for other protocols.
+"""
+
+
+# ------------------------------------------------------------------------------ protocols
+@dataclass(frozen=True)
+class TuneParam:
+    """One searched parameter.
+
+    Attributes:
+        name: The CCC law parameter's name.
+        low: Lower bound, in the parameter's units (> 0 when ``log``).
+        high: Upper bound (> ``low``).
+        log: Search ``log10`` of the parameter.
+        unit: Its unit, for reports.
+    """
+
+    name: str
+    low: float
+    high: float
+    log: bool = False
+    unit: str = ""
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.low) and math.isfinite(self.high) and self.low < self.high):
+            raise ValueError(f"parameter {self.name!r} needs finite low < high, got "
+                             f"[{self.low!r}, {self.high!r}]")  # fmt: skip
+        if self.log and self.low <= 0.0:
+            raise ValueError(f"log-scaled parameter {self.name!r} needs low > 0, got {self.low!r}")
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """A tuning protocol: what to search, on which scenarios, by which fitness, with what budget.
+
+    Attributes:
+        name: Registry key.
+        params: The searched parameters (D of them), CCC law parameters by name.
+        scenarios: Registered env ids (``contour_gym/CCC-...``) the fitness averages over.
+        fitness: A key of :data:`FITNESSES`.
+        ccc_law: The CCC law whose parameters are searched.
+        optimizer: Default optimiser, a key of :data:`agents.optim.OPTIMIZERS`.
+        population: Default population (candidates per generation).
+        iterations: Default generations after the initial one.
+        optimizer_options: Options of the default optimiser.
+        episode_seed: Seed every candidate's episodes are reset from.
+        doc: What the protocol reproduces.
+    """
+
+    name: str
+    params: tuple[TuneParam, ...]
+    scenarios: tuple[str, ...]
+    fitness: str = "cea"
+    ccc_law: str = "fuzzy_pid"
+    optimizer: str = "improved_pso"
+    population: int = 50
+    iterations: int = 100
+    optimizer_options: Mapping[str, Any] = field(default_factory=dict)
+    episode_seed: int = 0
+    doc: str = ""
+
+    def __post_init__(self) -> None:
+        choice(self.fitness, "fitness", FITNESSES)
+        choice(self.optimizer, "optimizer", OPTIMIZERS)
+        if not self.params or not self.scenarios:
+            raise ValueError(f"protocol {self.name!r} needs parameters and scenarios")
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Parameter names, in search order."""
+        return tuple(p.name for p in self.params)
+
+    @property
+    def bounds(self) -> FloatArray:
+        """(D, 2) box in the parameters' own units."""
+        return np.array([(p.low, p.high) for p in self.params], dtype=np.float64)
+
+    @property
+    def search_bounds(self) -> FloatArray:
+        """(D, 2) box the optimiser searches (``log10`` of the log-scaled parameters)."""
+        b = self.bounds
+        logs = self._logs()
+        b[logs] = np.log10(b[logs])
+        return b
+
+    def _logs(self) -> NDArray[np.bool_]:
+        return np.array([p.log for p in self.params])
+
+    def to_params(self, z: ArrayLike) -> FloatArray:
+        """(n, D) search coordinates -> parameters in their own units, clipped to the box."""
+        x = np.array(np.atleast_2d(np.asarray(z, dtype=np.float64)))
+        logs = self._logs()
+        x[:, logs] = 10.0 ** x[:, logs]
+        b = self.bounds
+        return np.clip(x, b[:, 0], b[:, 1])
+
+    def to_search(self, x: ArrayLike) -> FloatArray:
+        """(n, D) parameters in their own units -> search coordinates."""
+        z = np.array(np.atleast_2d(np.asarray(x, dtype=np.float64)))
+        logs = self._logs()
+        z[:, logs] = np.log10(z[:, logs])
+        return z
+
+
+PROTOCOLS: Registry[Protocol] = Registry("tuning protocol")
+
+
+def register_protocol(protocol: Protocol, *, replace: bool = False) -> Protocol:
+    """Add ``protocol`` to :data:`PROTOCOLS` (under its name); returns it.
+
+    Raises:
+        ValueError: for a taken name (unless ``replace``) or an invalid one.
+    """
+    return PROTOCOLS.register(protocol, replace=replace)
+
+
+def get_protocol(protocol: str | Protocol) -> Protocol:
+    """The protocol itself, or the registered one of that name.
+
+    Raises:
+        ValueError: for an unknown name, listing the accepted ones.
+    """
+    return protocol if isinstance(protocol, Protocol) else PROTOCOLS.get(protocol)
+
+
+def fuzzy_pid_000_params() -> tuple[TuneParam, ...]:
+    """The box of paper 000's five fuzzy PID CCC factors on its machine (``xy_dc_servo``).
+
+    000 gives no box (it "determines the initial values ... by trial and error"). Around the
+    law's defaults (:mod:`agents.ccc_laws`, derived from 000's machine), with ``kp0, ki0``
+    the machine's PID CCC gains (the law's base gains) and the CCC env's gain range
+    ``R = 30`` and ``kd`` scale ``0.01 s`` (:class:`~contour_gym.envs.config.EnvConfig`):
+
+    - ``k_e`` in ``[K_E/10, 100 K_E]``, log (``K_E = 3 / (8 tol)``): the error input
+      saturates anywhere from 80 tolerances (608 um, far beyond any peak) down to 0.08 (0.6
+      um, below the 1 um encoder count).
+    - ``k_de`` in ``[K_DE/100, 10 K_DE]``, log (``K_DE = 1000 s/m``): the rate input
+      saturates from 300 mm/s (never) down to 0.3 mm/s (a third of one count per tick).
+    - ``k_pf`` in ``[kp0/1000, (R - 1) kp0 * 3/8]``, ``k_if`` likewise with ``ki0``, log:
+      from no scheduling at all to a scheduled gain reaching ``R`` times the base gain (the
+      fuzzy outputs peak at 8/3), the largest gain the CCC env offers.
+    - ``k_df`` in ``[0, 0.01 s * kp0 * 3/8]``, linear (its default 0 is in the box): the
+      scheduled ``Kd`` reaches the CCC env's largest kd.
+    """
+    preset = get_preset("xy_dc_servo")
+    env = EnvConfig()
+    kp0, ki0 = preset.ccc_gains.kp, preset.ccc_gains.ki
+    reach = (env.gain_range - 1.0) / FUZZY_OUTPUT_PEAK
+    return (
+        TuneParam("k_e", K_E_000 / 10.0, K_E_000 * 100.0, log=True, unit="1/m"),
+        TuneParam("k_de", K_DE_000 / 100.0, K_DE_000 * 10.0, log=True, unit="s/m"),
+        TuneParam("k_pf", kp0 / 1000.0, reach * kp0, log=True, unit="units of kp"),
+        TuneParam("k_if", ki0 / 1000.0, reach * ki0, log=True, unit="units of ki"),
+        TuneParam("k_df", 0.0, env.kd_scale * kp0 / FUZZY_OUTPUT_PEAK, unit="units of kd"),
+    )
+
+
+_PATHS_000 = {
+    "circle": "contour_gym/CCC-Circle-v0",
+    "infinity": "contour_gym/CCC-Infinity-v0",
+    "trident": "contour_gym/CCC-Trident-v0",
+}
+_DOC_000 = (
+    "paper 000: improved PSO (m = 50, T = 100) over the fuzzy PID CCC's five factors "
+    "(k_e, k_de, k_pf, k_if, k_df), fitness eq. 15 (mean |contour error|)"
+)
+register_protocol(Protocol(
+    "000", fuzzy_pid_000_params(), tuple(_PATHS_000.values()),
+    doc=_DOC_000 + ", averaged over the circle, 'infinity' and trident",
+))  # fmt: skip
+for _path, _env_id in _PATHS_000.items():
+    register_protocol(Protocol(
+        f"000_{_path}", fuzzy_pid_000_params(), (_env_id,), doc=_DOC_000 + f", {_path} only",
+    ))  # fmt: skip
+
+
+# ------------------------------------------------------------------------------ objective
+@dataclass(frozen=True)
+class _Case:
+    """One scenario of a protocol, built as its env builds it."""
+
+    env_id: str
+    scenario: Scenario
+    base_gains: tuple[float, float, float]
+    hard_limit: float
+
+
+def _case(env_id: str, ccc_law: str, ideal: bool) -> _Case:
+    if env_id not in gym.registry:
+        raise ValueError(f"unknown env id {env_id!r}")
+    kwargs = {**gym.spec(env_id).kwargs, "ideal": ideal, "ccc_law": ccc_law}
+    config = EnvConfig.from_kwargs(kwargs)
+    scenario = env_scenario(config)
+    preset = scenario.preset
+    kp, ki, kd = config.ccc_gains or preset.ccc_gains.as_tuple()
+    hard = config.hard_limit or HARD_LIMIT_TOLERANCES * config.tolerance_for(preset)
+    return _Case(env_id, scenario, (float(kp), float(ki), float(kd)), float(hard))
+
+
+class PopulationObjective:
+    """A protocol's batch objective: ``(n, D)`` search coordinates -> ``(n,)`` fitness, m.
+
+    Args:
+        protocol: The protocol (or its name).
+        ideal: Run the scenarios without the rig's encoder, noise and delay.
+
+    Attributes:
+        penalty: The fitness of a failed candidate (module docstring), m.
+    """
+
+    def __init__(self, protocol: str | Protocol, ideal: bool = False) -> None:
+        self.protocol = get_protocol(protocol)
+        self.ideal = bool(ideal)
+        self.cases = tuple(_case(e, self.protocol.ccc_law, self.ideal)
+                           for e in self.protocol.scenarios)  # fmt: skip
+        self.penalty = PENALTY_HARD_LIMITS * max(c.hard_limit for c in self.cases)
+        self._fitness = FITNESSES[self.protocol.fitness]
+        self._loops: dict[int, list[ServoLoop]] = {}
+
+    def __call__(self, z: FloatArray, /) -> FloatArray:
+        """Fitness of each row of ``z`` (search coordinates; see :meth:`Protocol.to_params`)."""
+        return self.fitness(self.protocol.to_params(z))
+
+    def fitness(self, params: ArrayLike) -> FloatArray:
+        """Fitness of each row of ``params`` (the parameters in their own units), m.
+
+        The mean over the scenarios of the protocol's fitness, or :attr:`penalty` for a
+        candidate that failed on any scenario.
+        """
+        per_case, failed = self.evaluate(params)
+        return combine(per_case, failed, self.penalty)
+
+    def evaluate(self, params: ArrayLike) -> tuple[FloatArray, NDArray[np.bool_]]:
+        """Run every candidate on every scenario.
+
+        Args:
+            params: ``(n, D)`` parameters in their own units, in the protocol's order.
+
+        Returns:
+            ``(fitness (S, n), failed (S, n))`` per scenario: the protocol's fitness (m) and
+            whether the candidate failed there (it then keeps whatever its run measured).
+
+        Raises:
+            ValueError: for a shape other than ``(n, D)`` or a value the law rejects.
+        """
+        x = np.asarray(params, dtype=np.float64)
+        d = len(self.protocol.params)
+        if x.ndim != 2 or x.shape[1] != d or x.shape[0] < 1:
+            raise ValueError(f"params must have shape (n, {d}), got {x.shape}")
+        n = x.shape[0]
+        fit, failed = np.empty((len(self.cases), n)), np.empty((len(self.cases), n), dtype=bool)
+        for i, (case, loop) in enumerate(zip(self.cases, self._loops_for(n), strict=True)):
+            fit[i], failed[i] = self._run(case, loop, x)
+        return fit, failed
+
+    def metrics(self, params: ArrayLike) -> list[dict[str, FloatArray]]:
+        """Every scenario's full loop metrics for each candidate (``(n,)`` arrays, SI)."""
+        x = np.atleast_2d(np.asarray(params, dtype=np.float64))
+        out = []
+        for case, loop in zip(self.cases, self._loops_for(x.shape[0]), strict=True):
+            self._run(case, loop, x)
+            out.append({**loop.metrics(), "failed": loop.failed.astype(float),
+                        "finished": loop.done.astype(float)})  # fmt: skip
+        return out
+
+    def _loops_for(self, n: int) -> list[ServoLoop]:
+        if n not in self._loops:
+            self._loops[n] = [
+                c.scenario.loop(batch_size=n, ccc_gains=c.base_gains) for c in self.cases
+            ]
+        return self._loops[n]
+
+    def _run(
+        self, case: _Case, loop: ServoLoop, x: FloatArray
+    ) -> tuple[FloatArray, NDArray[np.bool_]]:
+        loop.set_ccc_params(**{name: x[:, j : j + 1] for j, name in enumerate(self.protocol.names)})
+        # every member from the same seed: a candidate's result is its own (loop docstring)
+        loop.reset([self.protocol.episode_seed] * x.shape[0])
+        metrics = loop.run()
+        f = self._fitness(metrics)
+        failed = ~loop.done | ~np.isfinite(f) | ~(metrics["max_contour_error"] <= case.hard_limit)
+        return f, failed
+
+
+def combine(per_case: ArrayLike, failed: ArrayLike, penalty: float) -> FloatArray:
+    """Total fitness: the mean over scenarios, ``penalty`` wherever a scenario failed.
+
+    Args:
+        per_case: ``(S, n)`` fitness per scenario and candidate.
+        failed: ``(S, n)`` failures (a non-finite fitness counts as one).
+        penalty: Finite fitness of a failed candidate.
+
+    Returns:
+        ``(n,)`` finite fitness.
+    """
+    f = np.asarray(per_case, dtype=np.float64)
+    bad = np.asarray(failed, dtype=bool) | ~np.isfinite(f)
+    mean = np.where(bad, 0.0, f).mean(axis=0)
+    return np.where(bad.any(axis=0), float(penalty), mean)
+
+
+# ----------------------------------------------------------------------------------- runs
+@dataclass(frozen=True)
+class TuneResult:
+    """Outcome of :func:`tune`.
+
+    Attributes:
+        protocol: Protocol name.
+        optimizer: Optimiser name.
+        seed: The optimiser's seed.
+        params: Best parameters by name, in their own units.
+        fitness: Their fitness, m (the protocol's; :attr:`PopulationObjective.penalty` if
+            every candidate failed).
+        history: Best-so-far fitness after each generation, non-increasing, m.
+        per_scenario: Env id -> the best parameters' fitness there, m.
+        nfev: Candidates evaluated.
+        wall_time: Seconds the search took.
+        settings: Everything else the run was given (budget, box, scales, options, ...).
+        out: The run folder, or None.
+    """
+
+    protocol: str
+    optimizer: str
+    seed: int
+    params: dict[str, float]
+    fitness: float
+    history: list[float]
+    per_scenario: dict[str, float]
+    nfev: int
+    wall_time: float
+    settings: dict[str, Any]
+    out: Path | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``result.json`` content (``"status": "complete"``)."""
+        return {
+            "status": "complete", "protocol": self.protocol, "optimizer": self.optimizer,
+            "seed": self.seed, "params": self.params, "fitness": self.fitness,
+            "fitness_unit": "m", "per_scenario": self.per_scenario, "nfev": self.nfev,
+            "wall_time_s": self.wall_time, "settings": self.settings,
+            "generations": len(self.history), "history": self.history,
+        }  # fmt: skip
+
+
+class _Monitor:
+    """Wraps the objective: counts generations, keeps the best so far, reports each generation.
+
+    Every optimiser evaluates exactly ``population`` candidates per generation (in one or
+    several calls), so generation ``k`` ends when ``population * (k + 1)`` candidates are done;
+    the best so far is kept as :class:`agents.optim._base.Problem` keeps it (first strict
+    minimum; non-finite values count as ``inf``), so the history equals the optimiser's.
+    """
+
+    def __init__(
+        self, objective: PopulationObjective, population: int,
+        on_generation: Callable[[_Monitor], None], bar: Any,
+    ) -> None:  # fmt: skip
+        self.objective, self.population = objective, population
+        self.on_generation, self.bar = on_generation, bar
+        self.nfev, self.best_f = 0, math.inf
+        self.best_z: FloatArray | None = None
+        self.history: list[float] = []
+
+    def __call__(self, z: FloatArray, /) -> FloatArray:
+        f = self.objective(z)
+        for row, value in zip(z, f, strict=True):
+            v = float(value) if math.isfinite(value) else math.inf
+            if self.best_z is None or v < self.best_f:
+                self.best_f, self.best_z = v, np.array(row)
+            self.nfev += 1
+            if self.nfev % self.population == 0 and self.nfev > self.population:
+                self.history.append(self.best_f)
+                self.on_generation(self)
+        if self.bar is not None:
+            self.bar.update(len(f))
+            self.bar.set_postfix_str(f"best {self.best_f * 1e6:.4g} um", refresh=False)
+        return f
+
+
+def tune(
+    protocol: str | Protocol,
+    optimizer: str | None = None,
+    *,
+    seed: int = 0,
+    population: int | None = None,
+    iterations: int | None = None,
+    ideal: bool = False,
+    out: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+    options: Mapping[str, Any] | None = None,
+    command: str | None = None,
+) -> TuneResult:
+    """Run a tuning protocol with an optimiser.
+
+    Args:
+        protocol: A :data:`PROTOCOLS` name or a :class:`Protocol`.
+        optimizer: A key of :data:`agents.optim.OPTIMIZERS` (None: the protocol's).
+        seed: The optimiser's seed (the episodes use the protocol's ``episode_seed``).
+        population: Candidates per generation (None: the protocol's).
+        iterations: Generations after the initial one (None: the protocol's).
+        ideal: Run the scenarios without the rig's encoder, noise and delay.
+        out: Run folder for ``result.json`` and the plots (module docstring); None writes
+            nothing.
+        progress: Show a progress bar (tqdm, on stderr).
+        options: The optimiser's own options (None: the protocol's for its own optimiser,
+            else none).
+        command: The command line to record in ``result.json`` (None: the equivalent
+            ``contour-gym tune`` command).
+
+    Returns:
+        The :class:`TuneResult`.
+
+    Raises:
+        ValueError: for an unknown protocol or optimiser (listing the accepted names), or a
+            bad budget, seed or option (naming it).
+    """
+    proto = get_protocol(protocol)
+    name = choice(optimizer or proto.optimizer, "optimizer", OPTIMIZERS)
+    if options is None:
+        options = proto.optimizer_options if name == proto.optimizer else {}
+    unknown = sorted(set(options) - set(options_of(name)))
+    if unknown:
+        raise ValueError(f"unknown option(s) {', '.join(unknown)} for {name!r}; accepted: "
+                         f"{', '.join(options_of(name))}")  # fmt: skip
+    m = proto.population if population is None else population
+    t = proto.iterations if iterations is None else iterations
+    settings: dict[str, Any] = {
+        "population": m, "iterations": t, "ideal": bool(ideal), "scenarios": list(proto.scenarios),
+        "fitness": proto.fitness, "ccc_law": proto.ccc_law, "episode_seed": proto.episode_seed,
+        "bounds": {p.name: [p.low, p.high] for p in proto.params},
+        "log_scaled": [p.name for p in proto.params if p.log],
+        "optimizer_options": dict(options),
+        "command": command or _command(proto.name, name, seed, m, t, ideal, out),
+    }  # fmt: skip
+    folder = None if out is None else Path(out)
+    if name in PSO_FAMILY:  # checks the budget too, before any simulation
+        settings["schedules"] = schedules(name, t, **options).tolist()
+    objective = PopulationObjective(proto, ideal=ideal)
+    settings["penalty"] = objective.penalty
+    start = time.perf_counter()
+
+    def partial(mon: _Monitor, status: str = "running") -> None:
+        if folder is not None:
+            _write_json(folder / "result.json", _partial_json(proto, name, seed, settings, mon,
+                                                              time.perf_counter() - start, status))
+
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=m * (t + 1), desc=f"tune {proto.name} ({name})", unit="cand",
+               disable=not progress, dynamic_ncols=True)  # fmt: skip
+    monitor = _Monitor(objective, m, partial, bar)
+    try:
+        res = minimize(name, monitor, proto.search_bounds, population=m, iterations=t,
+                       seed=seed, **options)  # fmt: skip
+    except KeyboardInterrupt:
+        partial(monitor, "interrupted")
+        raise
+    except BaseException:
+        partial(monitor, "failed")
+        raise
+    finally:
+        bar.close()
+    wall = time.perf_counter() - start
+    result = _result(proto, res, objective, seed, settings, wall, folder)
+    if folder is not None:
+        _write_json(folder / "result.json", result.to_json())
+        write_plots(result, folder)
+    return result
+
+
+def _result(
+    proto: Protocol, res: OptimResult, objective: PopulationObjective, seed: int,
+    settings: dict[str, Any], wall: float, folder: Path | None,
+) -> TuneResult:  # fmt: skip
+    best = proto.to_params(res.x)
+    per_case, failed = objective.evaluate(best)
+    per = {c.env_id: float(objective.penalty if failed[i, 0] else per_case[i, 0])
+           for i, c in enumerate(objective.cases)}  # fmt: skip
+    return TuneResult(
+        protocol=proto.name, optimizer=res.name, seed=int(seed),
+        params={n: float(v) for n, v in zip(proto.names, best[0], strict=True)},
+        fitness=float(res.fun), history=[float(h) for h in res.history], per_scenario=per,
+        nfev=int(res.nfev), wall_time=float(wall), settings=settings, out=folder,
+    )  # fmt: skip
+
+
+def _partial_json(
+    proto: Protocol, name: str, seed: int, settings: dict[str, Any], mon: _Monitor, wall: float,
+    status: str,
+) -> dict[str, Any]:  # fmt: skip
+    params = None
+    if mon.best_z is not None:
+        best = proto.to_params(mon.best_z)[0]
+        params = {n: float(v) for n, v in zip(proto.names, best, strict=True)}
+    return {
+        "status": status, "protocol": proto.name, "optimizer": name, "seed": int(seed),
+        "params": params, "fitness": mon.best_f if math.isfinite(mon.best_f) else None,
+        "fitness_unit": "m", "nfev": mon.nfev, "wall_time_s": wall, "settings": settings,
+        "generations": len(mon.history), "history": list(mon.history),
+    }  # fmt: skip
+
+
+def _command(
+    proto: str, optimizer: str, seed: int, m: int, t: int, ideal: bool,
+    out: str | os.PathLike[str] | None,
+) -> str:  # fmt: skip
+    args = ["contour-gym", "tune", proto, "--optimizer", optimizer, "--seed", str(seed),
+            "--population", str(m), "--iterations", str(t)]  # fmt: skip
+    if ideal:
+        args.append("--ideal")
+    if out is not None:
+        args += ["--out", os.fspath(out)]
+    return shlex.join(args)
+
+
+def _write_json(target: Path, data: Mapping[str, Any]) -> None:
+    """Write ``data`` next to ``target``, then rename: a reader never sees half a file."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(suffix=".json", dir=target.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            json.dump(data, fh, indent=2)
+            fh.write("\n")
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, target)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def write_plots(result: TuneResult, folder: str | os.PathLike[str]) -> list[Path]:
+    """Write ``convergence.png`` and, for the PSO family, ``schedules.png`` into ``folder``.
+
+    Returns:
+        The files written.
+    """
+    from matplotlib.figure import Figure
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    gens = np.arange(1, len(result.history) + 1)
+    fig = Figure(figsize=(6.0, 4.0), layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot(gens, np.asarray(result.history) * 1e6, drawstyle="steps-post")
+    ax.set(xlabel="generation", ylabel=f"best fitness ({result.settings['fitness']}, um)",
+           title=f"tune {result.protocol}: {result.optimizer}, seed {result.seed}")  # fmt: skip
+    ax.grid(True, alpha=0.3)
+    written = [folder / "convergence.png"]
+    fig.savefig(written[0], dpi=120)
+    sched = result.settings.get("schedules")
+    if sched is not None:
+        arr = np.asarray(sched)
+        fig = Figure(figsize=(6.0, 4.0), layout="constrained")
+        ax = fig.add_subplot()
+        for j, label in enumerate(("w", "c1", "c2")):
+            ax.plot(np.arange(1, len(arr) + 1), arr[:, j], label=label)
+        ax.set(xlabel="generation", ylabel="coefficient",
+               title=f"{result.optimizer}: inertia weight and learning factors")  # fmt: skip
+        ax.legend()
+        ax.grid(True, alpha=0.3)
+        written.append(folder / "schedules.png")
+        fig.savefig(written[-1], dpi=120)
+    return written
+
+
+def compare(
+    protocol: str | Protocol, optimizers: Sequence[str], seeds: Sequence[int], **kwargs: Any
+) -> dict[str, list[float]]:
+    """Best fitness of each optimiser over several seeds (no files, no progress bar).
+
+    Args:
+        protocol: A :data:`PROTOCOLS` name or a :class:`Protocol`.
+        optimizers: Keys of :data:`agents.optim.OPTIMIZERS`.
+        seeds: Optimiser seeds.
+        **kwargs: More :func:`tune` arguments (``population``, ``iterations``, ``ideal``).
+
+    Returns:
+        Optimiser -> best fitness per seed, m.
+    """
+    return {name: [tune(protocol, name, seed=s, progress=False, **kwargs).fitness for s in seeds]
+            for name in optimizers}  # fmt: skip
+
+
+__all__ = [
+    "FITNESSES",
+    "PENALTY_HARD_LIMITS",
+    "PROTOCOLS",
+    "PopulationObjective",
+    "Protocol",
+    "TuneParam",
+    "TuneResult",
+    "combine",
+    "compare",
+    "fuzzy_pid_000_params",
+    "get_protocol",
+    "register_protocol",
+    "tune",
+    "write_plots",
+]
