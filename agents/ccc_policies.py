@@ -176,11 +176,16 @@ def tuned_factors_000() -> dict[str, float]:
     Raises:
         ValueError: if the file lacks a factor.
     """
-    params = json.loads(TUNED_000.read_text(encoding="utf-8"))["params"]
-    missing = [name for name in _FACTORS if name not in params]
+    return _shipped_params(TUNED_000, _FACTORS)
+
+
+def _shipped_params(file: Path, names: tuple[str, ...]) -> dict[str, float]:
+    """The ``params`` of a shipped tuning run, in ``names`` order; ValueError if one lacks."""
+    params = json.loads(file.read_text(encoding="utf-8"))["params"]
+    missing = [name for name in names if name not in params]
     if missing:
-        raise ValueError(f"{TUNED_000} lacks factor(s) {missing}")
-    return {name: float(params[name]) for name in _FACTORS}
+        raise ValueError(f"{file} lacks parameter(s) {missing}")
+    return {name: float(params[name]) for name in names}
 
 
 class PSOFuzzyPIDCCC(FuzzyPIDCCC):
@@ -300,3 +305,106 @@ class AdaptiveFuzzyPIDCCC(HeldGains):
 
 register_policy("adaptive_fuzzy_pid_ccc", AdaptiveFuzzyPIDCCC)
 register_policy("pso_fuzzy_pid_ccc", PSOFuzzyPIDCCC)
+
+
+# ----------------------------------------------------------------------------------------
+# paper 003: ACC2PID, 2PID axes plus P contour compensators on the X-Y-Y gantry
+# ----------------------------------------------------------------------------------------
+
+TUNED_003 = Path(__file__).parent / "data" / "iabc_acc2pid.json"
+"""The shipped run of tuning protocol ``003`` (its best 19 parameters, the command, the history)."""
+
+
+def hand_tuned_003() -> dict[str, float]:
+    """003's hand-tuned ACC2PID in SI, by :data:`agents.tune.ACC2PID_NAMES`.
+
+    The 2PID gains of 003 section 6.3 as the ``xyy_gantry`` preset reads them (Kp per encoder
+    count, ``Kp_y2 = 0.0007``) and the compensators ``K_c1x = 0.0895, K_c1y = 0.001, K_c2x =
+    0.0488, K_c2y = 0.001`` read as V/mm.
+    """
+    from agents.tune import ACC2PID_NAMES, acc2pid_hand_tuned
+    from contour_gym.presets import GANTRY_2PID, GANTRY_COMPENSATORS, get_preset
+
+    counts = [axis.encoder_resolution for axis in get_preset("xyy_gantry").stage.axes]
+    values = acc2pid_hand_tuned(GANTRY_2PID, GANTRY_COMPENSATORS, counts)
+    return {name: float(v) for name, v in zip(ACC2PID_NAMES, values, strict=True)}
+
+
+@functools.cache
+def tuned_params_003() -> dict[str, float]:
+    """The 19 parameters protocol ``003`` found (:data:`TUNED_003`; ``contour-gym tune 003``).
+
+    Raises:
+        ValueError: if the file lacks a parameter.
+    """
+    from agents.tune import ACC2PID_NAMES
+
+    return _shipped_params(TUNED_003, ACC2PID_NAMES)
+
+
+class ACC2PID(HeldGains):
+    """Paper 003's cross-coupled 2PID (``acc2pid``), hand-tuned: 003's published numbers.
+
+    For the X-Y-Y gantry envs (``contour_gym/CCC-XYYGantry-Circle-v0``, ``-ThreeLeaf-v0``).
+    Its :attr:`env_kwargs` build the env with 003's 2PID on every axis (``axis_controller
+    ="two_dof_pid"`` and ``controller_options`` ``kp, ti, td, alpha, beta`` per axis, SI) and
+    the compensators as the CCC's per-axis weights (``ccc_weights`` ``[[K_c1x, K_c1y, 0],
+    [K_c2x, K_c2y, 0]]``, V/m); the action holds the PID CCC gains ``(1, 0, 0)``, so each
+    contour's CCC is 003's P compensator pair (eqs. 36-37). The hand-tuned point equals the
+    preset's own settings, so on the gantry envs ``acc2pid`` runs as ``pid_ccc`` does, and
+    003's hand-tuned 2PID without compensators is ``no_ccc`` there.
+
+    Args:
+        params: The 19 parameters by :data:`agents.tune.ACC2PID_NAMES` (SI; any left out
+            keep their hand-tuned value).
+
+    Raises:
+        ValueError: for an unknown name or a value the 2PID rejects (``Kp, TI > 0``,
+            ``TD >= 0``, finite).
+    """
+
+    name = "acc2pid"
+
+    def __init__(self, params: dict[str, float] | None = None) -> None:
+        from agents.tune import acc2pid_rows
+
+        super().__init__((1.0, 0.0, 0.0))
+        values = hand_tuned_003()
+        unknown = sorted(set(params or {}) - set(values))
+        if unknown:
+            raise ValueError(f"unknown ACC2PID parameter(s) {unknown}; accepted: {list(values)}")
+        values.update({k: float(v) for k, v in (params or {}).items()})
+        acc2pid_rows(np.array([list(values.values())]))  # validates
+        self.params = values
+
+    @property
+    def env_kwargs(self) -> dict[str, Any]:
+        """``axis_controller``, ``controller_options`` (SI, per axis) and ``ccc_weights``."""
+        from agents.tune import ACC2PID_AXES
+
+        p = self.params
+        options = {q: [p[f"{q}_{a}"] for a in ACC2PID_AXES]
+                   for q in ("kp", "ti", "td", "alpha", "beta")}  # fmt: skip
+        weights = [[p["kc1x"], p["kc1y"], 0.0], [p["kc2x"], p["kc2y"], 0.0]]
+        return {"axis_controller": "two_dof_pid", "controller_options": options,
+                "ccc_weights": weights}  # fmt: skip
+
+
+class IABCACC2PID(ACC2PID):
+    """Paper 003's ACC2PID with its IABC-tuned parameters (``iabc_acc2pid``).
+
+    The 19 parameters are the best of tuning protocol ``003`` (:mod:`agents.tune`: improved
+    ABC, 20 employed bees x 200 cycles, 003's eq. 38 averaged over the gantry's dual circle
+    and dual three-leaf on the rig), shipped in ``agents/data/iabc_acc2pid.json`` with the
+    command that reproduces them, ``contour-gym tune 003 --seed 0``. 003 tunes online, on
+    the machine; this is the offline equivalent on the identified model.
+    """
+
+    name = "iabc_acc2pid"
+
+    def __init__(self) -> None:
+        super().__init__(tuned_params_003())
+
+
+register_policy("acc2pid", ACC2PID)
+register_policy("iabc_acc2pid", IABCACC2PID)

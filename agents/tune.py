@@ -107,10 +107,17 @@ def _max(metrics: Mapping[str, FloatArray]) -> FloatArray:
     return np.asarray(metrics["max_contour_error"], dtype=np.float64)
 
 
+def _eq38(metrics: Mapping[str, FloatArray]) -> FloatArray:
+    tracking = np.asarray(metrics["rms_tracking_error"], dtype=np.float64).sum(axis=1)
+    contour = np.asarray(metrics["rms_contour_error_per_contour"], dtype=np.float64).sum(axis=1)
+    return np.asarray(tracking + contour, dtype=np.float64)
+
+
 FITNESSES: dict[str, Callable[[Mapping[str, FloatArray]], FloatArray]] = {
     "cea": _cea,
     "rms": _rms,
     "max": _max,
+    "eq38": _eq38,
 }
 """Fitness of one scenario from a loop's metrics, (B,), m; each is at most the max |error|.
 
@@ -121,7 +128,24 @@ i.e. a mean of moduli over the samples, which is 000's own CEA ("module average"
 Table 4). Reconstructed as that mean (not a sum, so paths of different durations weigh
 alike; not squared, as the text speaks of the modulus). ``rms`` and ``max``: the RMS and the
 largest contour error, for other protocols.
+
+``eq38``: paper 003's eq. (38), ``sqrt(mean e_x^2) + sum_i sqrt(mean e_yi^2) + sum_i
+sqrt(mean eps_i^2)`` over the n samples of the run: the RMS tracking error of every axis (x,
+y1, y2) plus the RMS contour error of every contour (x-y1, x-y2). Reconstructed: the
+extraction kept the five mean squares ``(1/n) sum [x_d - x^]^2``, ``(1/n) sum e_yi^2``,
+``(1/n) sum eps_i^2`` and the sums over ``i = 1, 2`` but lost any root sign; the roots are
+ours (the extraction drops them elsewhere too, and with them the fitness is in metres like
+the others and no term's units square away). 003 evaluates it on an observer's predicted
+positions ``x^, y^_i``; here the simulated (true) positions are the prediction. 003 keeps
+the candidate of "highest fitness" (ABC's ``1/(1 + f)``); minimising ``f`` is the same
+order. It sums ``A + C`` errors, none bounded by the contour hard limit, so a protocol using
+it has ``A + C`` times the usual penalty and counts ``f >= penalty`` as a failure.
 """
+
+# how many error terms a fitness sums (its penalty scales with it)
+FITNESS_TERMS: dict[str, Callable[[Scenario], int]] = {
+    "eq38": lambda sc: sc.preset.stage.n_axes + len(sc.preset.stage.contours),
+}
 
 
 # ------------------------------------------------------------------------------ protocols
@@ -167,6 +191,11 @@ class Protocol:
         optimizer_options: Options of the default optimiser.
         episode_seed: Seed every candidate's episodes are reset from.
         doc: What the protocol reproduces.
+        setter: How a candidate's parameters reach its batch member, a key of
+            :data:`SETTERS`: ``"ccc_law"`` (the CCC law's parameters by name) or
+            ``"acc2pid"`` (paper 003's 2PID axes and P compensators, :func:`set_acc2pid`).
+        scenario_kwargs: Env id -> env keyword arguments overriding the id's own for this
+            protocol (e.g. a shorter window: ``{"laps": 1}``).
     """
 
     name: str
@@ -180,10 +209,16 @@ class Protocol:
     optimizer_options: Mapping[str, Any] = field(default_factory=dict)
     episode_seed: int = 0
     doc: str = ""
+    setter: str = "ccc_law"
+    scenario_kwargs: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         choice(self.fitness, "fitness", FITNESSES)
         choice(self.optimizer, "optimizer", OPTIMIZERS)
+        choice(self.setter, "setter", SETTERS)
+        stray = sorted(set(self.scenario_kwargs) - set(self.scenarios))
+        if stray:
+            raise ValueError(f"scenario_kwargs for env ids not in the scenarios: {stray}")
         if not self.params or not self.scenarios:
             raise ValueError(f"protocol {self.name!r} needs parameters and scenarios")
 
@@ -222,6 +257,68 @@ class Protocol:
         logs = self._logs()
         z[:, logs] = np.log10(z[:, logs])
         return z
+
+
+def _set_ccc_law(loop: ServoLoop, names: Sequence[str], x: FloatArray) -> None:
+    loop.set_ccc_params(**{name: x[:, j : j + 1] for j, name in enumerate(names)})
+
+
+ACC2PID_AXES = ("x", "y1", "y2")
+ACC2PID_COMPENSATORS = ("kc1x", "kc1y", "kc2x", "kc2y")
+ACC2PID_NAMES = tuple(
+    f"{q}_{a}" for a in ACC2PID_AXES for q in ("kp", "ti", "td", "alpha", "beta")
+) + ACC2PID_COMPENSATORS
+"""Paper 003's 19 ACC2PID parameters in its order (section 5.3's bee ``psi_i``), SI names:
+``kp_x ti_x td_x alpha_x beta_x kp_y1 ... beta_y2 kc1x kc1y kc2x kc2y``."""
+
+
+def acc2pid_rows(x: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """003's 19 parameters per member -> 2PID kernel rows and CCC weights.
+
+    Args:
+        x: ``(n, 19)`` in :data:`ACC2PID_NAMES` order, SI: ``Kp`` in V/m, ``TI, TD`` in s,
+            ``alpha, beta`` dimensionless, ``K_c`` in V/m of contour error.
+
+    Returns:
+        ``(n, 3, P)`` two_dof_pid parameter rows (:func:`contour_gym.servo.two_dof_pid.params_of`)
+        and ``(n, 2, 3)`` CCC weights ``[[K_c1x, K_c1y, 0], [K_c2x, K_c2y, 0]]`` (with the
+        gantry's PID CCC ``kp = 1``, 003's P compensators eqs. 36-37).
+
+    Raises:
+        ValueError: for a shape other than ``(n, 19)`` or a value the 2PID rejects.
+    """
+    from contour_gym.servo.two_dof_pid import params_of
+
+    v = np.asarray(x, dtype=np.float64)
+    if v.ndim != 2 or v.shape[1] != len(ACC2PID_NAMES):
+        raise ValueError(f"ACC2PID parameters must have shape (n, 19), got {v.shape}")
+    rows = params_of(v[:, :15].reshape(-1, 3, 5))
+    weights = np.zeros((v.shape[0], 2, 3))
+    weights[:, :, :2] = v[:, 15:].reshape(-1, 2, 2)
+    return rows, weights
+
+
+def set_acc2pid(loop: ServoLoop, names: Sequence[str], x: FloatArray) -> None:
+    """Give member ``b`` of ``loop`` the ACC2PID of ``x[b]`` (:func:`acc2pid_rows`).
+
+    Raises:
+        ValueError: if ``names`` are not :data:`ACC2PID_NAMES` or the loop is not 003's
+            2PID gantry (three axes, two contours).
+    """
+    if tuple(names) != ACC2PID_NAMES:
+        raise ValueError(f"the acc2pid setter needs the parameters {ACC2PID_NAMES}")
+    if loop.controller.name != "two_dof_pid" or loop.ccc_w.shape[1:] != (2, 3):
+        raise ValueError("the acc2pid setter needs 003's two_dof_pid gantry (3 axes, 2 contours)")
+    rows, weights = acc2pid_rows(x)
+    loop.set_controller_params(rows)
+    loop.set_ccc_weights(weights)
+
+
+SETTERS: dict[str, Callable[[ServoLoop, Sequence[str], FloatArray], None]] = {
+    "ccc_law": _set_ccc_law,
+    "acc2pid": set_acc2pid,
+}
+"""How a protocol writes ``(n, D)`` parameters (own units) into the ``n`` members of a loop."""
 
 
 PROTOCOLS: Registry[Protocol] = Registry("tuning protocol")
@@ -296,6 +393,108 @@ for _path, _env_id in _PATHS_000.items():
     ))  # fmt: skip
 
 
+def acc2pid_003_params() -> tuple[TuneParam, ...]:
+    """The box of paper 003's 19 ACC2PID parameters on the ``xyy_gantry`` preset, SI.
+
+    003 section 6.3 prints ``psi_min, psi_max`` for the 19 parameters in its own gain units.
+    The preset reads them (notes of :func:`contour_gym.presets.get_preset`
+    ``("xyy_gantry")``): ``Kp`` in volts per encoder count (50, 10, 10 um on x, y1, y2),
+    ``TI, TD`` in s, ``alpha, beta`` dimensionless, the compensators ``K_c`` in volts per mm.
+    The box is the printed one in that reading, converted to SI (``Kp`` times 2e4 on x and
+    1e5 on y, ``K_c`` times 1e3), with three changes, each keeping 003's hand-tuned point
+    (as the preset reads it) inside:
+
+    - ``TI`` in ``[0.01, 10]`` s, log: the printed lower bound 0 is an infinite integral
+      gain; 0.01 s is 13 times below the smallest hand-tuned ``TI`` (0.1308 s on y1).
+    - ``Kp_y1, Kp_y2`` in ``[0.0001, 0.016]`` per count, log: the printed ``[0.01, 0.016]``
+      excludes 003's own hand-tuned ``Kp_y1 = 0.0018`` and ``Kp_y2 = 0.007`` (0.0007 in the
+      preset's reading), and every gain in it drives the y loops unstable on the identified
+      model (measured: the hand-tuned y2 loop is unstable from about 0.0035 per count); the
+      upper end is kept, the lower lowered a hundredfold.
+    - ``Kp_x`` in the printed ``[0.001, 0.61]`` per count, but log-searched, as the three
+      ``Kp`` and ``TI`` span two to three decades.
+
+    ``TD, alpha, beta`` and the four ``K_c`` keep the printed bounds, searched linearly
+    (their lower bounds are 0 or the printed ones).
+    """
+    from contour_gym.presets import GANTRY_2PID, GANTRY_COMPENSATORS
+
+    preset = get_preset("xyy_gantry")
+    counts = [axis.encoder_resolution for axis in preset.stage.axes]
+    td_max, alpha_max, beta_max = (0.001, 1e-5, 1e-5), (0.02, 0.002, 0.0002), (1e-5, 1e-6, 1e-6)
+    kp_box = ((0.001, 0.61), (0.0001, 0.016), (0.0001, 0.016))
+    out: list[TuneParam] = []
+    for j, axis in enumerate(ACC2PID_AXES):
+        lo, hi = (k / counts[j] for k in kp_box[j])
+        out += [
+            TuneParam(f"kp_{axis}", lo, hi, log=True, unit="V/m"),
+            TuneParam(f"ti_{axis}", 0.01, 10.0, log=True, unit="s"),
+            TuneParam(f"td_{axis}", 0.0, td_max[j], unit="s"),
+            TuneParam(f"alpha_{axis}", 0.0, alpha_max[j]),
+            TuneParam(f"beta_{axis}", 0.0, beta_max[j]),
+        ]
+    per_mm = 1e3
+    for name, (lo, hi) in zip(ACC2PID_COMPENSATORS, ((0.01, 0.31), (0.0001, 0.0031)) * 2,
+                              strict=True):  # fmt: skip
+        out.append(TuneParam(name, lo * per_mm, hi * per_mm, unit="V/m"))
+    params = tuple(out)
+    hand = acc2pid_hand_tuned(GANTRY_2PID, GANTRY_COMPENSATORS, counts)
+    outside = [p.name for p, v in zip(params, hand, strict=True) if not p.low <= v <= p.high]
+    if outside:  # the published point must lie inside
+        raise RuntimeError(f"003's hand-tuned {outside} outside the box")
+    return params
+
+
+def acc2pid_hand_tuned(
+    gains: Sequence[Sequence[float]], compensators: Sequence[Sequence[float]],
+    counts: Sequence[float],
+) -> FloatArray:  # fmt: skip
+    """003's 19 numbers in SI from its printed units (the preset's reading).
+
+    Args:
+        gains: ``(Kp per count, TI, TD, alpha, beta)`` per axis x, y1, y2.
+        compensators: ``(K_cix, K_ciy)`` per contour, V/mm.
+        counts: Encoder count per axis, m.
+
+    Returns:
+        ``(19,)`` in :data:`ACC2PID_NAMES` order, SI.
+    """
+    out = []
+    for (kp, ti, td, alpha, beta), count in zip(gains, counts, strict=True):
+        out += [kp / count, ti, td, alpha, beta]
+    out += [k * 1e3 for pair in compensators for k in pair]
+    return np.array(out, dtype=np.float64)
+
+
+_PATHS_003 = {
+    "circle": "contour_gym/CCC-XYYGantry-Circle-v0",
+    "three_leaf": "contour_gym/CCC-XYYGantry-ThreeLeaf-v0",
+}
+# the fitness window: one 1 s circle lap and two 0.5 s three-leaf passes (the envs run 10 s)
+_WINDOW_003: dict[str, Mapping[str, Any]] = {
+    _PATHS_003["circle"]: {"laps": 1}, _PATHS_003["three_leaf"]: {"laps": 2},
+}
+_DOC_003 = (
+    "paper 003: improved ABC (V = 20 employed bees, 200 cycles) over the ACC2PID's 19 "
+    "parameters (three 2PID axes, two P contour compensators), fitness eq. 38 (sum of the "
+    "RMS tracking and contour errors), 1 s windows"
+)
+_ACC2PID_003: dict[str, Any] = {
+    "fitness": "eq38", "ccc_law": "pid", "optimizer": "improved_abc", "population": 40,
+    "iterations": 200, "setter": "acc2pid",
+}
+register_protocol(Protocol(
+    "003", acc2pid_003_params(), tuple(_PATHS_003.values()), scenario_kwargs=_WINDOW_003,
+    doc=_DOC_003 + ", averaged over the dual circle and the dual three-leaf", **_ACC2PID_003,
+))  # fmt: skip
+for _path, _env_id in _PATHS_003.items():
+    register_protocol(Protocol(
+        f"003_{_path}", acc2pid_003_params(), (_env_id,),
+        scenario_kwargs={_env_id: _WINDOW_003[_env_id]}, doc=_DOC_003 + f", {_path} only",
+        **_ACC2PID_003,
+    ))  # fmt: skip
+
+
 # ------------------------------------------------------------------------------ objective
 @dataclass(frozen=True)
 class _Case:
@@ -307,10 +506,12 @@ class _Case:
     hard_limit: float
 
 
-def _case(env_id: str, ccc_law: str, ideal: bool) -> _Case:
+def _case(
+    env_id: str, ccc_law: str, ideal: bool, overrides: Mapping[str, Any] | None = None
+) -> _Case:
     if env_id not in gym.registry:
         raise ValueError(f"unknown env id {env_id!r}")
-    kwargs = {**gym.spec(env_id).kwargs, "ideal": ideal, "ccc_law": ccc_law}
+    kwargs = {**gym.spec(env_id).kwargs, **(overrides or {}), "ideal": ideal, "ccc_law": ccc_law}
     config = EnvConfig.from_kwargs(kwargs)
     scenario = env_scenario(config)
     preset = scenario.preset
@@ -333,9 +534,13 @@ class PopulationObjective:
     def __init__(self, protocol: str | Protocol, ideal: bool = False) -> None:
         self.protocol = get_protocol(protocol)
         self.ideal = bool(ideal)
-        self.cases = tuple(_case(e, self.protocol.ccc_law, self.ideal)
-                           for e in self.protocol.scenarios)  # fmt: skip
-        self.penalty = PENALTY_HARD_LIMITS * max(c.hard_limit for c in self.cases)
+        proto = self.protocol
+        self.cases = tuple(_case(e, proto.ccc_law, self.ideal, proto.scenario_kwargs.get(e))
+                           for e in proto.scenarios)  # fmt: skip
+        terms = FITNESS_TERMS.get(proto.fitness, lambda sc: 1)
+        self.penalty = PENALTY_HARD_LIMITS * max(c.hard_limit * terms(c.scenario)
+                                                 for c in self.cases)  # fmt: skip
+        self._set = SETTERS[proto.setter]
         self._fitness = FITNESSES[self.protocol.fitness]
         self._loops: dict[int, list[ServoLoop]] = {}
 
@@ -395,13 +600,32 @@ class PopulationObjective:
     def _run(
         self, case: _Case, loop: ServoLoop, x: FloatArray
     ) -> tuple[FloatArray, NDArray[np.bool_]]:
-        loop.set_ccc_params(**{name: x[:, j : j + 1] for j, name in enumerate(self.protocol.names)})
+        self._set(loop, self.protocol.names, x)
         # every member from the same seed: a candidate's result is its own (loop docstring)
         loop.reset([self.protocol.episode_seed] * x.shape[0])
-        metrics = loop.run()
+        metrics = _run_to_end(loop, case.hard_limit)
         f = self._fitness(metrics)
         failed = ~loop.done | ~np.isfinite(f) | ~(metrics["max_contour_error"] <= case.hard_limit)
-        return f, failed
+        return f, failed | ~(f < self.penalty)
+
+
+CHUNK_TICKS = 256  # ticks between the hard-limit checks of _run_to_end
+
+
+def _run_to_end(loop: ServoLoop, hard_limit: float) -> dict[str, FloatArray]:
+    """:meth:`ServoLoop.run`, but a member past ``hard_limit`` stops at the next check.
+
+    Such a member fails whatever it would do next (the failure rule takes the largest contour
+    error, which never falls), so stopping it changes no result; it saves simulating an
+    unstable candidate until the loop's time limit. Each member's fate depends on its own
+    run only. The stopped members are left not done (they count as failed).
+    """
+    limit = int(math.ceil((5.0 * loop.planned_time() + 1.0) / loop.stage.ts))
+    over = np.zeros(loop.batch_size, dtype=bool)
+    while loop.tick < limit and np.any(loop.running & ~over):
+        loop.step(min(CHUNK_TICKS, limit - loop.tick), skip=np.flatnonzero(over))
+        over |= loop.running & ~(loop.metrics()["max_contour_error"] <= hard_limit)
+    return loop.metrics()
 
 
 def combine(per_case: ArrayLike, failed: ArrayLike, penalty: float) -> FloatArray:
@@ -549,6 +773,8 @@ def tune(
     settings: dict[str, Any] = {
         "population": m, "iterations": t, "ideal": bool(ideal), "scenarios": list(proto.scenarios),
         "fitness": proto.fitness, "ccc_law": proto.ccc_law, "episode_seed": proto.episode_seed,
+        "setter": proto.setter, "scenario_kwargs": {k: dict(v) for k, v in
+                                                    proto.scenario_kwargs.items()},
         "bounds": {p.name: [p.low, p.high] for p in proto.params},
         "log_scaled": [p.name for p in proto.params if p.log],
         "optimizer_options": dict(options),
@@ -704,18 +930,25 @@ def compare(
 
 
 __all__ = [
+    "ACC2PID_NAMES",
     "FITNESSES",
+    "FITNESS_TERMS",
     "PENALTY_HARD_LIMITS",
     "PROTOCOLS",
     "PopulationObjective",
     "Protocol",
     "TuneParam",
+    "SETTERS",
     "TuneResult",
+    "acc2pid_003_params",
+    "acc2pid_hand_tuned",
+    "acc2pid_rows",
     "combine",
     "compare",
     "fuzzy_pid_000_params",
     "get_protocol",
     "register_protocol",
+    "set_acc2pid",
     "tune",
     "write_plots",
 ]

@@ -487,6 +487,18 @@ class ServoLoop:
                 schema.value(name, x)
             self.ccc_p[..., schema.names.index(name)] = arr
 
+    def set_ccc_weights(self, weights: ArrayLike) -> None:
+        """Set per-member CCC output weights, broadcastable to (B, C, 3).
+
+        ``weights[b, c, i]`` scales what contour ``c``'s CCC adds to coordinate ``i`` of
+        member ``b`` (:mod:`contour_gym.ccc`; e.g. 003's compensator gains K_cix, K_ciy with
+        ``kp = 1``).
+
+        Raises:
+            ValueError: for a NaN or infinite weight or a shape that does not broadcast.
+        """
+        _assign(self.ccc_w, weights, "ccc_weights")
+
     @property
     def nominal_feedrate(self) -> float:
         """The programmed cutting feedrate the override refers to, m/s."""
@@ -516,13 +528,7 @@ class ServoLoop:
 
         The columns are the controller's schema (``loop.controller.params.col``).
         """
-        p = as_finite_array(params, "controller params")
-        try:
-            self.ctrl_p[...] = np.broadcast_to(p, self.ctrl_p.shape)
-        except ValueError as exc:
-            raise ValueError(
-                f"controller params of shape {p.shape} do not broadcast to {self.ctrl_p.shape}"
-            ) from exc
+        _assign(self.ctrl_p, params, "controller params")
 
     def set_plant_scaling(
         self,
@@ -759,6 +765,15 @@ class ServoLoop:
             eps=rec[..., base : base + 2 * c : 2],
             eps_est=rec[..., base + 1 : base + 2 * c : 2],
         )
+
+
+def _assign(target: Array, value: ArrayLike, name: str) -> None:
+    """Write finite ``value`` into ``target`` in place, broadcast; ValueError naming ``name``."""
+    v = as_finite_array(value, name)
+    try:
+        target[...] = np.broadcast_to(v, target.shape)
+    except ValueError as exc:
+        raise ValueError(f"{name} of shape {v.shape} do not broadcast to {target.shape}") from exc
 
 
 def simulate_axis(

@@ -10,8 +10,8 @@ at the path end (the *arrival*), counting only ticks whose foot point lies on a 
 cuts):
 
 * ``max/mean/rms_contour_error``: max, mean and RMS of |eps| over ticks and contours.
-* ``max/mean_contour_error_per_contour``: the same per contour, shape (B, C) (003's tables
-  report |eps_1| and |eps_2|).
+* ``max/mean/rms_contour_error_per_contour``: the same per contour, shape (B, C) (003's
+  tables report |eps_1| and |eps_2|; its fitness, eq. 38, sums their RMS values).
 * ``cea``: 000's contour error average, the mean modulus of eps (equals the mean).
 * ``p_e``: 003 eq. 39, ``(1/R) sum_k sum_axes |e(k)|``, and ``p_eps``: 003 eq. 40,
   ``(1/R) sum_k sum_contours |eps(k)|``, over the R samples taken every ``sample_every`` ticks
@@ -110,6 +110,7 @@ def metrics_from_sums(sums: ErrorSums, cycle_time: Array | float) -> dict[str, A
         "p_e": (a[..., AA.s_abs] / ns[:, :1]).sum(1),
         "max_contour_error_per_contour": c[..., AC.max].copy(),
         "mean_contour_error_per_contour": c[..., AC.abs] / n,
+        "rms_contour_error_per_contour": np.sqrt(c[..., AC.sq] / n),
         "max_tracking_error": a[..., AA.max].copy(),
         "mean_tracking_error": a[..., AA.abs] / n_axis,
         "rms_tracking_error": np.sqrt(a[..., AA.sq] / n_axis),

@@ -85,7 +85,7 @@ _SPEC = """
     ``estimator_options``, ``axis_controller``, ``controller_options``, ``ccc_law``,
     ``ccc_law_params``, ``ccc_injection``, ``path_control``, ``path_tolerance``, ``decision_ticks``,
     ``tolerance``, ``hard_limit``, ``failure_penalty``, ``reward``, ``reward_weights``,
-    ``randomize``, ``lookahead``, ``gain_range``, ``kd_scale``, ``settle_time``,
+    ``randomize``, ``lookahead``, ``ccc_weights``, ``gain_range``, ``kd_scale``, ``settle_time``,
     ``step_limit``, ``render_mode`` ("rgb_array", "human"); see
     :class:`contour_gym.envs.config.EnvConfig`. Unknown arguments raise ValueError listing the
     accepted ones.

@@ -59,6 +59,8 @@ class EnvConfig:
         reward_weights: Weights of a compiled reward, by name.
         randomize: False, True (default ranges) or a dict overriding some ranges.
         lookahead: Arc lengths ahead of the reference where curvature is observed, m.
+        ccc_weights: Per-contour, per-coordinate weights of the CCC output, broadcastable to
+            (C, 3) (None: the preset's ``ccc_weights``; e.g. 003's compensator gains).
         ccc_gains: CCC env: the gains the action map is centred on (None: the preset's).
             Feedrate env: fixed CCC gains (None: no CCC, as in 004), (kp, ki, kd).
         gain_range: CCC env: each gain's largest value is the preset's times this; the action
@@ -96,6 +98,7 @@ class EnvConfig:
     reward_weights: dict[str, float] = field(default_factory=dict)
     randomize: bool | dict[str, Any] = False
     lookahead: tuple[float, ...] = (0.002, 0.005, 0.01)
+    ccc_weights: Any = None
     ccc_gains: tuple[float, float, float] | None = None
     gain_range: float = 30.0
     kd_scale: float = 1e-2
@@ -125,6 +128,10 @@ class EnvConfig:
         positive(self.settle_time, "settle_time")
         if self.ccc_gains is not None:
             as_finite_array(self.ccc_gains, "ccc_gains", shape=(3,))
+        if self.ccc_weights is not None:
+            weights = as_finite_array(self.ccc_weights, "ccc_weights")
+            if weights.ndim > 2 or (weights.ndim and weights.shape[-1] not in (1, 3)):
+                raise ValueError(f"ccc_weights must broadcast to (C, 3), got {weights.shape}")
         if self.ccc_injection is not None and self.ccc_injection not in INJECTIONS:
             raise ValueError(
                 f"unknown ccc_injection {self.ccc_injection!r}; accepted: {INJECTIONS}"

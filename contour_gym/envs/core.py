@@ -64,7 +64,9 @@ class ContourTask:
         self.g0 = np.asarray(config.ccc_gains or preset.ccc_gains.as_tuple(), dtype=float)
         # the feedrate env runs without CCC unless given fixed gains (004 has none)
         fixed = config.ccc_gains if kind == FEEDRATE else None
-        self.loop = self.scenario.loop(batch_size=batch, ccc_gains=fixed, record=record)
+        self.loop = self.scenario.loop(
+            batch_size=batch, ccc_gains=fixed, record=record, ccc_weights=config.ccc_weights
+        )
         self.ovr_bounds = np.asarray(config.feedrate_range, dtype=float)
         self.g_max, self.g_log = self._gain_map()
         self.rngs: list[np.random.Generator] = [np.random.default_rng(0)] * batch
