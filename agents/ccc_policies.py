@@ -53,6 +53,43 @@ experiment, 87.57 %), but short of it.
 
 The circle's peaks with CCC are its start and stop transients (the reference starts and stops
 at full speed); both CCCs hold the lap itself well within the tolerance (7.6 um).
+
+Paper 003 (ACC2PID on the X-Y-Y gantry, ``contour_gym/CCC-XYYGantry-Circle-v0`` and
+``-ThreeLeaf-v0``):
+
+- ``acc2pid``: 003's hand-tuned 2PID axes plus its hand-set P compensators (the gantry
+  preset's own settings: there it runs as ``pid_ccc``); ``no_ccc`` on those envs is 003's
+  hand-tuned 2PID without compensators.
+- ``iabc_acc2pid``: the 19 parameters of tuning protocol ``003`` (``contour-gym tune 003
+  --seed 0``; ``agents/data/iabc_acc2pid.json``).
+
+Measured with ``python benchmarks/tune_003.py`` (seed 0, one episode, the envs' 10 s
+windows), 003's P_eps and P_e (eqs. 39-40) in mm, sampled every servo tick (as the env
+reports them) and at 003's 10 Hz::
+
+    path       policy               P_eps tick  P_e tick P_eps 10Hz  P_e 10Hz
+    circle     no_ccc        rig        0.2675    0.6573     0.2550    0.6467
+    circle     no_ccc        ideal      0.2677    0.6560     0.2571    0.6458
+    circle     acc2pid       rig        0.2238    0.6286     0.2055    0.6146
+    circle     acc2pid       ideal      0.2239    0.6276     0.2123    0.6176
+    circle     iabc_acc2pid  rig        0.0855    0.1246     0.0859    0.1201
+    circle     iabc_acc2pid  ideal      0.0800    0.1054     0.0776    0.1041
+    three-leaf no_ccc        rig        0.3434    0.8395     0.3588    0.8903
+    three-leaf no_ccc        ideal      0.3364    0.8455     0.3487    0.8933
+    three-leaf acc2pid       rig        0.2711    0.8041     0.2748    0.8383
+    three-leaf acc2pid       ideal      0.2657    0.8102     0.2737    0.8468
+    three-leaf iabc_acc2pid  rig        0.2027    0.3267     0.1898    0.3212
+    three-leaf iabc_acc2pid  ideal      0.2009    0.3218     0.1904    0.3163
+
+003 claims IABC-tuned ACC2PID against hand-tuned 2PID P_eps -65.5 % (circle, table 2) and
+-68.8 % (three-leaf, table 3); here (10 Hz) -66.3 % rig and -69.8 % ideal on the circle,
+-47.1 % and -45.4 % on the three-leaf: the circle's claim holds, the three-leaf's falls
+short. The hand-set compensators alone give -19 % and -23 % (003's tables: ACC2PID's gain
+over A2PID is -61 % and -27 %). The tuned point puts every compensator near the top of 003's
+box (K_c1x 0.193, K_c2x 0.153 V/mm of 0.31; K_c1y, K_c2y 0.0031 and 0.0027 of 0.0031), Kp_x 10
+times the hand-tuned one (0.144 per count) and the integral times at 0.02-0.06 s, while
+Kp_y1 (0.0015) and Kp_y2 (0.0006 per count) stay near the hand-tuned ones: x, the axis the
+two contours share, carries the gain.
 """
 
 from __future__ import annotations

@@ -56,6 +56,29 @@ improved PSO on ``000_circle``, seeds 0-9: median best 0.388 against 0.390 um (r
 (1.285-1.290 and 1.281-1.289 um, 84-102 s a run): even, not the clear gain 000's figures 10
 and 13 show.
 What the factors do to the peak errors, and 000's claims: :mod:`agents.ccc_policies`.
+
+Protocol ``"003"`` (paper 003, sections 4-6: ACC2PID on the linear-motor X-Y-Y gantry,
+preset ``xyy_gantry``): improved ABC over the 19 parameters of :data:`ACC2PID_NAMES` (three
+2PIDs ``Kp, TI, TD, alpha, beta`` and the P compensators ``K_c1x, K_c1y, K_c2x, K_c2y``), box
+:func:`acc2pid_003_params`, fitness eq. 38 (:data:`FITNESSES` ``"eq38"``), averaged over the
+dual circle and the dual three-leaf (``"003_circle"``, ``"003_three_leaf"``: one each).
+Each candidate is one batch member with its own 2PID rows and CCC weights
+(:func:`set_acc2pid`). Budget: 003's ``V = 20`` is its number of employed bees (and of
+onlookers, section 4 step 1), so the colony is ``population = 40``; ``Phi = 200`` cycles.
+Chosen: the fitness window is one 1 s lap of the circle and two 0.5 s passes of the
+three-leaf (``scenario_kwargs``; the envs run 003's 10 s windows): 003 tunes online over
+some n samples it does not give, and the short window makes the protocol ten times faster.
+003 starts its colony at random (eq. 22), and so does this protocol.
+
+Measured on this project's 2-core machine (shared with a CI run; seed 0, 40 x 201
+candidates, rig): the search takes 79 s (83 s for ``contour-gym tune 003``), against the
+issue's 15 s: every candidate simulates 2 x ~2400 servo ticks at 0.5 ms (the 1 s windows
+plus getting in position), 39 M member-ticks in all at ~0.5 M/s through two-dof-PID axes,
+Stribeck friction, six ripple harmonics and the rig's encoder, noise and delay each tick.
+Candidates that pass the hard limit stop at the next 256-tick check (:func:`_run_to_end`),
+which removed a factor of about 5 on unstable colonies. Seed 0 reaches 574.3 um (circle
+514.5, three-leaf 634.1) against 1114 um for 003's hand-tuned point (1017, 1211). Standard
+ABC against IABC: see :mod:`agents.ccc_policies`.
 """
 
 from __future__ import annotations
