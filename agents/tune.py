@@ -78,7 +78,10 @@ Stribeck friction, six ripple harmonics and the rig's encoder, noise and delay e
 Candidates that pass the hard limit stop at the next 256-tick check (:func:`_run_to_end`),
 which removed a factor of about 5 on unstable colonies. Seed 0 reaches 574.3 um (circle
 514.5, three-leaf 634.1) against 1114 um for 003's hand-tuned point (1017, 1211). Standard
-ABC against IABC: see :mod:`agents.ccc_policies`.
+ABC against improved ABC, seeds 0-2 (full budget, 82-96 s a run): median best 577.3 against
+574.3 um (ranges 576.2-588.6 and 570.6-584.8 um): IABC ahead by 0.5 %, within the spread of
+the seeds (not the 10 seeds the issue asks for: 85 s a run).
+What the parameters do to 003's P_eps and P_e, and 003's claims: :mod:`agents.ccc_policies`.
 """
 
 from __future__ import annotations
