@@ -251,9 +251,16 @@ def _sums_axis(acc, i, e, du, sampled):
 
 @numba.njit(cache=True, inline="always")
 def _accumulate(A, P, cfg, b, k, n_axes):
-    # metrics count the ticks whose foot lies on a cutting segment (rapids do not count)
+    # metrics count the ticks whose foot lies on a cutting segment while the reference is on one
+    # (at a stop: the block that ended there): a rapid's arrival, with the machine overshooting
+    # past the next cut's start before that cut begins, cuts nothing; so does a rapid's start
     n_c = A.c_axes.shape[0]
     if (int(P.flags[int(A.foot[b * n_c, FT.seg])]) & CUTTING) == 0:
+        return
+    seg = int(A.ip_s[b, IS.seg])
+    if seg > 0 and (A.ip_s[b, IS.wait] > 0.0 or A.ip_s[b, IS.hold] > 0.0):
+        seg -= 1
+    if (int(P.flags[seg]) & CUTTING) == 0:
         return
     sampled = k % cfg.sample_every == 0
     for c in range(n_c):

@@ -6,8 +6,9 @@ accumulate them without storing traces, and a recorded trace gives identical num
 
 Definitions (per batch member), over the ticks from the start until the machine is in position
 at the path end (the *arrival*), counting only ticks whose foot point lies on a cutting segment
-(rapids and other non-cutting moves of a G-code part never count; on a plain path every segment
-cuts):
+while the reference is on one (at an exact stop: the block that ended there), so rapids and
+other non-cutting moves of a G-code part never count, nor does a machine overshooting a rapid's
+end past the next cut's start before that cut begins; on a plain path every segment cuts:
 
 * ``max/mean/rms_contour_error``: max, mean and RMS of |eps| over ticks and contours.
 * ``max/mean/rms_contour_error_per_contour``: the same per contour, shape (B, C) (003's

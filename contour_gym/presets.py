@@ -325,7 +325,7 @@ def _xy_servo_coulomb() -> Preset:
     per_m = counts / lead
     gains = tuple(PIDGains(kp=kp * per_m, kd=0.02 * per_m) for kp in (5.5, 4.95))
     stage = Stage(
-        "xy_servo_coulomb", axes, (Contour((0, 1)),), ts=1e-3, substeps=2, in_position=1e-5,
+        "xy_servo_coulomb", axes, (Contour((0, 1)),), ts=1e-3, substeps=2, in_position=2e-6,
         notes="004 tables 4.1/4.2: J, B, F_c, K_t per axis and the PD gains k_p 5.5/4.95, "
         "k_d 0.02 (published; Y's K_t blank, taken equal to X's). Gain unit read as A per "
         "count of a 500 count/rev position unit on a 10 mm lead (chosen: with it the paper's "
@@ -334,7 +334,8 @@ def _xy_servo_coulomb() -> Preset:
         "loop (k_sp 1.3, k_si 2.35) is a first-order lag of 0.5 ms (chosen: the gains have "
         "no consistent unit reading without the unpublished winding data). Saturator 10 A, "
         "Ts 1 ms chosen; the disturbance is unpublished and left out. Rig: 1 um encoder "
-        "(chosen), one-tick computation delay.",
+        "(chosen), one-tick computation delay. In-position band 2 um (chosen: below 004's "
+        "4.5 um bound, so that a block after an exact stop starts within it).",
     )  # fmt: skip
     kp = 0.1 * gains[0].kp  # 004 has no CCC: a tenth of the axis kp is stable on its rig
     return Preset(
