@@ -109,9 +109,23 @@ from agents.ccc_laws import (
     FUZZY_PID_PARAMS,
 )
 from agents.policies import ConstantPolicy, register_policy
+from contour_gym._schema import Schema
 from contour_gym._validate import choice
 
-_FACTORS = ("k_e", "k_de", "k_pf", "k_if", "k_df")
+_FACTORS = FUZZY_PID_PARAMS.names[3:]  # the law's parameters beyond kp, ki, kd
+
+
+def law_params(schema: Schema, given: tuple[float | None, ...]) -> dict[str, float]:
+    """A CCC law's parameters beyond kp, ki, kd: ``given`` in schema order, None = default.
+
+    Raises:
+        ValueError: for a value the schema rejects (NaN, infinite, out of range), naming it.
+    """
+    names, defaults = schema.names[3:], schema.defaults()
+    return {
+        name: schema.value(name, defaults[name] if value is None else value)
+        for name, value in zip(names, given, strict=True)
+    }
 
 
 class HeldGains(ConstantPolicy):
@@ -189,12 +203,7 @@ class FuzzyPIDCCC(HeldGains):
         base_gains: ArrayLike | None = None,
     ) -> None:
         super().__init__(base_gains)
-        given = dict(zip(_FACTORS, (k_e, k_de, k_pf, k_if, k_df), strict=True))
-        defaults = FUZZY_PID_PARAMS.defaults()
-        self.factors: dict[str, float] = {
-            name: FUZZY_PID_PARAMS.value(name, defaults[name] if value is None else value)
-            for name, value in given.items()
-        }
+        self.factors = law_params(FUZZY_PID_PARAMS, (k_e, k_de, k_pf, k_if, k_df))
 
     @property
     def env_kwargs(self) -> dict[str, Any]:
@@ -256,7 +265,6 @@ register_policy("fuzzy_pid_ccc", FuzzyPIDCCC)
 # paper 001: the adaptive fuzzy PID CCC
 # ----------------------------------------------------------------------------------------
 
-ADAPTIVE_PARAMS = ADAPTIVE_FUZZY_PID_PARAMS.names[3:]  # the law's parameters beyond kp, ki, kd
 AXES_001 = ("smc_dob", "pid")  # axis controllers the policy builds the env with
 
 
@@ -324,11 +332,7 @@ class AdaptiveFuzzyPIDCCC(HeldGains):
         super().__init__(base_gains)
         self.axes = choice(axes, "axes", AXES_001)
         given = (k_e, k_de, gamma_p, gamma_i, gamma_d, dkp_max, dki_max, dkd_max)
-        defaults = ADAPTIVE_FUZZY_PID_PARAMS.defaults()
-        self.law_params: dict[str, float] = {
-            name: ADAPTIVE_FUZZY_PID_PARAMS.value(name, defaults[name] if value is None else value)
-            for name, value in zip(ADAPTIVE_PARAMS, given, strict=True)
-        }
+        self.law_params = law_params(ADAPTIVE_FUZZY_PID_PARAMS, given)
 
     @property
     def env_kwargs(self) -> dict[str, Any]:

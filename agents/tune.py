@@ -639,19 +639,12 @@ CHUNK_TICKS = 256  # ticks between the hard-limit checks of _run_to_end
 
 
 def _run_to_end(loop: ServoLoop, hard_limit: float) -> dict[str, FloatArray]:
-    """:meth:`ServoLoop.run`, but a member past ``hard_limit`` stops at the next check.
+    """:meth:`ServoLoop.run` with a member past ``hard_limit`` stopped at the next check.
 
-    Such a member fails whatever it would do next (the failure rule takes the largest contour
-    error, which never falls), so stopping it changes no result; it saves simulating an
-    unstable candidate until the loop's time limit. Each member's fate depends on its own
-    run only. The stopped members are left not done (they count as failed).
+    Stopping changes no result (such a member fails whatever it does next); the stopped
+    members are left not done (they count as failed).
     """
-    limit = int(math.ceil((5.0 * loop.planned_time() + 1.0) / loop.stage.ts))
-    over = np.zeros(loop.batch_size, dtype=bool)
-    while loop.tick < limit and np.any(loop.running & ~over):
-        loop.step(min(CHUNK_TICKS, limit - loop.tick), skip=np.flatnonzero(over))
-        over |= loop.running & ~(loop.metrics()["max_contour_error"] <= hard_limit)
-    return loop.metrics()
+    return loop.run(chunk=CHUNK_TICKS, stop_above=hard_limit)
 
 
 def combine(per_case: ArrayLike, failed: ArrayLike, penalty: float) -> FloatArray:

@@ -709,13 +709,18 @@ class ServoLoop:
         stops = float(self.program.wait.sum()) * self.opts.settle_time
         return move + dwell + stops + self.opts.settle_time
 
-    def run(self, max_time: float | None = None, chunk: int = 2048) -> dict[str, Array]:
+    def run(
+        self, max_time: float | None = None, chunk: int = 2048, stop_above: float | None = None
+    ) -> dict[str, Array]:
         """Run until every member has finished the contour (or failed), then return metrics.
 
         Args:
             max_time: Stop after this much simulated time, s (default: 5x
                 :meth:`planned_time` + 1 s).
             chunk: Ticks per kernel call.
+            stop_above: If given, a member whose max contour error exceeds it (m) stops at
+                the end of the chunk and stays not done: it has failed whatever it would do
+                next (the max never falls), so a tuner saves simulating it to the time limit.
 
         Returns:
             :func:`contour_gym.metrics.metrics_from_sums` of the whole run, with failed
@@ -725,8 +730,12 @@ class ServoLoop:
             max_time = 5.0 * self.planned_time() + 1.0
         limit = int(math.ceil(max_time / self.stage.ts))
         _compile.notice_first_compile(self.kernel, "servo loop")
-        while self.tick < limit and np.any(self.running):
-            self.step(min(chunk, limit - self.tick))
+        over = np.zeros(self.batch_size, dtype=bool)
+        while self.tick < limit and np.any(self.running & ~over):
+            skip = np.flatnonzero(over) if over.any() else None
+            self.step(min(chunk, limit - self.tick), skip=skip)
+            if stop_above is not None:
+                over |= self.running & ~(self.metrics()["max_contour_error"] <= stop_above)
         return self.metrics()
 
     def metrics(self) -> dict[str, Array]:
