@@ -364,10 +364,9 @@ def hand_tuned_003() -> dict[str, float]:
     0.0488, K_c2y = 0.001`` read as V/mm.
     """
     from agents.tune import ACC2PID_NAMES, acc2pid_hand_tuned
-    from contour_gym.presets import GANTRY_2PID, GANTRY_COMPENSATORS, get_preset
+    from contour_gym.presets import get_preset
 
-    counts = [axis.encoder_resolution for axis in get_preset("xyy_gantry").stage.axes]
-    values = acc2pid_hand_tuned(GANTRY_2PID, GANTRY_COMPENSATORS, counts)
+    values = acc2pid_hand_tuned(get_preset("xyy_gantry"))
     return {name: float(v) for name, v in zip(ACC2PID_NAMES, values, strict=True)}
 
 

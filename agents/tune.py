@@ -112,7 +112,7 @@ from contour_gym.api import Scenario
 from contour_gym.envs.config import HARD_LIMIT_TOLERANCES, EnvConfig
 from contour_gym.envs.core import _scenario as env_scenario
 from contour_gym.loop import ServoLoop
-from contour_gym.presets import get_preset
+from contour_gym.presets import Preset, get_preset
 
 FloatArray = NDArray[np.float64]
 PENALTY_HARD_LIMITS = 2.0  # a failed candidate's fitness, in hard limits (module docstring)
@@ -443,8 +443,6 @@ def acc2pid_003_params() -> tuple[TuneParam, ...]:
     ``TD, alpha, beta`` and the four ``K_c`` keep the printed bounds, searched linearly
     (their lower bounds are 0 or the printed ones).
     """
-    from contour_gym.presets import GANTRY_2PID, GANTRY_COMPENSATORS
-
     preset = get_preset("xyy_gantry")
     counts = [axis.encoder_resolution for axis in preset.stage.axes]
     td_max, alpha_max, beta_max = (0.001, 1e-5, 1e-5), (0.02, 0.002, 0.0002), (1e-5, 1e-6, 1e-6)
@@ -464,31 +462,28 @@ def acc2pid_003_params() -> tuple[TuneParam, ...]:
                               strict=True):  # fmt: skip
         out.append(TuneParam(name, lo * per_mm, hi * per_mm, unit="V/m"))
     params = tuple(out)
-    hand = acc2pid_hand_tuned(GANTRY_2PID, GANTRY_COMPENSATORS, counts)
+    hand = acc2pid_hand_tuned(preset)
     outside = [p.name for p, v in zip(params, hand, strict=True) if not p.low <= v <= p.high]
     if outside:  # the published point must lie inside
         raise RuntimeError(f"003's hand-tuned {outside} outside the box")
     return params
 
 
-def acc2pid_hand_tuned(
-    gains: Sequence[Sequence[float]], compensators: Sequence[Sequence[float]],
-    counts: Sequence[float],
-) -> FloatArray:  # fmt: skip
-    """003's 19 numbers in SI from its printed units (the preset's reading).
+def acc2pid_hand_tuned(preset: Preset) -> FloatArray:
+    """003's hand-tuned 19 numbers in SI, read off the gantry preset (its one unit reading).
 
-    Args:
-        gains: ``(Kp per count, TI, TD, alpha, beta)`` per axis x, y1, y2.
-        compensators: ``(K_cix, K_ciy)`` per contour, V/mm.
-        counts: Encoder count per axis, m.
+    ``Kp`` from the preset's axis gains, ``TI = Kp / Ki``, ``TD = Kd / Kp``, ``alpha, beta``
+    from its controller options and the compensators from its CCC weights (with ``kp = 1``).
 
     Returns:
         ``(19,)`` in :data:`ACC2PID_NAMES` order, SI.
     """
-    out = []
-    for (kp, ti, td, alpha, beta), count in zip(gains, counts, strict=True):
-        out += [kp / count, ti, td, alpha, beta]
-    out += [k * 1e3 for pair in compensators for k in pair]
+    opts = preset.controller_options
+    out: list[float] = []
+    for j, g in enumerate(preset.axis_gains):
+        out += [g.kp, g.kp / g.ki, g.kd / g.kp, opts["alpha"][j], opts["beta"][j]]
+    weights = np.broadcast_to(np.asarray(preset.ccc_weights, dtype=np.float64), (2, 3))
+    out += [float(w) for row in weights for w in row[:2]]
     return np.array(out, dtype=np.float64)
 
 
