@@ -98,8 +98,8 @@ class FuzzyFeedrate(Policy):
     * ``"mm_per_s_per_tick"`` (default): mm/s per servo sample, 004's feedrate unit and its
       sampling period (the controller runs at every sampling time, 004 section III); the
       override moves ``0.35 dF mm/s x decision_ticks / F_nom`` per decision (on the 1 ms rig at
-      53 mm/s, ``0.066 dF``), i.e. up to 0.35 m/s^2, next to the rig's 0.25 m/s^2
-      acceleration limit;
+      53 mm/s, ``0.066 dF``), i.e. up to 0.35 m/s^2, next to the 0.25 m/s^2 at which the
+      rig's acc/dec time constant (0.212 s) ramps 53 mm/s;
     * ``"mm_per_s_per_decision"``: mm/s per decision (ten times slower);
     * ``"nominal_per_decision"`` / ``"nominal_per_tick"``: fractions of ``F_nom`` per
       decision / per tick (0.35 and 3.5 override per decision at ``|dF| = 1``, far beyond

@@ -108,11 +108,12 @@ def part_figure(
     One panel per run: the machine's actual positions on the cutting moves as a line coloured
     by the |contour error| there, on one colour scale shared by the runs (the colour bar), and
     the program's rapids and other non-cutting moves as thin dashed grey lines. A tick is on a
-    cutting move when its foot point (the exact nearest point, searched near the reference)
-    lies on a cutting segment; a path without ``cutting`` flags cuts everywhere. The metrics
-    count ticks by the loop's own foot, searched near its previous one: where a cut turns
-    sharply into a rapid, that foot can stay on the cut a few ticks longer, so the metrics'
-    peak can exceed the plot's. A 3-D part is drawn from above.
+    cutting move as the metrics count it (:mod:`contour_gym.metrics`): its foot point (the
+    exact nearest point, searched near the reference) lies on a cutting segment and so does
+    the reference (at a segment end: the segment that ends there); a path without
+    ``cutting`` flags cuts everywhere. The metrics search the foot near the loop's previous
+    one, so at a sharp turn their peak can differ from the plot's by a few ticks. A 3-D part
+    is drawn from above.
 
     Args:
         path: The part as the machine runs it (a G-code part mapped onto its axes).
@@ -165,7 +166,9 @@ def _cutting_strokes(
     foot, _ = path.nearest(pos, s_hint=trace.s[member][live])
     t = path.table
     seg = np.clip(np.searchsorted(t.s0, foot, side="right") - 1, 0, t.n_segments - 1)
-    cut = cutting[seg]
+    ref = np.clip(np.searchsorted(t.s0, trace.s[member][live], side="left") - 1, 0,
+                  t.n_segments - 1)  # fmt: skip
+    cut = cutting[seg] & cutting[ref]
     err = np.abs(trace.eps[member][live]).max(axis=1) * 1e6
     both = cut[:-1] & cut[1:]
     strokes = np.stack([pos[:-1, :2], pos[1:, :2]], axis=1)[both]
