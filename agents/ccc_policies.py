@@ -72,24 +72,24 @@ reports them) and at 003's 10 Hz::
     circle     no_ccc        ideal      0.2677    0.6560     0.2571    0.6458
     circle     acc2pid       rig        0.2238    0.6286     0.2055    0.6146
     circle     acc2pid       ideal      0.2239    0.6276     0.2123    0.6176
-    circle     iabc_acc2pid  rig        0.0855    0.1246     0.0859    0.1201
-    circle     iabc_acc2pid  ideal      0.0800    0.1054     0.0776    0.1041
-    three-leaf no_ccc        rig        0.3434    0.8395     0.3588    0.8903
-    three-leaf no_ccc        ideal      0.3364    0.8455     0.3487    0.8933
-    three-leaf acc2pid       rig        0.2711    0.8041     0.2748    0.8383
-    three-leaf acc2pid       ideal      0.2657    0.8102     0.2737    0.8468
-    three-leaf iabc_acc2pid  rig        0.2027    0.3267     0.1898    0.3212
-    three-leaf iabc_acc2pid  ideal      0.2009    0.3218     0.1904    0.3163
+    circle     iabc_acc2pid  rig        0.0717    0.1106     0.0678    0.1053
+    circle     iabc_acc2pid  ideal      0.0648    0.0874     0.0621    0.0851
+    three-leaf no_ccc        rig        0.3440    0.8408     0.3588    0.8903
+    three-leaf no_ccc        ideal      0.3364    0.8456     0.3487    0.8933
+    three-leaf acc2pid       rig        0.2711    0.8042     0.2748    0.8383
+    three-leaf acc2pid       ideal      0.2659    0.8108     0.2737    0.8468
+    three-leaf iabc_acc2pid  rig        0.1984    0.2967     0.1848    0.2837
+    three-leaf iabc_acc2pid  ideal      0.1958    0.2888     0.1779    0.2705
 
 003 claims IABC-tuned ACC2PID against hand-tuned 2PID P_eps -65.5 % (circle, table 2) and
--68.8 % (three-leaf, table 3); here (10 Hz) -66.3 % rig and -69.8 % ideal on the circle,
--47.1 % and -45.4 % on the three-leaf: the circle's claim holds, the three-leaf's falls
+-68.8 % (three-leaf, table 3); here (10 Hz) -73.4 % rig and -75.8 % ideal on the circle,
+-48.5 % and -49.0 % on the three-leaf: the circle's claim holds, the three-leaf's falls
 short. The hand-set compensators alone give -19 % and -23 % (003's tables: ACC2PID's gain
-over A2PID is -61 % and -27 %). The tuned point puts every compensator near the top of 003's
-box (K_c1x 0.193, K_c2x 0.153 V/mm of 0.31; K_c1y, K_c2y 0.0031 and 0.0027 of 0.0031), Kp_x 10
-times the hand-tuned one (0.144 per count) and the integral times at 0.02-0.06 s, while
-Kp_y1 (0.0015) and Kp_y2 (0.0006 per count) stay near the hand-tuned ones: x, the axis the
-two contours share, carries the gain.
+over A2PID is -61 % and -27 %). The tuned point (seed 0) puts K_c1x at 0.088 V/mm and K_c2x
+at the bottom of 003's box (0.010 of 0.010-0.31), K_c1y and K_c2y at 0.0028 and 0.0031 (the
+top), Kp_x 6.6 times the hand-tuned one (0.092 per count) and the integral times at
+0.019-0.027 s, while Kp_y1 (0.0013) and Kp_y2 (0.0007 per count) stay near the hand-tuned
+ones: x, the axis the two contours share, carries the gain.
 """
 
 from __future__ import annotations

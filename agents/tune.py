@@ -49,7 +49,7 @@ Measured on this project's 2-core machine (shared with other jobs; seed 0, 50 x 
 candidates, rig): ``000_circle`` (5050 episodes of the 2 s circle at 1 kHz, fuzzy PID every
 tick) searches in 6.2-8.7 s (9.4-12 s for the whole ``contour-gym tune 000_circle``
 command; the issue's target is 15 s); ``000`` (all three paths, 15150 episodes) in 98-151 s.
-``000`` reaches 1.283 um (circle 0.920, "infinity" 1.083, trident 1.848 um; the law's
+``000`` reaches 1.283 um (circle 0.919, "infinity" 1.083, trident 1.848 um; the law's
 defaults give 1.92, 2.42, 6.74 um), with ``k_pf`` at the top of its box. Standard PSO against
 improved PSO on ``000_circle``, seeds 0-9: median best 0.388 against 0.390 um (ranges
 0.372-0.402 and 0.378-0.405 um); on ``000``, seeds 0-2: median 1.286 against 1.283 um
@@ -76,11 +76,11 @@ issue's 15 s: every candidate simulates 2 x ~2400 servo ticks at 0.5 ms (the 1 s
 plus getting in position), 39 M member-ticks in all at ~0.5 M/s through two-dof-PID axes,
 Stribeck friction, six ripple harmonics and the rig's encoder, noise and delay each tick.
 Candidates that pass the hard limit stop at the next 256-tick check (:func:`_run_to_end`),
-which removed a factor of about 5 on unstable colonies. Seed 0 reaches 574.3 um (circle
-514.5, three-leaf 634.1) against 1114 um for 003's hand-tuned point (1017, 1211). Standard
-ABC against improved ABC, seeds 0-2 (full budget, 82-96 s a run): median best 577.3 against
-574.3 um (ranges 576.2-588.6 and 570.6-584.8 um): IABC ahead by 0.5 %, within the spread of
-the seeds (not the 10 seeds the issue asks for: 85 s a run).
+which removed a factor of about 5 on unstable colonies. Seed 0 reaches 573.7 um (circle
+539.6, three-leaf 607.7; 93 s) against 1114 um for 003's hand-tuned point (1017, 1211).
+Standard ABC against improved ABC over seeds: ``benchmarks/paper_tables.py`` (measured
+before the in-position speed fix, seeds 0-2: median 577.3 against 574.3 um, IABC ahead by
+0.5 %, within the spread of the seeds).
 What the parameters do to 003's P_eps and P_e, and 003's claims: :mod:`agents.ccc_policies`.
 """
 

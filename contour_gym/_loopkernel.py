@@ -308,12 +308,16 @@ def _plant(A, cfg, b, k, noise, j, n_axes, has_noise):
 
 @numba.njit(cache=True, inline="always")
 def _in_position(A, cfg, b, n_axes):
-    # a CNC's in-position check on the encoder: following error within the band, and slow
+    # a CNC's in-position check on the encoder (noise-free): following error within the band,
+    # and slow (the reading's change over this tick); asked only while something waits on it
+    # (an exact stop, or the path end: see member_run)
+    if not (A.ip_s[b, IS.done] >= 0.0 or A.ip_s[b, IS.wait] > 0.0):
+        return False
     inpos = True
     for a in range(n_axes):
         i = b * n_axes + a
         y = measure(A.ax_p, i, A.ax_s[i, ST.x], 0.0)
-        speed = abs(y - A.y_last[b, a]) / cfg.ts
+        speed = abs(y - measure(A.ax_p, i, A.work[W.x, a], 0.0)) / cfg.ts
         inpos = inpos and abs(A.work[W.r0, a] - y) <= cfg.in_band and speed <= cfg.in_speed
     return inpos
 

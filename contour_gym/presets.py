@@ -349,8 +349,8 @@ def _xy_servo_coulomb() -> Preset:
         "faster feed stops harder), i.e. a 0.25 m/s^2 ramp at 53 mm/s, with which 53 mm/s "
         "on the circle (chosen) takes 2.59 s from rest to in position; 1 m/s^2 machine "
         "limit (chosen, never reached below 0.1 m/s). The corner (Feedrate-Corner-v0) runs "
-        "at 48 mm/s (chosen for 004's 1.465 s; 1.477 s measured) with an exact stop at the "
-        "vertex (G61; the error "
+        "at 48 mm/s (chosen for 004's 1.465 s; 1.474 s measured on the rig) with an exact "
+        "stop at the vertex (G61; the error "
         "bound of 4.5 um cannot be held through a 90 degree turn at speed). Estimator: 004's "
         "variable window; tolerances 5.0 um (circle) and 4.5 um (corner) are 004's error "
         "bounds.",
