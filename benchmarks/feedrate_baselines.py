@@ -38,9 +38,10 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.evaluate import env_arguments, run_policy, run_policy_batch
-from agents.feedrate_policies import DEFAULT_DF_UNIT, DF_UNITS, feedrate_task
-from agents.policies import Actions, Observation, Policy, batch_size, make, make_policy
+from agents.evaluate import env_arguments, run_policy
+from agents.feedrate_policies import DEFAULT_DF_UNIT, DF_UNITS
+from agents.feedrate_search import fastest_constant
+from agents.policies import make, make_policy
 from contour_gym.paths import from_gcode
 
 PART = pathlib.Path(__file__).resolve().parents[1] / "tests" / "data" / "gcode" / "part_2d.ngc"
@@ -157,77 +158,6 @@ def baseline_tables(args: argparse.Namespace) -> None:
           + f"; total {time.perf_counter() - t0:.1f} s")  # fmt: skip
 
 
-class OverrideRamp(Policy):
-    """Member i ramps the feed override to ``targets[i]`` at the env's top rate, then holds it.
-
-    The env must start at or below every target (``feedrate_override`` = the lowest); the last
-    step of the ramp lands on the target exactly (the action is nudged by ulps until the env's
-    ``clip(ovr + a max_feedrate_change)`` gives it), so a member equals ``constant_feedrate``
-    at its target whenever the override stays ahead of the machine's speed during the ramp.
-    """
-
-    name = "override_ramp"
-
-    def __init__(self, targets: np.ndarray) -> None:
-        self.targets = np.asarray(targets, dtype=float)
-        self._ovr = np.zeros(0)
-        self._dovr, self._range = 0.0, (0.0, 0.0)
-
-    def reset(self, env: Any = None) -> None:
-        """Read the env's start override, rate and range."""
-        task = feedrate_task(env, self.name)
-        self._dovr = task.config.max_feedrate_change
-        lo, hi = task.config.feedrate_range
-        self._range = (float(lo), float(hi))
-        self._ovr = np.full(self.targets.size, task.scenario.feed_override)
-
-    def _next(self, ovr: float, a: float) -> float:  # the env's own arithmetic
-        return min(max(ovr + a * self._dovr, self._range[0]), self._range[1])
-
-    def act(self, obs: Observation) -> Actions:
-        """Each member's step towards its target (tracking the override the env holds)."""
-        actions = np.zeros((batch_size(obs), 1))
-        for i, (ovr, target) in enumerate(zip(self._ovr, self.targets, strict=True)):
-            a = min(max((target - ovr) / self._dovr, -1.0), 1.0)
-            for _ in range(8):
-                got = self._next(ovr, a)
-                if got == target or abs(a) == 1.0:
-                    break
-                a = float(np.nextafter(a, np.inf if got < target else -np.inf))
-            actions[i, 0] = a
-            self._ovr[i] = self._next(ovr, a)
-        return actions
-
-
-def search_round(spec: Any, targets: np.ndarray, start: float) -> list[dict[str, Any]]:
-    """One episode per target override, as members of one native vector env (seed 0)."""
-    out = run_policy_batch(spec, OverrideRamp(targets), num_envs=targets.size, seed=0,
-                           feedrate_override=start)  # fmt: skip
-    return [{k: v[i].item() for k, v in out.items()} for i in range(targets.size)]
-
-
-def fastest_constant(
-    spec: Any, lo: float, hi: float, members: int
-) -> tuple[float, dict[str, Any]] | None:
-    """The fastest override in [lo, hi] that finishes within the tolerance, and its run."""
-    grid = np.linspace(lo, hi, members)
-    found = [(float(c), r) for c, r in zip(grid, search_round(spec, grid, lo), strict=True)]
-    feasible = [(c, r) for c, r in found if _within(r)]
-    if not feasible:
-        return None
-    c_best = min(feasible, key=lambda cr: cr[1]["cycle_time"])[0]
-    above = grid[grid > c_best]
-    if above.size:  # refine up to the next override of the first round
-        fine = np.linspace(c_best, above[0], members + 2)[1:-1]
-        found = [(float(c), r) for c, r in zip(fine, search_round(spec, fine, lo), strict=True)]
-        feasible += [(c, r) for c, r in found if _within(r)]
-    return min(feasible, key=lambda cr: cr[1]["cycle_time"])
-
-
-def _within(r: dict[str, Any]) -> bool:
-    return bool(r["finished"] and r["max_contour_error"] <= r["tolerance"])
-
-
 def fuzzy_row(label: str, policy: str, override: str, r: dict[str, Any], ref: float) -> str:
     """One Markdown row of the fuzzy table (``ref``: constant 1.0's cycle time)."""
     verdict = "yes" if r["ok"] else ("FAILED" if r["failed"] else "no")
@@ -247,7 +177,7 @@ def fuzzy_table(args: argparse.Namespace) -> None:
         _, (lo, hi) = env_settings(spec)
         ref = run(spec, "constant_feedrate")
         rows.append(fuzzy_row(label, "constant_feedrate", "1", ref, ref["cycle_time"]))
-        best = fastest_constant(spec, lo, hi, args.members)
+        best = fastest_constant(spec, args.members, lo, hi)
         if best is None:
             rows.append(f"| {label} | constant_feedrate: NONE within tol in [{lo:g}, {hi:g}] "
                         "| | | | | | |")  # fmt: skip

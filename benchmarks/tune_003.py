@@ -13,15 +13,9 @@ IABC-tuned ACC2PID against hand-tuned 2PID, P_eps -65.5 % (circle) and -68.8 % (
 
 from __future__ import annotations
 
-from typing import Any
-
-import gymnasium as gym
-import numpy as np
-
-from agents.evaluate import env_arguments, run_policy
-from agents.policies import Policy, make_policy
-from contour_gym.envs.config import EnvConfig
-from contour_gym.envs.core import _scenario as env_scenario
+from agents.claims import sampled_003
+from agents.evaluate import run_policy
+from agents.policies import make_policy
 
 ENVS = {
     "circle": ("contour_gym/CCC-XYYGantry-Circle-v0", -0.655),
@@ -29,18 +23,6 @@ ENVS = {
 }
 POLICIES = ("no_ccc", "acc2pid", "iabc_acc2pid")
 MM = 1e3
-
-
-def sampled(env_id: str, policy: Policy, ideal: bool) -> dict[str, Any]:
-    """P_eps and P_e of the policy's env settings sampled at 003's 10 Hz (seed 0)."""
-    _, kwargs = env_arguments(env_id, policy, {"ideal": ideal})
-    config = EnvConfig.from_kwargs({**gym.spec(env_id).kwargs, **kwargs})
-    gains = None if policy.name == "no_ccc" else (1.0, 0.0, 0.0)
-    loop = env_scenario(config).loop(ccc_gains=gains, ccc_weights=config.ccc_weights,
-                                     sample_period=0.1, settle_time=config.settle_time)
-    loop.reset(0)
-    m = loop.run()
-    return {k: float(np.ravel(m[k])[0]) for k in ("p_eps", "p_e")}
 
 
 def main() -> None:
@@ -51,7 +33,7 @@ def main() -> None:
         for name in POLICIES:
             for ideal in (False, True):
                 m = run_policy(env_id, make_policy(name), ideal=ideal)
-                s = sampled(env_id, make_policy(name), ideal)
+                s = sampled_003(env_id, make_policy(name), ideal)
                 table[case, name, ideal] = s["p_eps"]
                 print(f"{case:<11}{name:<14}{'ideal' if ideal else 'rig':<6}"
                       f"{m['p_eps'] * MM:>11.4f}{m['p_e'] * MM:>10.4f}"
