@@ -111,6 +111,7 @@ from agents.ccc_laws import (
 from agents.policies import ConstantPolicy, register_policy
 from contour_gym._schema import Schema
 from contour_gym._validate import choice
+from contour_gym.envs.core import CCC
 
 _FACTORS = FUZZY_PID_PARAMS.names[3:]  # the law's parameters beyond kp, ki, kd
 
@@ -140,6 +141,7 @@ class HeldGains(ConstantPolicy):
     """
 
     name = "held_gains"
+    tasks = (CCC,)
 
     def __init__(self, gains: ArrayLike | None = None) -> None:
         super().__init__(gains=(0.0, 0.0, 0.0) if gains is None else gains)
@@ -161,6 +163,7 @@ class NoCCC(ConstantPolicy):
     """No cross-coupled control (``no_ccc``): every CCC gain 0, i.e. action -1."""
 
     name = "no_ccc"
+    tasks = (CCC,)
 
     def __init__(self) -> None:
         super().__init__(gains=(0.0, 0.0, 0.0))

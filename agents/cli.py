@@ -8,6 +8,10 @@ magnified contour, for a part its tool path coloured by the contour error.
 ``contour-gym tune PROTOCOL`` runs a tuning protocol of :mod:`agents.tune` (``000``: paper
 000's improved PSO over the fuzzy PID CCC's five factors) with any optimiser of
 :mod:`agents.optim` and writes ``result.json`` and the plots into its run folder.
+
+``contour-gym bench [--suite NAME_OR_PATH] [--out DIR]`` scores every policy of a suite on its
+scenarios (:mod:`agents.bench`), prints the table and writes it (Markdown, CSV) with the plots
+into a run folder that a stopped run resumes from.
 """
 
 from __future__ import annotations
@@ -142,7 +146,20 @@ def _parser() -> argparse.ArgumentParser:
     tune.add_argument("--ideal", action="store_true",
                       help="no encoder, noise or delay (the papers' pure simulations)")
     tune.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_bench_parser(sub)
     return parser
+
+
+def _add_bench_parser(sub: argparse._SubParsersAction) -> None:
+    bench = sub.add_parser("bench", help="score every policy of a suite on its scenarios "
+                           "(agents.bench): tables and plots in a run folder")
+    bench.add_argument("--suite", default="default", metavar="NAME_OR_PATH",
+                       help="a shipped suite (configs/suites: default, tiny) or a YAML file "
+                       "(default: default)")
+    bench.add_argument("--out", default=None, metavar="DIR",
+                       help="run folder; an existing run of the same suite resumes (default "
+                       "runs/bench/SUITE-HASH)")
+    bench.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def format_table(columns: dict[str, dict[str, float]]) -> str:
@@ -311,11 +328,22 @@ def tune_command(args: argparse.Namespace) -> int:
     return 0
 
 
+def bench_command(args: argparse.Namespace) -> int:
+    """Run ``contour-gym bench``: prints the table, writes the run folder (resumable)."""
+    from agents.bench import run_suite
+
+    result = run_suite(args.suite, args.out, progress=not args.quiet)
+    print(result.markdown, end="")
+    print(f"\n{len(result.computed)} cell(s) computed in {result.wall_time:.1f} s; tables and "
+          f"plots written to {result.out}")  # fmt: skip
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``contour-gym`` command."""
     args = _parser().parse_args(argv)
     command = {"simulate": simulate_command, "train": train_command,
-               "tune": tune_command}[args.command]  # fmt: skip
+               "tune": tune_command, "bench": bench_command}[args.command]  # fmt: skip
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _show_warning

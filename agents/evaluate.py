@@ -7,7 +7,9 @@ once as members of the native vector env (member i seeded ``seed + i``, so membe
 explicit argument that conflicts with what the policy needs raises ValueError. The policy's
 arguments override the registered id's own defaults (e.g. ``Feedrate-Corner-v0``'s G61).
 :func:`evaluate` runs several episodes of a policy (or a policy's name) the same way and
-averages their metrics.
+averages their metrics. :func:`make_vector_env` and :func:`run_episodes` are the two halves of
+:func:`run_policy_batch`, for a harness that runs several policies on one env (every policy
+that needs the same env arguments) or keeps a member's per-tick trace.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from numpy.typing import NDArray
 import contour_gym  # noqa: F401  (registers the ids)
 from agents.policies import Policy, make
 from contour_gym.envs.base import ContourVectorEnv
+from contour_gym.loop import Trace
 
 EnvSpec = str | Mapping[str, Any]
 
@@ -96,17 +99,87 @@ def run_policy_batch(
     Raises:
         ValueError: see :func:`env_arguments`; and whatever the env raises for its arguments.
     """
-    env_id, kwargs = env_arguments(env_id_or_kwargs, policy, env_kwargs)
-    venv = gym.make_vec(env_id, num_envs=num_envs, **kwargs)
+    venv = make_vector_env(env_id_or_kwargs, policy, num_envs=num_envs, **env_kwargs)
     try:
-        obs, _ = venv.reset(seed=seed)
-        policy.reset(venv)
-        out = _episodes(venv, policy, obs, num_envs)
-        task = cast(ContourVectorEnv, venv.unwrapped).task
-        out["tolerance"] = np.full(num_envs, task.tolerance)
+        out, _ = run_episodes(venv, policy, seed=seed)
     finally:
         venv.close()
     return out
+
+
+def make_vector_env(
+    env_id_or_kwargs: EnvSpec,
+    policy: Policy,
+    *,
+    num_envs: int = 1,
+    record: bool = False,
+    **env_kwargs: Any,
+) -> gym.vector.VectorEnv:
+    """The native vector env ``policy`` runs in (:func:`env_arguments`), ``num_envs`` members.
+
+    Args:
+        env_id_or_kwargs: A registered id, or a dict ``{"id": id, **env kwargs}``.
+        policy: The policy (its ``env_kwargs`` are merged in).
+        num_envs: Members B.
+        record: Keep every member's per-tick trace (the env's ``render_mode="rgb_array"``),
+            for :func:`run_episodes`'s ``trace_member``.
+        **env_kwargs: Explicit env keyword arguments.
+
+    Raises:
+        ValueError: see :func:`env_arguments`; and whatever the env raises for its arguments.
+    """
+    env_id, kwargs = env_arguments(env_id_or_kwargs, policy, env_kwargs)
+    if record:
+        kwargs["render_mode"] = "rgb_array"
+    return gym.make_vec(env_id, num_envs=num_envs, **kwargs)
+
+
+def run_episodes(
+    venv: gym.vector.VectorEnv, policy: Policy, *, seed: int = 0, trace_member: int | None = None
+) -> tuple[dict[str, NDArray[Any]], Trace | None]:
+    """Reset ``venv`` (member i seeded ``seed + i``) and run every member's episode to its end.
+
+    The env may have run other policies before: each call starts every member afresh.
+
+    Args:
+        venv: A native vector env from :func:`make_vector_env` (built for ``policy``).
+        policy: The policy; ``reset(venv)`` is called once, then ``act`` on every step.
+        seed: Seed of member 0.
+        trace_member: Also return this member's per-tick trace of its episode (the env must
+            record: ``make_vector_env(..., record=True)``); None: no trace.
+
+    Returns:
+        The arrays (B,) of :func:`run_policy_batch`, and the member's :class:`Trace` (batch
+        dimension 1, time from 0 at the reset, NaN rows after its end) or None.
+
+    Raises:
+        ValueError: for a ``trace_member`` out of range or an env that does not record.
+    """
+    task = cast(ContourVectorEnv, venv.unwrapped).task
+    n = task.batch
+    if trace_member is not None and not (0 <= trace_member < n and task.loop.record):
+        raise ValueError(f"trace_member={trace_member!r} needs a member of a recording env "
+                         f"(make_vector_env(..., record=True)); the env has {n} member(s), "
+                         f"recording {task.loop.record}")  # fmt: skip
+    start = task.loop.tick  # a reset restarts the members, not the loop's clock or record
+    obs, _ = venv.reset(seed=seed)
+    policy.reset(venv)
+    out = _episodes(venv, policy, obs, n)
+    out["tolerance"] = np.full(n, task.tolerance)
+    if trace_member is None:
+        return out, None
+    ticks = int(out["steps"][trace_member]) * task.config.decision_ticks
+    return out, _member_trace(task.loop.trace(), trace_member, start, ticks)
+
+
+def _member_trace(trace: Trace, b: int, start: int, ticks: int) -> Trace:
+    # member b's rows [start, start + ticks) (its first episode), batch dimension 1
+    rows = slice(start, start + ticks)
+    return Trace(
+        t=trace.t[rows] - trace.t[start] if ticks else trace.t[rows],
+        **{name: getattr(trace, name)[b : b + 1, rows]
+           for name in ("s", "v", "r", "x", "u", "eps", "eps_est")},
+    )  # fmt: skip
 
 
 def _episodes(venv: Any, policy: Policy, obs: Mapping[str, Any], n: int) -> dict[str, NDArray[Any]]:

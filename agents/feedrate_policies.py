@@ -135,6 +135,7 @@ class FuzzyFeedrate(Policy):
     """
 
     name = "fuzzy_feedrate"
+    tasks = (FEEDRATE,)
 
     def __init__(
         self,
@@ -206,6 +207,7 @@ class ConstantFeedrate(ConstantPolicy):
     """
 
     name = "constant_feedrate"
+    tasks = (FEEDRATE,)
 
     def __init__(self, override: float = 1.0) -> None:
         super().__init__(0.0)

@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from contour_gym._registry import Registry
 from contour_gym._validate import as_finite_array, choice, positive
-from contour_gym.envs.core import CCC
+from contour_gym.envs.core import CCC, FEEDRATE
 from contour_gym.motion import DEFAULT_TOLERANCE
 
 Actions = NDArray[np.float64]
@@ -44,9 +44,12 @@ class Policy(abc.ABC):
     """A batch-first policy: ``act(obs) -> actions (B, n)``, ``reset(env)``, ``env_kwargs``.
 
     Actions are float64 (the envs take any float; float64 keeps a policy's gains exact).
+    :attr:`tasks` names the env kinds the policy acts in (``"ccc"``, ``"feedrate"``; both by
+    default): a harness runs a policy only on scenarios of those kinds (:mod:`agents.bench`).
     """
 
     name: ClassVar[str] = "policy"
+    tasks: ClassVar[tuple[str, ...]] = (CCC, FEEDRATE)
 
     @property
     def env_kwargs(self) -> dict[str, Any]:
@@ -231,6 +234,7 @@ class CNCLookahead(Policy):
     """
 
     name = "cnc_lookahead"
+    tasks = (FEEDRATE,)
 
     def __init__(self, tolerance: float | None = None, mode: str = "G64") -> None:
         self.mode = choice(mode, "mode", LOOKAHEAD_MODES)

@@ -18,6 +18,8 @@ end past the next cut's start before that cut begins; on a plain path every segm
   ``(1/R) sum_k sum_contours |eps(k)|``, over the R samples taken every ``sample_every`` ticks
   (003 samples at 10 Hz; the presets say what they use, every tick by default).
 * ``max/mean/rms_tracking_error``: per axis, shape (B, n_axes).
+* ``peak_tracking_error``: the largest of the per-axis ``max_tracking_error``, shape (B,) (the
+  one tracking figure of the episode's scalar metrics).
 * ``chattering``: total variation of the saturated control command, summed over axes.
 * ``cycle_time``: time from the start to the arrival, s (``inf`` if the member did not arrive).
 """
@@ -115,6 +117,7 @@ def metrics_from_sums(sums: ErrorSums, cycle_time: Array | float) -> dict[str, A
         "max_tracking_error": a[..., AA.max].copy(),
         "mean_tracking_error": a[..., AA.abs] / n_axis,
         "rms_tracking_error": np.sqrt(a[..., AA.sq] / n_axis),
+        "peak_tracking_error": a[..., AA.max].max(axis=1, initial=0.0),
         "chattering": a[..., AA.tv].sum(1),
         "cycle_time": np.broadcast_to(np.asarray(cycle_time, dtype=float), c.shape[:1]).copy(),
     }
@@ -128,6 +131,7 @@ SCALAR_KEYS = (
     "cea",
     "p_e",
     "p_eps",
+    "peak_tracking_error",
     "chattering",
 )
 

@@ -1,4 +1,4 @@
-"""Plots: a path with the contour error magnified and vs time; a part coloured by the error.
+"""Plots: the contour error magnified and vs time, a part by its error, feedrate vs length.
 
 mm and um appear here only (SI inside).
 """
@@ -90,6 +90,35 @@ def contour_figure(
     for ax in (left, right):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def feedrate_figure(
+    runs: Mapping[str, Trace], *, member: int = 0, title: str = "feedrate"
+) -> Figure:
+    """Feedrate (mm/min) against path length (mm), one line per run (004's feedrate plots).
+
+    The feedrate is the reference's path speed (the interpolator's, after the override and
+    the planning), the path length its arc length.
+
+    Args:
+        runs: Label -> trace of one run each.
+        member: Batch member to plot.
+        title: The panel's title.
+
+    Returns:
+        The figure (caller saves or converts it).
+    """
+    fig = Figure(figsize=(8, 4.2))
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    for label, tr in runs.items():
+        live = np.isfinite(tr.s[member]) & np.all(np.isfinite(tr.x[member]), axis=1)
+        ax.plot(tr.s[member][live] * 1e3, tr.v[member][live] * 60e3, lw=1.0, label=label)
+    ax.set(xlabel="path length (mm)", ylabel="feedrate (mm/min)", title=title)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
 

@@ -16,6 +16,8 @@ def test_metrics_on_known_arrays():
     assert m["p_e"][0] == pytest.approx((1 + 3) / 2 + (0 + 1) / 2 + (2 + 0) / 2)  # 003 eq. 39
     assert m["chattering"][0] == pytest.approx(1 + 1 + 2)
     assert m["cycle_time"][0] == 2.5
+    assert m["max_tracking_error"][0].tolist() == [3.0, 1.0, 2.0]
+    assert m["peak_tracking_error"][0] == 3.0  # the largest axis's
 
 
 def test_zeros_give_zero_metrics():

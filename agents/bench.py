@@ -1,0 +1,572 @@
+"""The evaluation harness: every policy of a suite on every scenario, as the papers tabulate.
+
+``contour-gym bench [--suite NAME_OR_PATH] [--out DIR]`` (or :func:`run_suite`) reads a suite,
+runs each *cell* (a scenario x a policy, all the scenario's seeds as members of one native
+vector env), and writes into the run folder a Markdown and a CSV table and, per scenario, the
+plots a reader of the papers expects.
+
+The suites and what runs where are :mod:`agents.suites`'s.
+
+**The tables** (``results.md``, ``results.csv``), one row per cell, values the mean over the
+scenario's seeds: max, mean and RMS contour error (um, over the cut), the largest axis's max
+tracking error (um), cycle time (s; ``inf`` if an episode never got in position), chattering
+(total variation of the saturated control command summed over axes, in the machine's control
+unit), failures (episodes that did not finish: failed by the env's rule or truncated before
+getting in position) and each policy's change of the max contour error (and, for feedrate
+scenarios, of the cycle time) against the scenario's baseline, %. The Markdown also lists the
+scenarios (env id, settings, seeds).
+
+**The plots** (``plots/``, per scenario, one seed per policy: the scenario's first): the path
+and each policy's contour with the error magnified (``magnify``, default the 1-2-5 step that
+draws the largest error at 5 % of the path's extent) beside |contour error| against time
+(:func:`contour_gym.render.contour_figure`; contour 0 of a two-contour machine), and for
+feedrate scenarios the feedrate against path length (:func:`contour_gym.render.feedrate_figure`).
+
+**The run folder** (``--out DIR``; default ``runs/bench/<suite>-<hash>``) holds ``suite.json``
+(the suite's name, source and content hash), ``suite.yaml`` (a copy), one
+``cells/<scenario>/<policy>.json`` per finished cell (its episodes' metrics, each with its
+seed) and ``.npz`` (the plotted seed's per-tick trace), written at once and atomically (temp
+file, then rename), the plots and the tables. A run that stops (Ctrl-C, a crash) resumes
+where it stopped when run again with the same folder: finished cells are read back, never
+recomputed. The content hash (of the parsed YAML: comments and layout do not count) guards the
+folder: a folder holding a run of a different suite raises ValueError (pass a new ``--out``
+or delete the folder); the default folder is named by the hash, so an edited suite starts a
+new one. The hash covers the suite, not the code: after changing a policy, delete the folder.
+
+A bad suite or a run folder of another suite raises ValueError before any cell runs.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, cast
+
+import numpy as np
+
+from agents.evaluate import env_arguments, make_vector_env, run_episodes
+from agents.policies import Policy
+from agents.suites import PolicySpec, ScenarioSpec, Suite, load_suite
+from contour_gym.envs.base import ContourVectorEnv
+from contour_gym.envs.core import FEEDRATE
+from contour_gym.loop import Trace
+
+DEFAULT_RUNS = Path("runs") / "bench"
+TRACE_FIELDS = ("t", "s", "v", "r", "x", "u", "eps", "eps_est")
+UM = 1e6
+
+
+# ---------------------------------------------------------------------------------- cells
+@dataclass
+class Cell:
+    """One scenario x policy: its episodes (one per seed) and the plotted seed's trace.
+
+    Attributes:
+        scenario: The scenario's name.
+        policy: The policy's label.
+        episodes: Per seed (in the scenario's order): ``seed``, the episode's metrics
+            (:func:`agents.evaluate.run_policy`'s keys, SI) and ``failed``, ``finished``, ...
+        trace: The first seed's per-tick :class:`~contour_gym.loop.Trace` (None: not kept).
+        wall_time: Seconds the cell took.
+        note: Why the cell did not run (skipped), else empty.
+    """
+
+    scenario: str
+    policy: str
+    episodes: list[dict[str, Any]] = field(default_factory=list)
+    trace: Trace | None = None
+    wall_time: float = 0.0
+    note: str = ""
+
+    def mean(self, key: str) -> float:
+        """The mean of ``key`` over the episodes (NaN when skipped)."""
+        if not self.episodes:
+            return math.nan
+        return float(np.mean([float(e[key]) for e in self.episodes]))
+
+    @property
+    def failures(self) -> int:
+        """Episodes that did not finish (failed by the env's rule or truncated)."""
+        return sum(bool(e["failed"]) or not bool(e["finished"]) for e in self.episodes)
+
+
+class EnvPool:
+    """The native vector envs of one scenario, shared by the policies needing the same ones."""
+
+    def __init__(self) -> None:
+        self._envs: dict[str, Any] = {}
+
+    def get(self, scenario: ScenarioSpec, policy: Policy, count: int, record: bool) -> Any:
+        """The env of ``count`` members ``policy`` runs in (built on first use).
+
+        Raises:
+            ValueError: see :func:`agents.evaluate.env_arguments`.
+        """
+        env_id, kwargs = env_arguments(scenario.env_spec(), policy, {})
+        key = json.dumps([env_id, kwargs, count, record], sort_keys=True, default=repr)
+        if key not in self._envs:
+            self._envs[key] = make_vector_env(env_id, policy, num_envs=count, record=record,
+                                              **scenario.kwargs)  # fmt: skip
+        return self._envs[key]
+
+    def any_env(self) -> Any | None:
+        """One of the envs built so far (None if none)."""
+        return next(iter(self._envs.values()), None)
+
+    def close(self) -> None:
+        """Close every env."""
+        for env in self._envs.values():
+            env.close()
+        self._envs.clear()
+
+
+def evaluate_cell(scenario: ScenarioSpec, spec: PolicySpec, envs: EnvPool) -> Cell:
+    """Run a policy on a scenario: one episode per seed, the first seed's trace kept.
+
+    Each run of consecutive seeds is one native vector env (member i seeded ``first + i``,
+    :func:`agents.evaluate.run_episodes`), taken from ``envs`` (shared with the scenario's
+    other policies that need the same env arguments).
+
+    Raises:
+        ValueError: whatever building the policy or its env raises.
+    """
+    start = time.perf_counter()
+    policy = spec.build()
+    cell = Cell(scenario.name, spec.label)
+    for i, (first, count) in enumerate(scenario.seed_blocks()):
+        venv = envs.get(scenario, policy, count, record=i == 0)
+        out, trace = run_episodes(venv, policy, seed=first, trace_member=0 if i == 0 else None)
+        cell.trace = cell.trace or trace
+        for b in range(count):
+            episode = {key: value[b].item() for key, value in out.items()}
+            cell.episodes.append({"seed": first + b, **episode})
+    cell.wall_time = time.perf_counter() - start
+    return cell
+
+
+# ------------------------------------------------------------------------- the run folder
+def write_atomically(target: Path, write: Callable[[str], object]) -> None:
+    """Write ``target`` by ``write(temp)`` into a temp file beside it, then rename.
+
+    An interrupted write never leaves a partial ``target`` (nor the temp file).
+    """
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # a plain new file's mode, not mkstemp's private 0600
+    try:
+        write(tmp)
+        os.replace(tmp, target)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def _write_text(target: Path, text: str) -> None:
+    write_atomically(target, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+
+
+class RunFolder:
+    """A run's folder: the suite's identity, the cells, the plots and the tables.
+
+    Args:
+        root: The folder.
+        suite: The suite it holds.
+
+    Raises:
+        ValueError: if ``root`` holds a run of a different suite (another content hash), or
+            is a folder with other content than a run.
+    """
+
+    def __init__(self, root: Path, suite: Suite) -> None:
+        self.root, self.suite = root, suite
+        marker = root / "suite.json"
+        if marker.is_file():
+            held = json.loads(marker.read_text(encoding="utf-8"))
+            if held.get("hash") != suite.digest:
+                raise ValueError(
+                    f"{root} holds a run of suite {held.get('name')!r} (hash "
+                    f"{str(held.get('hash'))[:12]}), not of {suite.source} (hash "
+                    f"{suite.digest[:12]}): pass another --out, or delete {root} to start over"
+                )
+        elif root.exists() and any(root.iterdir()):
+            raise ValueError(f"{root} is not empty and holds no bench run (no suite.json): "
+                             "pass another --out")  # fmt: skip
+
+    def start(self) -> None:
+        """Write the suite's identity and a copy of its file (those missing)."""
+        self.root.mkdir(parents=True, exist_ok=True)
+        if not (self.root / "suite.json").is_file():
+            identity = {"name": self.suite.name, "source": str(self.suite.source),
+                        "hash": self.suite.digest}  # fmt: skip
+            _write_text(self.root / "suite.json", json.dumps(identity, indent=1) + "\n")
+        if not (self.root / "suite.yaml").is_file():
+            _write_text(self.root / "suite.yaml", self.suite.text)
+
+    def cell_file(self, scenario: str, policy: str, suffix: str = ".json") -> Path:
+        """Where a cell's record (``.json``) or trace (``.npz``) lives."""
+        return self.root / "cells" / scenario / f"{policy}{suffix}"
+
+    def done(self, scenario: str, policy: str) -> bool:
+        """Whether the cell's record exists (written last: the cell is complete)."""
+        return self.cell_file(scenario, policy).is_file()
+
+    def save(self, cell: Cell) -> None:
+        """Write the cell's trace, then its record (each atomically)."""
+        if cell.trace is not None:
+            trace = cell.trace
+
+            def write_npz(tmp: str) -> None:
+                with open(tmp, "wb") as fh:
+                    np.savez_compressed(fh, **{k: getattr(trace, k) for k in TRACE_FIELDS})
+
+            write_atomically(self.cell_file(cell.scenario, cell.policy, ".npz"), write_npz)
+        spec = self.suite.policies[cell.policy]
+        scenario = next(sc for sc in self.suite.scenarios if sc.name == cell.scenario)
+        record = {"scenario": cell.scenario, "policy": cell.policy, "target": spec.target,
+                  "params": dict(spec.params), "env": scenario.env_spec(),
+                  "suite_hash": self.suite.digest, "wall_time": cell.wall_time,
+                  "episodes": cell.episodes}  # fmt: skip
+        text = json.dumps(record, indent=1, default=repr)
+        _write_text(self.cell_file(cell.scenario, cell.policy), text)
+
+    def load(self, scenario: str, policy: str) -> Cell:
+        """A finished cell read back (its trace too, if its file is there)."""
+        record = json.loads(self.cell_file(scenario, policy).read_text(encoding="utf-8"))
+        trace_file = self.cell_file(scenario, policy, ".npz")
+        trace = None
+        if trace_file.is_file():
+            with np.load(trace_file) as data:
+                trace = Trace(**{k: data[k] for k in TRACE_FIELDS})
+        return Cell(scenario, policy, record["episodes"], trace, record["wall_time"])
+
+
+# --------------------------------------------------------------------------------- tables
+COLUMNS: tuple[tuple[str, str], ...] = (
+    ("scenario", "scenario"),
+    ("policy", "policy"),
+    ("seeds", "seeds"),
+    ("max_contour_error_um", "max CE (um)"),
+    ("mean_contour_error_um", "mean CE (um)"),
+    ("rms_contour_error_um", "RMS CE (um)"),
+    ("max_tracking_error_um", "max tracking error (um)"),
+    ("cycle_time_s", "cycle time (s)"),
+    ("chattering", "chattering (control TV)"),
+    ("failures", "failures"),
+    ("max_contour_error_vs_baseline_pct", "max CE vs baseline (%)"),
+    ("cycle_time_vs_baseline_pct", "cycle time vs baseline (%)"),
+    ("note", "note"),
+)
+"""(CSV name, Markdown header) of the table's columns."""
+
+_METRICS = (  # column -> (episode metric, scale)
+    ("max_contour_error_um", "max_contour_error", UM),
+    ("mean_contour_error_um", "mean_contour_error", UM),
+    ("rms_contour_error_um", "rms_contour_error", UM),
+    ("max_tracking_error_um", "peak_tracking_error", UM),
+    ("cycle_time_s", "cycle_time", 1.0),
+    ("chattering", "chattering", 1.0),
+)
+
+
+def table_rows(suite: Suite, cells: Mapping[tuple[str, str], Cell]) -> list[dict[str, Any]]:
+    """One row per scenario x policy (keys: :data:`COLUMNS`' CSV names), in suite order."""
+    rows = []
+    for sc in suite.scenarios:
+        base = cells.get((sc.name, sc.baseline))
+        for label in sc.policies:
+            cell = cells[(sc.name, label)]
+            row: dict[str, Any] = {"scenario": sc.name, "policy": label,
+                                   "seeds": len(cell.episodes), "note": cell.note}  # fmt: skip
+            for column, key, scale in _METRICS:
+                row[column] = cell.mean(key) * scale
+            row["failures"] = cell.failures if cell.episodes else math.nan
+            row["max_contour_error_vs_baseline_pct"] = _change(cell, base, "max_contour_error")
+            row["cycle_time_vs_baseline_pct"] = (
+                _change(cell, base, "cycle_time") if sc.task == FEEDRATE else math.nan
+            )
+            if label == sc.baseline and not cell.note:
+                row["note"] = "baseline"
+            rows.append(row)
+    return rows
+
+
+def _change(cell: Cell, base: Cell | None, key: str) -> float:
+    """100 (cell - base) / base of the means of ``key``; NaN without a finite baseline."""
+    if base is None or not base.episodes or not cell.episodes:
+        return math.nan
+    b, c = base.mean(key), cell.mean(key)
+    if not (math.isfinite(b) and b > 0.0):
+        return math.nan
+    return 100.0 * (c - b) / b
+
+
+def _fmt(value: Any) -> str:
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (int, np.integer)):
+        return str(value)
+    if math.isnan(value):
+        return ""
+    if math.isinf(value):
+        return "inf" if value > 0 else "-inf"
+    return f"{value:.4g}"
+
+
+def markdown_table(suite: Suite, rows: Sequence[Mapping[str, Any]]) -> str:
+    """The results as Markdown: the table, then the scenarios it ran."""
+    lines = ["| " + " | ".join(h for _, h in COLUMNS) + " |",
+             "|" + "---|" * len(COLUMNS)]  # fmt: skip
+    for row in rows:
+        cells = []
+        for key, _ in COLUMNS:
+            value = row[key]
+            if key.endswith("_pct") and isinstance(value, float) and math.isfinite(value):
+                cells.append(f"{value:+.1f}")
+            else:
+                cells.append(_fmt(value).replace("|", "\\|"))
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", f"Suite `{suite.name}` (hash {suite.digest[:12]}); values are means over "
+              "the seeds; CE = contour error.", "",
+              "| scenario | env | suite settings | seeds | baseline |", "|---|---|---|---|---|"]
+    for sc in suite.scenarios:
+        settings = ", ".join(f"{k}={v}" for k, v in sc.kwargs.items()) or "the id's own"
+        seeds = ", ".join(str(s) for s in sc.seeds)
+        lines.append(f"| {sc.name} | `{sc.env_id}` | {settings} | {seeds} | {sc.baseline} |")
+    return "\n".join(lines) + "\n"
+
+
+def csv_table(rows: Sequence[Mapping[str, Any]]) -> str:
+    """The results as CSV (full precision; empty where a value does not apply)."""
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow([key for key, _ in COLUMNS])
+    for row in rows:
+        writer.writerow(["" if isinstance(v, float) and math.isnan(v) else v
+                         for v in (row[key] for key, _ in COLUMNS)])  # fmt: skip
+    return buf.getvalue()
+
+
+# ---------------------------------------------------------------------------------- plots
+def auto_magnify(extent: float, worst: float) -> float:
+    """The 1-2-5 step that draws an error ``worst`` at 5 % of ``extent`` (at least 1).
+
+    >>> auto_magnify(0.04, 6e-6), auto_magnify(0.02, 4.6e-5), auto_magnify(0.01, 1.0)
+    (200.0, 20.0, 1.0)
+    """
+    if not (worst > 0.0 and math.isfinite(worst)):
+        return 1.0
+    target = 0.05 * extent / worst
+    if target <= 1.0:
+        return 1.0
+    decade = 10.0 ** math.floor(math.log10(target))
+    return max(m * decade for m in (1.0, 2.0, 5.0) if m * decade <= target)
+
+
+def scenario_plots(
+    scenario: ScenarioSpec, traces: Mapping[str, Trace], env: Any, folder: Path
+) -> list[Path]:
+    """Write a scenario's plots into ``folder``; returns the files.
+
+    ``<scenario>_contour.png``: the path and each policy's magnified contour beside
+    |contour error| against time; ``<scenario>_feedrate.png`` (feedrate scenarios): feedrate
+    against path length.
+
+    Args:
+        scenario: The scenario.
+        traces: Policy label -> its trace (of the first seed).
+        env: An env of the scenario (its path and contour placement).
+        folder: Where to write.
+    """
+    from contour_gym.render import contour_figure, feedrate_figure
+
+    task = cast(ContourVectorEnv, env.unwrapped).task
+    contour = task.stage.contours[0]
+    dense = task.path.point(np.linspace(0.0, task.path.length, 500))
+    extent = float(np.ptp(dense[:, :2], axis=0).max())
+    worst = max((float(np.nanmax(np.abs(tr.eps))) for tr in traces.values() if tr.eps.size),
+                default=0.0)  # fmt: skip
+    magnify = scenario.magnify or auto_magnify(extent, worst)
+    fig = contour_figure(task.path, traces, axes=contour.axes[:2],
+                         offset=(contour.offset or (0.0, 0.0))[:2], magnify=magnify)  # fmt: skip
+    fig.suptitle(f"{scenario.name} ({scenario.env_id})")
+    fig.tight_layout()
+    files = [folder / f"{scenario.name}_contour.png"]
+    write_atomically(files[0], lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
+    if scenario.task == FEEDRATE:
+        fig = feedrate_figure(traces, title=f"{scenario.name} ({scenario.env_id}): feedrate")
+        files.append(folder / f"{scenario.name}_feedrate.png")
+        write_atomically(files[-1], lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
+    return files
+
+
+# ------------------------------------------------------------------------------- progress
+class Progress:
+    """A progress bar over the cells (tqdm if importable, else a carriage-return line)."""
+
+    def __init__(self, total: int, done: int, enabled: bool = True) -> None:
+        self.total, self.done, self.enabled = total, done, enabled
+        self._bar: Any = None
+        if enabled:
+            try:
+                from tqdm.auto import tqdm
+            except ImportError:
+                tqdm = None
+            if tqdm is not None:
+                self._bar = tqdm(total=total, initial=done, unit="cell", file=sys.stderr,
+                                 dynamic_ncols=True)  # fmt: skip
+
+    def start(self, label: str) -> None:
+        """Name the cell being computed."""
+        if not self.enabled:
+            return
+        if self._bar is not None:
+            self._bar.set_description_str(label)
+        else:
+            print(f"\r[{self.done}/{self.total}] {label}\033[K", end="", file=sys.stderr,
+                  flush=True)  # fmt: skip
+
+    def advance(self) -> None:
+        """One cell done."""
+        self.done += 1
+        if self._bar is not None:
+            self._bar.update(1)
+
+    def close(self) -> None:
+        """End the bar."""
+        if self._bar is not None:
+            self._bar.close()
+        elif self.enabled:
+            print(f"\r[{self.done}/{self.total}] done\033[K", file=sys.stderr)
+
+
+# ------------------------------------------------------------------------------------ run
+@dataclass
+class BenchResult:
+    """What a run produced.
+
+    Attributes:
+        out: The run folder.
+        rows: The table's rows (:func:`table_rows`).
+        markdown: The Markdown table (also ``out/results.md``).
+        computed: The cells computed by this call (the others were read back or skipped).
+        wall_time: Seconds the call took.
+    """
+
+    out: Path
+    rows: list[dict[str, Any]]
+    markdown: str
+    computed: list[tuple[str, str]]
+    wall_time: float
+
+
+def default_out(suite: Suite) -> Path:
+    """``runs/bench/<suite>-<first 12 hex digits of its hash>``."""
+    return DEFAULT_RUNS / f"{suite.name}-{suite.digest[:12]}"
+
+
+def plan(suite: Suite) -> dict[tuple[str, str], str]:
+    """Every cell of the suite -> why it is skipped ("" if it runs), without running anything.
+
+    A cell is skipped when the policy's env arguments conflict with what the suite sets for
+    the scenario (see the module docstring).
+    """
+    notes = {}
+    for sc in suite.scenarios:
+        for label in sc.policies:
+            policy = suite.policies[label].build()
+            try:
+                env_arguments(sc.env_spec(), policy, {})
+                notes[(sc.name, label)] = ""
+            except ValueError as exc:
+                notes[(sc.name, label)] = f"skipped: {exc}"
+    return notes
+
+
+def run_suite(
+    suite: Suite | str | os.PathLike[str] = "default",
+    out: str | os.PathLike[str] | None = None,
+    *,
+    progress: bool = True,
+) -> BenchResult:
+    """Run a suite (resuming a stopped run in ``out``), write the tables and the plots.
+
+    Args:
+        suite: A :class:`Suite`, a shipped suite's name or a YAML path.
+        out: The run folder (default :func:`default_out`); an existing run of the same suite
+            is resumed (finished cells are read back, not recomputed).
+        progress: Show a progress bar on stderr.
+
+    Returns:
+        The run's :class:`BenchResult`.
+
+    Raises:
+        ValueError: for a bad suite, or ``out`` holding a run of another suite, before any
+            cell runs.
+    """
+    start = time.perf_counter()
+    if not isinstance(suite, Suite):
+        suite = load_suite(suite)
+    folder = RunFolder(Path(out) if out is not None else default_out(suite), suite)
+    notes = plan(suite)
+    folder.start()
+    pending = [key for key, note in notes.items() if not note and not folder.done(*key)]
+    bar = Progress(len(notes), len(notes) - len(pending), progress)
+    computed: list[tuple[str, str]] = []
+    cells: dict[tuple[str, str], Cell] = {}
+    try:
+        for sc in suite.scenarios:
+            todo = [label for label in sc.policies if (sc.name, label) in pending]
+            envs = EnvPool()
+            try:
+                for label in todo:
+                    bar.start(f"{sc.name} / {label}")
+                    cell = evaluate_cell(sc, suite.policies[label], envs)
+                    folder.save(cell)
+                    computed.append((sc.name, label))
+                    bar.advance()
+                for label in sc.policies:
+                    key = (sc.name, label)
+                    cells[key] = (Cell(sc.name, label, note=notes[key]) if notes[key]
+                                  else folder.load(*key))  # fmt: skip
+                _plots(sc, cells, folder, envs, fresh=bool(todo))
+            finally:
+                envs.close()
+    finally:
+        bar.close()
+    rows = table_rows(suite, cells)
+    markdown = markdown_table(suite, rows)
+    _write_text(folder.root / "results.md", markdown)
+    _write_text(folder.root / "results.csv", csv_table(rows))
+    return BenchResult(folder.root, rows, markdown, computed, time.perf_counter() - start)
+
+
+def _plots(
+    sc: ScenarioSpec, cells: Mapping[tuple[str, str], Cell], folder: RunFolder, envs: EnvPool,
+    fresh: bool,
+) -> None:  # fmt: skip
+    """Draw a scenario's plots when a cell of it ran now or a plot file is missing."""
+    plots = folder.root / "plots"
+    names = [f"{sc.name}_contour.png"] + ([f"{sc.name}_feedrate.png"] * (sc.task == FEEDRATE))
+    if not fresh and all((plots / n).is_file() for n in names):
+        return
+    traces = {label: cell.trace for label in sc.policies
+              if (cell := cells[(sc.name, label)]).trace is not None}  # fmt: skip
+    if not traces:
+        return
+    env = envs.any_env()
+    if env is None:  # every cell was read back: an env of the scenario for its geometry
+        policy = next(folder.suite.policies[label].build() for label in traces)
+        env = envs.get(sc, policy, 1, record=False)
+    scenario_plots(sc, traces, env, plots)
