@@ -20,6 +20,7 @@ from agents.rl.saved import SavedAgent, register_saved_agents  # noqa: E402
 from agents.rl.train import latest_checkpoint, load_checkpoint, read_curve, train  # noqa: E402
 from agents.rl.train_shipped import export_agent, load_shipped  # noqa: E402
 from agents.rl.vec_env import make_native_vec_env  # noqa: E402
+from contour_gym import ENV_IDS  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 CCC = "contour_gym/CCC-Circle-v0"
@@ -183,8 +184,8 @@ def test_unknown_algo_and_env_id_are_rejected(tmp_path):
 
 
 @pytest.mark.parametrize("algo", ["ppo", "sac", "td3"])
-def test_shipped_configs_and_agent_list_load(algo):
-    for env_id in (CCC, "contour_gym/Feedrate-Circle-v0", "contour_gym/Feedrate-Corner-v0"):
+def test_shipped_configs_cover_every_id_and_the_agent_list_loads(algo):
+    for env_id in ENV_IDS:
         config = load_config(algo, env_id)
         assert config.normalize is not None and config.block["policy"] == "MultiInputPolicy"
     for entry in load_shipped().values():

@@ -50,6 +50,10 @@ from agents.rl.config import OFF_POLICY, RunConfig, algo_class, dump_block, load
 EVAL_SEED = 1_000_000  # eval member i is seeded EVAL_SEED + seed + i (apart from training's)
 EVAL_COLUMNS = ("timesteps", "max_contour_error_um", "mean_contour_error_um", "cycle_time_s",
                 "failures", "mean_return", "wall_time_s")  # fmt: skip
+EVAL_LABELS = {"max_contour_error_um": "max |contour error| (um), mean",
+               "mean_contour_error_um": "mean |contour error| (um), mean",
+               "cycle_time_s": "cycle time (s), mean", "failures": "failed episodes (fraction)",
+               "mean_return": "return, mean"}  # fmt: skip
 _CHECKPOINT = re.compile(r"model_(\d+)_steps\.zip")
 
 
@@ -144,6 +148,9 @@ def _resume(run: Path, total_timesteps: int | None, progress: bool, threads: int
     if checkpoint is None:
         raise ValueError(f"cannot resume {run}: no checkpoint in {run / 'checkpoints'}")
     total = args["total_timesteps"] if total_timesteps is None else total_timesteps
+    if total != args["total_timesteps"]:  # the run's target is now the new one
+        args["total_timesteps"] = _positive(total, "total_timesteps")
+        args_file.write_text(yaml.safe_dump(args, sort_keys=False), encoding="utf-8")
     _set_threads(threads)
     model = load_checkpoint(run, config, checkpoint, args["seed"])
     _learn(model, run, config, args, _positive(total, "total_timesteps"), progress)
@@ -393,7 +400,7 @@ def plot_curve(rows: list[dict[str, float]], path: Path, env_id: str, algo: str)
     for ax, key in zip(axes.flat, EVAL_COLUMNS[1:-1], strict=False):
         values = [r[key] if math.isfinite(r[key]) else np.nan for r in rows]
         ax.plot(steps, values, marker="o")
-        ax.set_title(key.replace("_", " "))
+        ax.set_title(EVAL_LABELS[key])
         ax.set_xlabel("env steps")
         ax.grid(alpha=0.3)
     axes.flat[-1].axis("off")
