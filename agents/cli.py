@@ -125,12 +125,22 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--seed", type=int, default=0)
     sim.add_argument("--out", default="contour_gym_simulate.png", help="plot file")
     sim.add_argument("--dpi", type=_positive, default=120.0, help="plot resolution")
-    train = sub.add_parser("train", help="train a stable-baselines3 agent (needs the rl extra)")
-    train.add_argument("--env", default="contour_gym/CCC-Circle-v0", help="registered env id")
-    train.add_argument("--algo", default="ppo", choices=("ppo", "sac"))
-    train.add_argument("--steps", type=int, default=50_000, help="env steps")
+    train = sub.add_parser("train", help="train a stable-baselines3 agent on the native vector "
+                           "env (needs the rl extra; configs/rl/ALGO.yml)")  # fmt: skip
+    train.add_argument("env", nargs="?", default=None, metavar="ENV_ID",
+                       help="registered env id with a block in the config, e.g. "
+                       "contour_gym/CCC-Circle-v0 (not with --resume)")  # fmt: skip
+    train.add_argument("--algo", default="ppo", choices=("ppo", "sac", "td3"))
+    train.add_argument("--timesteps", type=int, default=None, metavar="N",
+                       help="env steps (default: the config's n_timesteps; with --resume, the "
+                       "run's)")  # fmt: skip
     train.add_argument("--seed", type=int, default=0)
-    train.add_argument("--out", default="runs", help="folder for checkpoints and the model")
+    train.add_argument("--out", default="runs", help="parent folder of the run folder")
+    train.add_argument("--resume", default=None, metavar="RUN",
+                       help="continue the run folder RUN from its latest checkpoint")
+    train.add_argument("--config", default=None, metavar="FILE",
+                       help="rl-zoo YAML (default: the shipped configs/rl/ALGO.yml)")
+    train.add_argument("--quiet", action="store_true", help="no progress bar")
     tune = sub.add_parser("tune", help="tune a controller's parameters by a protocol "
                           "(agents.tune: 000 = paper 000's improved PSO fuzzy PID CCC)")
     tune.add_argument("protocol", metavar="PROTOCOL", help="tuning protocol name, e.g. 000")
@@ -289,11 +299,25 @@ def simulate_command(args: argparse.Namespace) -> int:
 
 
 def train_command(args: argparse.Namespace) -> int:
-    """Run ``contour-gym train``: checkpoints as it goes, the model at the end or on Ctrl-C."""
-    from agents.rl.train import train
+    """Run ``contour-gym train``: a run folder; Ctrl-C saves the model and a checkpoint."""
+    from agents.rl.train import run_name, train
 
-    path = train(args.env, args.algo, args.steps, seed=args.seed, out_dir=args.out)
-    print(f"model saved to {path}")
+    if (args.env is None) == (args.resume is None):
+        raise ValueError("give an ENV_ID to train, or --resume RUN to continue a run (not both)")
+    argv = ["contour-gym", "train"] + ([args.env] if args.env else [])
+    argv += ["--algo", args.algo, "--seed", str(args.seed), "--out", args.out]
+    argv += ["--timesteps", str(args.timesteps)] if args.timesteps is not None else []
+    argv += ["--config", args.config] if args.config is not None else []
+    run = args.resume or os.path.join(args.out, run_name(args.env, args.algo, args.seed))
+    try:
+        train(args.env, args.algo, args.timesteps, seed=args.seed, out_dir=args.out,
+              resume=args.resume, config_file=args.config, progress=not args.quiet,
+              command=shlex.join(argv))  # fmt: skip
+    except KeyboardInterrupt:
+        print(f"interrupted: model and checkpoint saved in {run}; continue with "
+              f"contour-gym train --resume {shlex.quote(str(run))}", file=sys.stderr)  # fmt: skip
+        return 130
+    print(f"run written to {run} (model.zip, eval.csv, eval.png, checkpoints/, tensorboard/)")
     return 0
 
 

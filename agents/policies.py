@@ -349,5 +349,7 @@ def make(name: str, env: Any = None, **params: Any) -> Policy:
     return policy
 
 
-# the reference families register themselves (they import this module: keep this last)
+# the reference families register themselves (they import this module: keep this last), and
+# so do the trained agents of agents/trained/ (agents.rl.saved; each loads when it is made)
 from agents import ccc_policies, feedrate_policies  # noqa: E402, F401
+from agents.rl import saved  # noqa: E402, F401

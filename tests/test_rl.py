@@ -1,36 +1,253 @@
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from agents.rl.train import load_hyperparameters, train  # noqa: E402
+import gymnasium as gym  # noqa: E402
+import torch  # noqa: E402
+import yaml  # noqa: E402
+from stable_baselines3.common.vec_env import DummyVecEnv  # noqa: E402
+
+import agents.rl.train as rl_train  # noqa: E402
+from agents import policies  # noqa: E402
+from agents.rl.config import algo_class, load_config  # noqa: E402
+from agents.rl.saved import SavedAgent, register_saved_agents  # noqa: E402
+from agents.rl.train import latest_checkpoint, load_checkpoint, read_curve, train  # noqa: E402
+from agents.rl.train_shipped import export_agent, load_shipped  # noqa: E402
+from agents.rl.vec_env import make_native_vec_env  # noqa: E402
+from contour_gym import ENV_IDS  # noqa: E402
+
+REPO = Path(__file__).resolve().parent.parent
+CCC = "contour_gym/CCC-Circle-v0"
+# a tiny run: 4 members, short decisions (a circle in ~60 steps), small updates
+TINY = {"n_envs": 4, "env_kwargs": {"decision_ticks": 50}, "policy_kwargs": {"net_arch": [16]}}
+TINY_PPO = {**TINY, "n_steps": 32, "batch_size": 64, "n_epochs": 2}
+TINY_SAC = {**TINY, "learning_starts": 32, "batch_size": 32, "buffer_size": 2000,
+            "gradient_steps": 1}  # fmt: skip
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("env_id", ["contour_gym/CCC-v0", "contour_gym/Feedrate-v0"])
-@pytest.mark.parametrize("algo", ["ppo", "sac"])
-def test_sb3_trains_a_few_thousand_steps_on_each_generic_id(env_id, algo, tmp_path):
-    from stable_baselines3 import PPO, SAC
-
-    steps = 2048
-    overrides = {"n_steps": 256} if algo == "ppo" else {"learning_starts": 256}
-    path = train(
-        env_id,
-        algo,
-        total_timesteps=steps,
-        out_dir=tmp_path,
-        checkpoint_every=1024,
-        env_kwargs={"decision_ticks": 20},
-        **overrides,
-    )
-    assert path.exists()
-    assert list((path.parent / "checkpoints").glob("*.zip"))
-    model = {"ppo": PPO, "sac": SAC}[algo].load(path)
-    assert model.num_timesteps >= steps
-    for p in model.policy.parameters():
-        assert np.all(np.isfinite(p.detach().numpy()))
+def _tiny(tmp_path, algo="ppo", steps=256, seed=0, **kw):
+    extra = {**(TINY_PPO if algo == "ppo" else TINY_SAC), "eval_every": steps, **kw}
+    return train(CCC, algo, steps, seed=seed, out_dir=tmp_path, progress=False,
+                 eval_episodes=2, **extra)  # fmt: skip
 
 
-def test_unknown_algo_is_rejected():
-    with pytest.raises(ValueError, match="ppo"):
-        load_hyperparameters("dqn")
+@pytest.mark.parametrize(
+    "env_id, kwargs, steps",
+    [
+        (CCC, {"decision_ticks": 250, "randomize": True}, 40),  # arrivals and failures
+        ("contour_gym/Feedrate-Corner-v0", {"step_limit": 4}, 10),  # truncations
+    ],
+)
+def test_adapter_equals_dummy_vec_env_of_single_envs(env_id, kwargs, steps):
+    n = 3
+    native = make_native_vec_env(env_id, n, **kwargs)
+    dummy = DummyVecEnv([lambda: gym.make(env_id, **kwargs) for _ in range(n)])
+    for venv in (native, dummy):
+        venv.seed(7)
+    obs_a, obs_d = native.reset(), dummy.reset()
+    rng = np.random.default_rng(0)
+    ended = {"terminated": 0, "truncated": 0}
+    for _ in range(steps):
+        action = rng.uniform(-1, 1, (n, *native.action_space.shape)).astype(np.float32)
+        obs_a, rew_a, done_a, infos_a = native.step(action)
+        obs_d, rew_d, done_d, infos_d = dummy.step(action)
+        assert obs_a.keys() == obs_d.keys()
+        for key in obs_a:
+            np.testing.assert_array_equal(obs_a[key], obs_d[key])
+        assert rew_a.dtype == rew_d.dtype == np.float32
+        np.testing.assert_array_equal(rew_a, rew_d)
+        np.testing.assert_array_equal(done_a, done_d)
+        for i in np.flatnonzero(done_d):
+            a, d = infos_a[i], infos_d[i]
+            assert a["TimeLimit.truncated"] == d["TimeLimit.truncated"]
+            ended["truncated" if d["TimeLimit.truncated"] else "terminated"] += 1
+            for key in d["terminal_observation"]:
+                np.testing.assert_array_equal(a["terminal_observation"][key],
+                                              d["terminal_observation"][key])  # fmt: skip
+            assert a["metrics"] == d["metrics"]
+            assert a["failure"] == d["failure"]
+        assert [i["TimeLimit.truncated"] for i in infos_a] == [
+            i["TimeLimit.truncated"] for i in infos_d
+        ]
+    assert ended["truncated" if "step_limit" in kwargs else "terminated"] >= n
+    native.close()
+    dummy.close()
+
+
+def test_adapter_full_info_equals_dummy_infos():
+    native = make_native_vec_env(CCC, 2, full_info=True, decision_ticks=250)
+    dummy = DummyVecEnv([lambda: gym.make(CCC, decision_ticks=250) for _ in range(2)])
+    for venv in (native, dummy):
+        venv.seed(3)
+        venv.reset()
+    action = np.zeros((2, 3), dtype=np.float32)
+    for _ in range(3):
+        _, _, _, infos_a = native.step(action)
+        _, _, _, infos_d = dummy.step(action)
+        for a, d in zip(infos_a, infos_d, strict=True):
+            assert a.keys() == d.keys()
+            np.testing.assert_array_equal(a["tracking_error"], d["tracking_error"])
+            assert a["reward_components"] == d["reward_components"]
+
+
+def test_training_is_deterministic(tmp_path):
+    runs = [_tiny(tmp_path / name, seed=seed) for name, seed in (("a", 0), ("b", 0), ("c", 1))]
+    models = [algo_class("ppo").load(run / "model.zip") for run in runs]
+    weights = [[p.detach() for p in m.policy.parameters()] for m in models]
+    assert all(torch.equal(p, q) for p, q in zip(weights[0], weights[1], strict=True))
+    assert not all(torch.equal(p, q) for p, q in zip(weights[0], weights[2], strict=True))
+    curves = [read_curve(run / "eval.csv") for run in runs[:2]]
+    assert curves[0][-1]["max_contour_error_um"] == curves[1][-1]["max_contour_error_um"]
+
+
+def test_run_folder_holds_config_args_model_stats_curve_and_logs(tmp_path):
+    run = _tiny(tmp_path, steps=128, eval_every=64, checkpoint_every=64)
+    for name in ("config.yml", "args.yml", "model.zip", "vecnormalize.pkl", "eval.csv", "eval.png"):
+        assert (run / name).is_file(), name
+    assert list((run / "tensorboard").rglob("events.out.tfevents.*"))
+    assert [int(r["timesteps"]) for r in read_curve(run / "eval.csv")] == [64, 128]
+    assert latest_checkpoint(run).name == "model_128_steps.zip"
+    # the resolved config is an rl-zoo block that loads back
+    assert load_config("ppo", CCC, run / "config.yml").n_timesteps == 128
+
+
+def test_interrupt_saves_and_resume_continues_the_step_count(tmp_path, monkeypatch):
+    evaluate = rl_train.EvalCurve.evaluate
+
+    def interrupt(self, model):
+        if model.num_timesteps < 256:
+            raise KeyboardInterrupt
+        return evaluate(self, model)
+
+    monkeypatch.setattr(rl_train.EvalCurve, "evaluate", interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        _tiny(tmp_path, "sac", steps=256, eval_every=128)
+    run = next(tmp_path.iterdir())
+    assert (run / "model.zip").is_file() and (run / "vecnormalize.pkl").is_file()
+    checkpoint = latest_checkpoint(run)
+    assert checkpoint.name == "model_128_steps.zip"
+    assert checkpoint.with_name("replay_buffer_128_steps.pkl").is_file()
+    config = load_config("sac", CCC, run / "config.yml")
+    restored = load_checkpoint(run, config, checkpoint, seed=0)
+    saved = algo_class("sac").load(run / "model.zip")
+    assert restored.num_timesteps == saved.num_timesteps == 128
+    # SB3 stores a step's transitions after the callbacks: the checkpoint's step is not in it
+    assert restored.replay_buffer.size() == 128 // 4 - 1
+    stats = restored.get_vec_normalize_env().obs_rms["contour_error"]
+    assert stats.count > 128  # the saved statistics, not a fresh start (count 1e-4)
+
+    monkeypatch.setattr(rl_train.EvalCurve, "evaluate", evaluate)
+    train(resume=run, progress=False)
+    assert algo_class("sac").load(run / "model.zip").num_timesteps == 256
+    assert latest_checkpoint(run).name == "model_256_steps.zip"
+    assert [int(r["timesteps"]) for r in read_curve(run / "eval.csv")] == [256]
+
+
+def _bad_config(tmp_path, key, value):
+    block = yaml.safe_load((REPO / "configs/rl/ppo.yml").read_text())[CCC]
+    block[key] = value
+    path = tmp_path / "bad.yml"
+    path.write_text(yaml.safe_dump({CCC: block}))
+    return path
+
+
+@pytest.mark.parametrize(
+    "key, value",
+    [
+        ("n_envs", "four"),
+        ("policy_kwargs", "dict(net_arch=[64, 64])"),
+        ("n_stepz", 8),
+        ("batch_size", 6.5),
+        ("normalize", {"norm_obs": "yes please"}),
+    ],
+)
+def test_bad_yaml_is_a_clear_error_before_any_work(tmp_path, key, value):
+    config = _bad_config(tmp_path, key, value)
+    with pytest.raises(ValueError) as err:
+        train(CCC, "ppo", config_file=config, out_dir=tmp_path / "runs", progress=False)
+    message = str(err.value)
+    assert str(config) in message and CCC in message and key in message
+    assert not (tmp_path / "runs").exists()
+
+
+def test_unknown_algo_and_env_id_are_rejected(tmp_path):
+    with pytest.raises(ValueError, match="ppo, sac, td3"):
+        algo_class("dqn")
+    with pytest.raises(ValueError, match="CCC-Nowhere-v0"):
+        train("contour_gym/CCC-Nowhere-v0", "ppo", out_dir=tmp_path)
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac", "td3"])
+def test_shipped_configs_cover_every_id_and_the_agent_list_loads(algo):
+    for env_id in ENV_IDS:
+        config = load_config(algo, env_id)
+        assert config.normalize is not None and config.block["policy"] == "MultiInputPolicy"
+    for entry in load_shipped().values():
+        load_config(entry["algo"], entry["env_id"])
+
+
+def test_rl_zoo3_trains_from_the_shipped_yaml(tmp_path):
+    pytest.importorskip("rl_zoo3", reason="rl_zoo3 is not installed (pip install '.[zoo]')")
+    command = [sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", CCC,
+               "--gym-packages", "contour_gym", "--conf-file", "configs/rl/ppo.yml",
+               "-n", "300", "-f", str(tmp_path), "--seed", "0"]  # fmt: skip
+    done = subprocess.run(command, cwd=REPO, capture_output=True, text=True, env=os.environ,
+                          timeout=600)  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    models = list(tmp_path.rglob("*.zip"))
+    assert models, done.stdout[-2000:]
+    assert algo_class("ppo").load(models[0]).num_timesteps >= 300
+
+
+@pytest.fixture(scope="module")
+def agent_dir(tmp_path_factory):
+    root = tmp_path_factory.mktemp("agents")
+    run = _tiny(root / "runs", steps=128)
+    return export_agent(run, root / "trained" / "tiny_ccc_agent", "pytest")
+
+
+def test_saved_agent_loads_by_path_and_predicts_single_and_batched(agent_dir):
+    agent = SavedAgent(agent_dir)
+    assert agent.env_id == CCC and agent.env_kwargs == {"decision_ticks": 50}
+    venv = gym.make_vec(CCC, num_envs=3, vectorization_mode="vector_entry_point",
+                        **agent.env_kwargs)  # fmt: skip
+    agent.reset(venv)
+    obs, _ = venv.reset(seed=0)
+    batch, _ = agent.predict(obs)
+    single, _ = agent.predict({k: v[1] for k, v in obs.items()})
+    assert batch.shape == (3, 3) and single.shape == (3,)
+    np.testing.assert_allclose(single, batch[1], rtol=1e-6)
+    np.testing.assert_array_equal(agent.act(obs), batch)
+    assert np.all(np.abs(batch) <= 1.0)
+
+
+def test_saved_agent_registers_by_name(agent_dir):
+    names = register_saved_agents(agent_dir.parent)
+    try:
+        assert names == ["tiny_ccc_agent"] and "tiny_ccc_agent" in policies.available()
+        env = gym.make(CCC, decision_ticks=50)
+        assert isinstance(policies.make("tiny_ccc_agent", env), SavedAgent)
+    finally:
+        policies.POLICIES.unregister("tiny_ccc_agent")
+
+
+def test_saved_agent_on_an_env_it_does_not_fit_names_both_shapes(agent_dir):
+    agent = SavedAgent(agent_dir)
+    with pytest.raises(ValueError, match=r"'gains': \(3,\).*'feedrate': \(2,\)"):
+        agent.reset(gym.make("contour_gym/Feedrate-Corner-v0"))
+    with pytest.raises(ValueError, match="observes"):
+        agent.predict({"feedrate": np.zeros(2)})
+
+
+def test_saved_agent_without_model_file_names_the_path(agent_dir, tmp_path):
+    broken = tmp_path / "broken_agent"
+    broken.mkdir()
+    (broken / "meta.yaml").write_text((agent_dir / "meta.yaml").read_text())
+    with pytest.raises(ValueError, match=str(broken / "model.zip")):
+        SavedAgent(broken)

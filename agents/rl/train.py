@@ -1,78 +1,436 @@
-"""Train stable-baselines3 agents on the registered contour-gym ids.
+"""Train stable-baselines3 agents (PPO, SAC, TD3) on the native vector envs.
 
-Hyperparameters come from ``configs/rl/<algo>.yaml`` (SB3 argument names), overridable per
-call. Checkpoints are written every ``checkpoint_every`` steps and the model is saved when
-training ends, including on KeyboardInterrupt, so an interrupted run loses nothing.
-Needs the ``rl`` extra (stable-baselines3, torch).
+:func:`train` reads the env id's block of ``configs/rl/<algo>.yml`` (rl-zoo's format,
+:mod:`agents.rl.config`), checks it and the call before any work starts, and trains on
+:class:`agents.rl.vec_env.NativeVecEnv` (``n_envs`` members in one array program), wrapped
+in ``VecMonitor`` and, when the config says ``normalize``, ``VecNormalize``. A run folder
+``<out_dir>/<Id>_<algo>_seed<N>`` holds:
+
+=====================  ==========================================================
+``config.yml``         the resolved block (rl-zoo format, overrides applied)
+``args.yml``           the call's arguments and the command that reproduces the run
+``model.zip``          the model when training ends (or is interrupted)
+``vecnormalize.pkl``   its VecNormalize statistics (normalised runs)
+``tensorboard/``       TensorBoard logs (SB3's, and ``eval/*``)
+``eval.csv``, ``.png`` the evaluation curve: every ``eval_every`` steps, one episode per
+                       member of a separate native vector env (nominal machine: no
+                       ``randomize``), deterministic actions; mean max and mean contour
+                       error (um), cycle time (s), failed fraction, mean return
+``checkpoints/``       ``model_<steps>_steps.zip`` with its ``vecnormalize`` and, for
+                       SAC and TD3, ``replay_buffer`` files of the same step count
+=====================  ==========================================================
+
+A progress bar (tqdm, on stderr) shows the steps and the latest evaluation. Ctrl-C
+(KeyboardInterrupt) saves the model, its statistics and a checkpoint, then re-raises;
+``train(resume=RUN_DIR)`` continues a run from its latest checkpoint with the step count
+continued (the env restarts its episodes, and the generators are reseeded with
+``seed + steps``, so a resumed run is reproducible but not bit-equal to an uninterrupted
+one). The same arguments give the same run: the same weights, bit for bit (torch runs with
+``torch_threads`` threads, 1 by default).
 """
 
 from __future__ import annotations
 
-import importlib.resources
+import csv
+import math
+import re
+import sys
+import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
+import numpy as np
 import yaml
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 
 import contour_gym  # noqa: F401  (registers the ids)
+from agents.rl.config import OFF_POLICY, RunConfig, algo_class, dump_block, load_config
 
-ALGOS = ("ppo", "sac")
+EVAL_SEED = 1_000_000  # eval member i is seeded EVAL_SEED + seed + i (apart from training's)
+EVAL_COLUMNS = ("timesteps", "max_contour_error_um", "mean_contour_error_um", "cycle_time_s",
+                "failures", "mean_return", "wall_time_s")  # fmt: skip
+EVAL_LABELS = {"max_contour_error_um": "max |contour error| (um), mean",
+               "mean_contour_error_um": "mean |contour error| (um), mean",
+               "cycle_time_s": "cycle time (s), mean", "failures": "failed episodes (fraction)",
+               "mean_return": "return, mean"}  # fmt: skip
+_CHECKPOINT = re.compile(r"model_(\d+)_steps\.zip")
 
 
-def load_hyperparameters(algo: str) -> dict[str, Any]:
-    """The YAML hyperparameters of ``algo`` shipped in ``configs/rl``."""
-    if algo not in ALGOS:
-        raise ValueError(f"unknown algo {algo!r}; accepted: {', '.join(ALGOS)}")
-    # configs/ ships inside the wheel as agents/configs (a link in the source tree)
-    text = (importlib.resources.files("agents") / "configs" / "rl" / f"{algo}.yaml").read_text()
-    data = yaml.safe_load(text)
-    if not isinstance(data, dict):
-        raise ValueError(f"configs/rl/{algo}.yaml must hold a mapping")
-    return data
+def run_name(env_id: str, algo: str, seed: int) -> str:
+    """The run folder's name, e.g. ``CCC-Circle-v0_ppo_seed0``."""
+    return f"{env_id.split('/')[-1]}_{algo}_seed{seed}"
 
 
 def train(
-    env_id: str,
+    env_id: str | None = None,
     algo: str = "ppo",
-    total_timesteps: int = 10_000,
+    total_timesteps: int | None = None,
     seed: int = 0,
     out_dir: str | Path = "runs",
-    env_kwargs: dict[str, Any] | None = None,
-    checkpoint_every: int = 10_000,
+    resume: str | Path | None = None,
+    *,
+    config_file: str | Path | None = None,
+    eval_every: int | None = None,
+    eval_episodes: int = 4,
+    checkpoint_every: int | None = None,
+    progress: bool = True,
+    torch_threads: int = 1,
+    command: str | None = None,
     **overrides: Any,
 ) -> Path:
-    """Train an agent and save it; returns the saved model's path (``.zip``).
+    """Train (or resume) a run and return its folder (see the module docstring).
 
     Args:
-        env_id: A registered id, e.g. ``"contour_gym/CCC-Circle-v0"``.
-        algo: ``"ppo"`` or ``"sac"``.
-        total_timesteps: Env steps to train for.
-        seed: Seed of the agent and the env.
-        out_dir: Folder for checkpoints, the final model and TensorBoard-free logs.
-        env_kwargs: Arguments of the env (``gymnasium.make`` kwargs).
-        checkpoint_every: Steps between checkpoints.
-        **overrides: SB3 constructor arguments replacing the YAML ones.
+        env_id: A registered id with a block in the config (not needed with ``resume``).
+        algo: ``"ppo"``, ``"sac"`` or ``"td3"``.
+        total_timesteps: Env steps over all members (None: the config's ``n_timesteps``;
+            with ``resume``, the run's).
+        seed: Seed of the agent and of the env's members (member i gets ``seed + i``).
+        out_dir: Parent folder of the run folder.
+        resume: A run folder to continue from its latest checkpoint (its own config, id,
+            algo and seed; ``total_timesteps`` may raise its target).
+        config_file: rl-zoo YAML (None: the shipped ``configs/rl/<algo>.yml``).
+        eval_every: Env steps between evaluations (None: a tenth of the run).
+        eval_episodes: Episodes (members of the eval vector env) per evaluation.
+        checkpoint_every: Env steps between checkpoints (None: a fifth of the run).
+        progress: Show the progress bar.
+        torch_threads: torch's CPU threads (fixed, for reproducible weights).
+        command: The command line to record (None: this call's repr).
+        **overrides: Keys replacing the config block's (``n_envs``, ``env_kwargs``, SB3
+            constructor arguments, ...), checked as the file's are.
 
     Returns:
-        Path of the final model.
-    """
-    from stable_baselines3 import PPO, SAC
-    from stable_baselines3.common.callbacks import CheckpointCallback
+        The run folder.
 
-    params = {**load_hyperparameters(algo), **overrides}
-    policy = params.pop("policy")
-    env = gym.make(env_id, **(env_kwargs or {}))
-    cls = {"ppo": PPO, "sac": SAC}[algo]
-    model = cls(policy, env, seed=seed, verbose=0, **params)
-    out = Path(out_dir) / f"{env_id.replace('/', '_')}_{algo}_seed{seed}"
-    out.mkdir(parents=True, exist_ok=True)
-    checkpoints = CheckpointCallback(
-        max(1, checkpoint_every), str(out / "checkpoints"), name_prefix=algo
-    )
+    Raises:
+        ValueError: for a bad config, call or run folder, before any work starts.
+        KeyboardInterrupt: after saving the model, its statistics and a checkpoint.
+    """
+    if resume is not None:
+        return _resume(Path(resume), total_timesteps, progress, torch_threads)
+    if not isinstance(env_id, str):
+        raise ValueError(f"env_id must be a registered id, got {env_id!r}")
+    given = {} if total_timesteps is None else {"n_timesteps": total_timesteps}
+    config = load_config(algo, env_id, config_file, {**overrides, **given})
+    steps = config.n_timesteps
+    args: dict[str, Any] = {
+        "env_id": env_id, "algo": algo, "total_timesteps": _positive(steps, "total_timesteps"),
+        "seed": _integer(seed, "seed"),
+        "eval_every": _positive(eval_every or max(steps // 10, 1), "eval_every"),
+        "eval_episodes": _positive(eval_episodes, "eval_episodes"),
+        "checkpoint_every": _positive(checkpoint_every or max(steps // 5, 1), "checkpoint_every"),
+    }  # fmt: skip
+    run = Path(out_dir) / run_name(env_id, algo, seed)
+    if (run / "args.yml").exists():
+        raise ValueError(f"run folder {run} exists; resume it (resume={str(run)!r}) or choose "
+                         "another out_dir or seed")  # fmt: skip
+    run.mkdir(parents=True, exist_ok=True)
+    args["command"] = command or _call_repr(args, config_file, overrides)
+    (run / "config.yml").write_text(dump_block(config), encoding="utf-8")
+    (run / "args.yml").write_text(yaml.safe_dump(args, sort_keys=False), encoding="utf-8")
+    _set_threads(torch_threads)
+    venv = make_training_env(config, seed)
+    cls = algo_class(algo)
+    model = cls(env=venv, seed=seed, verbose=0, tensorboard_log=str(run / "tensorboard"),
+                device="cpu", **config.model_kwargs(_n_actions(venv)))  # fmt: skip
+    _learn(model, run, config, args, args["total_timesteps"], progress)
+    return run
+
+
+def _resume(run: Path, total_timesteps: int | None, progress: bool, threads: int) -> Path:
+    args_file = run / "args.yml"
+    if not args_file.is_file():
+        raise ValueError(f"cannot resume {run}: {args_file} is missing")
+    args = yaml.safe_load(args_file.read_text(encoding="utf-8"))
+    config = load_config(args["algo"], args["env_id"], run / "config.yml")
+    checkpoint = latest_checkpoint(run)
+    if checkpoint is None:
+        raise ValueError(f"cannot resume {run}: no checkpoint in {run / 'checkpoints'}")
+    total = args["total_timesteps"] if total_timesteps is None else total_timesteps
+    if total != args["total_timesteps"]:  # the run's target is now the new one
+        args["total_timesteps"] = _positive(total, "total_timesteps")
+        args_file.write_text(yaml.safe_dump(args, sort_keys=False), encoding="utf-8")
+    _set_threads(threads)
+    model = load_checkpoint(run, config, checkpoint, args["seed"])
+    _learn(model, run, config, args, _positive(total, "total_timesteps"), progress)
+    return run
+
+
+def make_training_env(config: RunConfig, seed: int, venv_stats: Path | None = None) -> Any:
+    """The training env: NativeVecEnv, VecMonitor and (when configured) VecNormalize.
+
+    Args:
+        config: The run's config.
+        seed: Member i is seeded ``seed + i`` at the first reset.
+        venv_stats: Saved VecNormalize statistics to continue from.
+
+    Raises:
+        ValueError: for a config with an ``env_wrapper`` (single-env wrappers do not apply to
+            the native vector env; rl-zoo's trainer applies them).
+    """
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+    from agents.rl.vec_env import make_native_vec_env
+
+    if config.block.get("env_wrapper") is not None:
+        raise ValueError(f"{config.source}: {config.env_id}: env_wrapper: contour-gym trains on "
+                         "the native vector env, which takes no single-env wrapper (rl_zoo3 "
+                         "does); set it to null")  # fmt: skip
+    venv: Any = VecMonitor(make_native_vec_env(config.env_id, config.n_envs, **config.env_kwargs))
+    venv.seed(seed)
+    normalize = config.normalize
+    if venv_stats is not None:
+        venv = VecNormalize.load(str(venv_stats), venv)
+        venv.training = True
+    elif normalize is not None:
+        venv = VecNormalize(venv, **normalize)
+    return venv
+
+
+def _n_actions(venv: Any) -> int:
+    return int(np.prod(venv.action_space.shape))
+
+
+def _learn(model: Any, run: Path, config: RunConfig, args: dict[str, Any], total: int,
+           progress: bool) -> None:  # fmt: skip
+    remaining = total - model.num_timesteps
+    evals = EvalCurve(run, config, args["seed"], args["eval_every"], args["eval_episodes"])
+    saver = Checkpoints(run, args["checkpoint_every"])
+    bar = ProgressBar(total, model.num_timesteps, evals) if progress else None
+    callbacks = CallbackList([c for c in (evals, saver, bar) if c is not None])
     try:
-        model.learn(total_timesteps=total_timesteps, callback=checkpoints)
-    finally:  # also on KeyboardInterrupt: keep what was learned
-        model.save(out / "model")
-        env.close()
-    return out / "model.zip"
+        if remaining > 0:
+            model.learn(remaining, callback=callbacks, reset_num_timesteps=False,
+                        tb_log_name=config.algo)  # fmt: skip
+        evals.evaluate(model)  # the curve's last point, at the final step count
+    except KeyboardInterrupt:
+        save_checkpoint(model, run)
+        save_final(model, run)
+        raise
+    finally:
+        if bar is not None:
+            bar.close()
+    save_checkpoint(model, run)
+    save_final(model, run)
+
+
+def save_final(model: Any, run: Path) -> None:
+    """``model.zip`` and (normalised runs) ``vecnormalize.pkl`` in the run folder."""
+    model.save(run / "model.zip")
+    normalizer = model.get_vec_normalize_env()
+    if normalizer is not None:
+        normalizer.save(str(run / "vecnormalize.pkl"))
+
+
+def save_checkpoint(model: Any, run: Path) -> Path:
+    """A checkpoint at the model's step count: model, VecNormalize stats, replay buffer."""
+    folder = run / "checkpoints"
+    folder.mkdir(exist_ok=True)
+    steps = model.num_timesteps
+    path = folder / f"model_{steps}_steps.zip"
+    model.save(path)
+    normalizer = model.get_vec_normalize_env()
+    if normalizer is not None:
+        normalizer.save(str(folder / f"vecnormalize_{steps}_steps.pkl"))
+    if getattr(model, "replay_buffer", None) is not None:
+        model.save_replay_buffer(folder / f"replay_buffer_{steps}_steps.pkl")
+    return path
+
+
+def latest_checkpoint(run: Path) -> Path | None:
+    """The checkpoint with the most steps in ``run/checkpoints`` (None: there is none)."""
+    found = [(int(m.group(1)), p) for p in (run / "checkpoints").glob("model_*_steps.zip")
+             if (m := _CHECKPOINT.fullmatch(p.name))]  # fmt: skip
+    return max(found)[1] if found else None
+
+
+def load_checkpoint(run: Path, config: RunConfig, checkpoint: Path, seed: int) -> Any:
+    """The model of ``checkpoint`` on a new training env with its statistics and buffer.
+
+    The generators (torch, numpy, the env's members) are reseeded with ``seed + steps``.
+    """
+    steps = int(_CHECKPOINT.fullmatch(checkpoint.name).group(1))  # type: ignore[union-attr]
+    stats = checkpoint.with_name(f"vecnormalize_{steps}_steps.pkl")
+    venv = make_training_env(config, seed + steps, stats if stats.is_file() else None)
+    model = algo_class(config.algo).load(checkpoint, env=venv, device="cpu",
+                                         tensorboard_log=str(run / "tensorboard"))  # fmt: skip
+    model.set_random_seed(seed + steps)
+    buffer = checkpoint.with_name(f"replay_buffer_{steps}_steps.pkl")
+    if config.algo in OFF_POLICY and buffer.is_file():
+        model.load_replay_buffer(buffer)
+    return model
+
+
+class Checkpoints(BaseCallback):
+    """Saves a checkpoint (:func:`save_checkpoint`) every ``every`` env steps."""
+
+    def __init__(self, run: Path, every: int) -> None:
+        super().__init__()
+        self.run, self.every = run, every
+        self.next = 0
+
+    def _on_training_start(self) -> None:
+        self.next = (self.num_timesteps // self.every + 1) * self.every
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps >= self.next:
+            save_checkpoint(self.model, self.run)
+            self.next = (self.num_timesteps // self.every + 1) * self.every
+        return True
+
+
+class EvalCurve(BaseCallback):
+    """Evaluates every ``every`` env steps; appends to ``eval.csv``, redraws ``eval.png``.
+
+    Each evaluation runs one episode per member of a native vector env of the training id
+    and env kwargs less ``randomize`` (:func:`agents.evaluate.run_policy_batch`, member i
+    seeded ``EVAL_SEED + seed + i``), acting deterministically on the observation normalised
+    by the training statistics of the moment.
+    """
+
+    def __init__(self, run: Path, config: RunConfig, seed: int, every: int, episodes: int) -> None:
+        super().__init__()
+        self.run, self.config, self.seed = run, config, seed
+        self.every, self.episodes = every, episodes
+        self.next, self.started = 0, time.perf_counter()
+        self.latest: dict[str, float] | None = None
+
+    def _on_training_start(self) -> None:
+        self.next = (self.num_timesteps // self.every + 1) * self.every
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps >= self.next:
+            row = self.evaluate(self.model)
+            for key in EVAL_COLUMNS[1:-1]:
+                self.logger.record(f"eval/{key}", row[key])
+            self.next = (self.num_timesteps // self.every + 1) * self.every
+        return True
+
+    def evaluate(self, model: Any) -> dict[str, float]:
+        """Evaluate ``model`` now (once per step count) and record the row."""
+        rows = read_curve(self.run / "eval.csv")
+        if rows and rows[-1]["timesteps"] == model.num_timesteps:
+            self.latest = rows[-1]
+            return rows[-1]
+        row = self._row(model)
+        append_row(self.run / "eval.csv", row)
+        plot_curve(rows + [row], self.run / "eval.png", self.config.env_id, self.config.algo)
+        self.latest = row
+        return row
+
+    def _row(self, model: Any) -> dict[str, float]:
+        from agents.evaluate import run_policy_batch
+        from agents.rl.saved import SB3Policy
+
+        policy = SB3Policy(model, model.get_vec_normalize_env(), self.config.env_kwargs,
+                           label=f"{self.config.algo} at {model.num_timesteps} steps")  # fmt: skip
+        out = run_policy_batch({"id": self.config.env_id, **policy.env_kwargs}, policy,
+                               num_envs=self.episodes, seed=EVAL_SEED + self.seed)  # fmt: skip
+        return {
+            "timesteps": model.num_timesteps,
+            "max_contour_error_um": float(np.mean(out["max_contour_error"])) * 1e6,
+            "mean_contour_error_um": float(np.mean(out["mean_contour_error"])) * 1e6,
+            "cycle_time_s": float(np.mean(out["cycle_time"])),
+            "failures": float(np.mean(out["failed"])),
+            "mean_return": float(np.mean(out["return"])),
+            "wall_time_s": time.perf_counter() - self.started,
+        }
+
+
+class ProgressBar(BaseCallback):
+    """tqdm bar on stderr: env steps of the run, and the latest evaluation."""
+
+    def __init__(self, total: int, start: int, evals: EvalCurve) -> None:
+        from tqdm import tqdm
+
+        super().__init__()
+        self.evals, self.shown = evals, start
+        self.bar = tqdm(total=total, initial=start, unit="step", file=sys.stderr,
+                        dynamic_ncols=True, smoothing=0.1)  # fmt: skip
+
+    def _on_step(self) -> bool:
+        self.bar.update(self.num_timesteps - self.shown)
+        self.shown = self.num_timesteps
+        if self.evals.latest is not None:
+            self.bar.set_postfix_str(format_eval(self.evals.latest), refresh=False)
+        return True
+
+    def close(self) -> None:
+        """Close the bar."""
+        self.bar.close()
+
+
+def format_eval(row: Mapping[str, float]) -> str:
+    """One line of an evaluation row (um, s)."""
+    return (f"eval@{int(row['timesteps'])}: max {row['max_contour_error_um']:.3g} um, "
+            f"mean {row['mean_contour_error_um']:.3g} um, cycle {row['cycle_time_s']:.3g} s, "
+            f"fail {row['failures']:.0%}, return {row['mean_return']:.4g}")  # fmt: skip
+
+
+def read_curve(path: Path) -> list[dict[str, float]]:
+    """The rows of an ``eval.csv`` (empty when absent)."""
+    if not path.is_file():
+        return []
+    with path.open(newline="") as f:
+        return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
+
+
+def append_row(path: Path, row: Mapping[str, float]) -> None:
+    """Append one row to ``eval.csv`` (the header first when the file is new)."""
+    new = not path.is_file()
+    with path.open("a", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=EVAL_COLUMNS)
+        if new:
+            writer.writeheader()
+        writer.writerow({k: row[k] for k in EVAL_COLUMNS})
+
+
+def plot_curve(rows: list[dict[str, float]], path: Path, env_id: str, algo: str) -> None:
+    """The evaluation curve: one panel per metric against env steps."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from agents.cli import _save_atomically
+
+    steps = [r["timesteps"] for r in rows]
+    fig, axes = plt.subplots(2, 3, figsize=(11, 6), constrained_layout=True)
+    for ax, key in zip(axes.flat, EVAL_COLUMNS[1:-1], strict=False):
+        values = [r[key] if math.isfinite(r[key]) else np.nan for r in rows]
+        ax.plot(steps, values, marker="o")
+        ax.set_title(EVAL_LABELS[key])
+        ax.set_xlabel("env steps")
+        ax.grid(alpha=0.3)
+    axes.flat[-1].axis("off")
+    fig.suptitle(f"{algo} on {env_id}: evaluation (deterministic, nominal machine)")
+    _save_atomically(fig, path)
+    plt.close(fig)
+
+
+def _set_threads(n: int) -> None:
+    import torch
+
+    torch.set_num_threads(_positive(n, "torch_threads"))
+
+
+def _integer(value: Any, name: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name} must be an integer, got {value!r}")
+    return int(value)
+
+
+def _positive(value: Any, name: str) -> int:
+    if _integer(value, name) < 1:
+        raise ValueError(f"{name} must be >= 1, got {value!r}")
+    return int(value)
+
+
+def _call_repr(args: Mapping[str, Any], config_file: Any, overrides: Mapping[str, Any]) -> str:
+    keys = ("algo", "total_timesteps", "seed", "eval_every", "eval_episodes", "checkpoint_every")
+    parts = [repr(args["env_id"])] + [f"{k}={args[k]!r}" for k in keys]
+    if config_file is not None:
+        parts.append(f"config_file={str(config_file)!r}")
+    parts += [f"{k}={v!r}" for k, v in overrides.items()]
+    return f"agents.rl.train.train({', '.join(parts)})"

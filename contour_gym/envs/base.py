@@ -127,6 +127,18 @@ def _show(image: NDArray[np.uint8]) -> None:
     plt.pause(0.001)
 
 
+def _reset_mask(options: dict[str, Any] | None, n: int) -> NDArray[np.bool_] | None:
+    """``options["reset_mask"]`` checked (bool (n,) with a True), or None when absent."""
+    mask = (options or {}).get("reset_mask")
+    if mask is None:
+        return None
+    if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (n,)
+            and mask.any()):  # fmt: skip
+        raise ValueError(f"options['reset_mask'] must be a bool array ({n},) with a True, "
+                         f"got {mask!r}")  # fmt: skip
+    return mask
+
+
 class ContourVectorEnv(GainsMap, VectorEnv):
     """Base of the native vector envs: one batched array program over ``num_envs`` members.
 
@@ -135,6 +147,9 @@ class ContourVectorEnv(GainsMap, VectorEnv):
     ``reset(seed=s)`` is seeded ``s + i``, like a single env reset with that seed, so a vector
     env equals a loop of single envs bit for bit, infos included (batched as Gymnasium's
     ``VectorEnv._add_info`` batches the members' infos, every key with its ``_key`` mask).
+    A member whose episode ended and that is reset by ``reset(options={"reset_mask": ...})``
+    before the next step starts its new episode there (as a same-step caller, e.g. an SB3
+    ``VecEnv`` adapter, does) and is not reset again by the auto-reset.
     """
 
     kind: ClassVar[str]
@@ -170,10 +185,29 @@ class ContourVectorEnv(GainsMap, VectorEnv):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, NDArray[np.float32]], dict[str, Any]]:
-        """Reset every member; member ``i`` is seeded ``seed + i``."""
-        everyone = np.arange(self.num_envs)
-        self.task.reset_members(everyone, member_rngs(seed, self.num_envs))
-        self._prev_done[:] = False
+        """Reset every member (or ``options["reset_mask"]``'s); member ``i`` is seeded ``seed + i``.
+
+        A partial reset (Gymnasium's ``reset_mask``: a bool array (num_envs,), as a caller that
+        starts ended members in the step they end uses it) leaves the other members as they
+        are, and without a seed continues each reset member's generator, as the auto-reset and
+        a single env's ``reset()`` do. The observation and info are every member's.
+
+        Raises:
+            ValueError: for a reset mask that is not a bool array (num_envs,) with a True.
+            ResetNeeded: for a partial reset without a seed before the first full reset.
+        """
+        mask = _reset_mask(options, self.num_envs)
+        if mask is None:
+            members = np.arange(self.num_envs)
+            rngs = member_rngs(seed, self.num_envs)
+        else:
+            if seed is None and not self._started:
+                raise ResetNeeded("a partial reset without a seed needs a full reset() first")
+            members = np.flatnonzero(mask)
+            seeded = None if seed is None else member_rngs(seed, self.num_envs)
+            rngs = [self.task.rngs[i] if seeded is None else seeded[i] for i in members]
+        self.task.reset_members(members, rngs)
+        self._prev_done[members] = False
         self._started = True
         return self.task.observe(), self.task.batch_info(np.zeros(self.num_envs, dtype=bool))
 

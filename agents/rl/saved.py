@@ -1,0 +1,229 @@
+"""Trained stable-baselines3 agents as policies: a model, its VecNormalize stats, a meta file.
+
+An agent folder holds ``model.zip`` (the SB3 model), ``vecnormalize.pkl`` (its observation
+statistics; absent when trained without normalisation) and ``meta.yaml``::
+
+    algo: sac
+    env_id: contour_gym/CCC-Circle-v0
+    env_kwargs: {randomize: true}      # the training env's
+    command: python -m agents.rl.train_shipped sac_ccc_circle
+
+Every folder under ``agents/trained/`` is registered as a policy by its name
+(:func:`register_saved_agents`, run when :mod:`agents.policies` is imported), so
+``agents.policies.make("sac_ccc_circle", env)`` loads it and ``available()`` lists it; any
+other folder loads with ``SavedAgent(path)``. The model is loaded (and stable-baselines3
+imported) when the policy is made, not at registration.
+
+The policy acts deterministically on the normalised observation, on a batch
+(:meth:`SB3Policy.act`) or, with :meth:`SB3Policy.predict`, on one observation or a batch.
+Its :attr:`~agents.policies.Policy.env_kwargs` are the training env's less those that only
+vary the training (``randomize``), so an evaluation builds the env the agent acts in.
+"""
+
+from __future__ import annotations
+
+import functools
+import pickle
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+
+from agents.policies import POLICIES, Actions, Observation, Policy, batch_size, register_policy
+
+TRAINED_DIR = Path(__file__).resolve().parent.parent / "trained"
+TRAINING_ONLY = ("randomize",)  # env kwargs that vary the training, not the agent's interface
+MODEL_FILE, STATS_FILE, META_FILE = "model.zip", "vecnormalize.pkl", "meta.yaml"
+
+
+class SB3Policy(Policy):
+    """A stable-baselines3 model (and its VecNormalize stats) as a batch-first policy.
+
+    Args:
+        model: The SB3 model (``PPO``, ``SAC``, ``TD3``).
+        normalizer: The ``VecNormalize`` whose observation statistics the model was trained
+            on (its ``normalize_obs`` is applied), or None.
+        env_kwargs: The env keyword arguments the agent needs (its training env's, less
+            :data:`TRAINING_ONLY`).
+        label: Name for messages (the agent's folder name).
+        deterministic: Act on the mean action (True) or sample.
+    """
+
+    name = "sb3"
+
+    def __init__(
+        self,
+        model: Any,
+        normalizer: Any = None,
+        env_kwargs: Mapping[str, Any] | None = None,
+        label: str = "sb3 agent",
+        deterministic: bool = True,
+    ) -> None:
+        self.model, self.normalizer, self.label = model, normalizer, label
+        self.deterministic = deterministic
+        self._env_kwargs = {k: v for k, v in (env_kwargs or {}).items() if k not in TRAINING_ONLY}
+
+    @property
+    def env_kwargs(self) -> dict[str, Any]:
+        """The training env's keyword arguments less :data:`TRAINING_ONLY` (a fresh dict)."""
+        return dict(self._env_kwargs)
+
+    def reset(self, env: Any = None) -> None:
+        """Check that the agent fits ``env`` (single or native vector env).
+
+        Raises:
+            ValueError: naming both shapes, for an observation or action space that differs
+                from the agent's.
+        """
+        if env is None:
+            return
+        obs_space = getattr(env, "single_observation_space", env.observation_space)
+        act_space = getattr(env, "single_action_space", env.action_space)
+        mine, theirs = space_shapes(self.model.observation_space), space_shapes(obs_space)
+        if mine != theirs:
+            raise ValueError(f"agent {self.label!r} observes {mine}, which does not fit the "
+                             f"env's observation space {theirs}")  # fmt: skip
+        if self.model.action_space.shape != act_space.shape:
+            raise ValueError(f"agent {self.label!r} acts with shape {self.model.action_space.shape}"
+                             f", the env with {act_space.shape}")  # fmt: skip
+
+    def act(self, obs: Observation) -> Actions:
+        """Actions ``(B, n)`` for a batch of observations (every value ``(B, ...)``)."""
+        batch_size(obs)
+        actions, _ = self.model.predict(self._normalized(obs), deterministic=self.deterministic)
+        return np.asarray(actions, dtype=np.float64)
+
+    def predict(
+        self,
+        obs: Observation,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
+    ) -> tuple[Actions, Any]:
+        """SB3's interface on one observation (values ``(n,)``, action ``(n_a,)``) or a batch.
+
+        Raises:
+            ValueError: for an observation whose keys or shapes differ from the agent's.
+        """
+        shapes = space_shapes(self.model.observation_space)
+        if not isinstance(obs, Mapping) or set(obs) != set(shapes):
+            got = sorted(obs) if isinstance(obs, Mapping) else type(obs).__name__
+            raise ValueError(f"agent {self.label!r} observes {shapes}, got {got}")
+        given = {k: np.shape(v) for k, v in obs.items()}
+        single = all(given[k] == shapes[k] for k in shapes)
+        if not single and any(given[k][1:] != shapes[k] for k in shapes):
+            raise ValueError(f"agent {self.label!r} observes {shapes} (or a batch), got {given}")
+        batch = {k: np.asarray(v)[None] for k, v in obs.items()} if single else dict(obs)
+        actions, _ = self.model.predict(self._normalized(batch), deterministic=deterministic)
+        actions = np.asarray(actions, dtype=np.float64)
+        return (actions[0] if single else actions), state
+
+    def _normalized(self, obs: Observation) -> dict[str, NDArray[Any]]:
+        arrays = {k: np.asarray(v, dtype=np.float32) for k, v in obs.items()}
+        if self.normalizer is None:
+            return arrays
+        out: dict[str, NDArray[Any]] = self.normalizer.normalize_obs(arrays)
+        return out
+
+
+def space_shapes(space: Any) -> dict[str, tuple[int, ...]]:
+    """``{key: shape}`` of a Dict space (the contour-gym observations), for checks and messages.
+
+    Raises:
+        ValueError: for a space that is not a Dict.
+    """
+    spaces = getattr(space, "spaces", None)
+    if not isinstance(spaces, Mapping):
+        raise ValueError(f"expected a Dict observation space, got {space}")
+    return {k: tuple(s.shape) for k, s in spaces.items()}
+
+
+class SavedAgent(SB3Policy):
+    """A trained agent loaded from its folder (``model.zip``, ``vecnormalize.pkl``, ``meta.yaml``).
+
+    Args:
+        path: The agent's folder.
+        deterministic: Act on the mean action (True) or sample.
+
+    Raises:
+        ValueError: for a missing model or meta file (naming the path), or a meta file without
+            ``algo`` and ``env_id``.
+    """
+
+    name = "saved_agent"
+
+    def __init__(self, path: str | Path, deterministic: bool = True) -> None:
+        from agents.rl.config import algo_class
+
+        folder = Path(path)
+        self.folder, self.meta = folder, read_meta(folder)
+        model_path = folder / MODEL_FILE
+        if not model_path.is_file():
+            raise ValueError(f"agent {folder.name!r}: model file {model_path} is missing")
+        model = algo_class(self.meta["algo"]).load(model_path, device="cpu")
+        stats = folder / STATS_FILE
+        normalizer = load_normalizer(stats) if stats.is_file() else None
+        super().__init__(model, normalizer, self.meta.get("env_kwargs"), folder.name,
+                         deterministic)  # fmt: skip
+
+    @property
+    def env_id(self) -> str:
+        """The id the agent was trained on."""
+        return str(self.meta["env_id"])
+
+
+def load_normalizer(path: Path) -> Any:
+    """A saved ``VecNormalize`` (without its env) set not to update its statistics."""
+    with path.open("rb") as f:
+        normalizer = pickle.load(f)  # noqa: S301 (the project's own agent files)
+    normalizer.training, normalizer.norm_reward = False, False
+    return normalizer
+
+
+def read_meta(folder: Path) -> dict[str, Any]:
+    """The agent's ``meta.yaml`` (``algo``, ``env_id``, ``env_kwargs``, ``command``).
+
+    Raises:
+        ValueError: for a missing or malformed file, naming its path.
+    """
+    path = folder / META_FILE
+    if not path.is_file():
+        raise ValueError(f"agent {folder.name!r}: meta file {path} is missing")
+    meta = yaml.safe_load(path.read_text(encoding="utf-8"))
+    if not isinstance(meta, dict) or not all(isinstance(meta.get(k), str) for k in
+                                              ("algo", "env_id")):  # fmt: skip
+        raise ValueError(f"{path}: must be a mapping with 'algo' and 'env_id' strings")
+    if not isinstance(meta.get("env_kwargs") or {}, dict):
+        raise ValueError(f"{path}: env_kwargs must be a mapping")
+    return meta
+
+
+def register_saved_agents(root: str | Path = TRAINED_DIR, replace: bool = False) -> list[str]:
+    """Register every agent folder under ``root`` as a policy named after the folder.
+
+    The model is loaded when the policy is made (:class:`SavedAgent`), so a folder with a
+    missing file fails then, naming the file.
+
+    Args:
+        root: The folder holding agent folders (default ``agents/trained``).
+        replace: Replace registrations of the same names.
+
+    Returns:
+        The registered names.
+    """
+    base = Path(root)
+    names = []
+    for folder in sorted(p for p in base.iterdir() if p.is_dir()) if base.is_dir() else []:
+        if folder.name.startswith((".", "_")):
+            continue
+        if folder.name in POLICIES.names() and not replace:
+            continue
+        register_policy(folder.name, functools.partial(SavedAgent, folder), replace=replace)
+        names.append(folder.name)
+    return names
+
+
+register_saved_agents()  # agents/trained/*, when agents.policies is imported

@@ -1,0 +1,141 @@
+"""Train and export the shipped agents of ``configs/rl/shipped.yml`` into ``agents/trained``.
+
+``python -m agents.rl.train_shipped NAME [NAME ...]`` (``--list`` lists the names) trains each
+agent with :func:`agents.rl.train.train` from its entry::
+
+    sac_ccc_circle:
+      algo: sac
+      env_id: contour_gym/CCC-Circle-v0
+      seed: 0
+      timesteps: 200000            # optional: the config's n_timesteps
+      env_kwargs: {randomize: true} # replace the config block's env_kwargs
+
+into ``runs/shipped/`` (``--runs``) and exports the run (:func:`export_agent`) into
+``agents/trained/NAME/`` (``--dest``): ``model.zip``, ``vecnormalize.pkl`` and ``meta.yaml``
+with the command that reproduces it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.resources
+import shlex
+import shutil
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from agents.rl.config import ALGOS
+from agents.rl.saved import META_FILE, MODEL_FILE, STATS_FILE, TRAINED_DIR
+from agents.rl.train import read_curve, train
+
+ENTRY_KEYS = {"algo": str, "env_id": str, "seed": int, "timesteps": int, "env_kwargs": dict}
+
+
+def shipped_file() -> Path:
+    """The shipped ``configs/rl/shipped.yml``."""
+    return Path(str(importlib.resources.files("agents") / "configs" / "rl" / "shipped.yml"))
+
+
+def load_shipped(path: str | Path | None = None) -> dict[str, dict[str, Any]]:
+    """The entries of ``shipped.yml``, checked.
+
+    Raises:
+        ValueError: naming the file, the agent and the key, for an unknown key, a value of the
+            wrong type or a missing ``algo`` or ``env_id``.
+    """
+    file = Path(path) if path is not None else shipped_file()
+    data = yaml.safe_load(file.read_text(encoding="utf-8"))
+    if not isinstance(data, dict):
+        raise ValueError(f"{file}: must map agent names to entries")
+    for name, entry in data.items():
+        if not isinstance(entry, dict):
+            raise ValueError(f"{file}: {name}: must be a mapping")
+        for key, value in entry.items():
+            kind = ENTRY_KEYS.get(key)
+            if kind is None:
+                raise ValueError(f"{file}: {name}: unknown key {key!r}; accepted: "
+                                 f"{', '.join(ENTRY_KEYS)}")  # fmt: skip
+            if not isinstance(value, kind) or isinstance(value, bool):
+                raise ValueError(f"{file}: {name}: {key} must be a {kind.__name__}, got {value!r}")
+        missing = [k for k in ("algo", "env_id") if k not in entry]
+        if missing or entry["algo"] not in ALGOS:
+            raise ValueError(f"{file}: {name}: needs algo (one of {', '.join(ALGOS)}) and "
+                             f"env_id, got {entry}")  # fmt: skip
+    return data
+
+
+def train_shipped(
+    name: str,
+    runs: str | Path = "runs/shipped",
+    dest_root: str | Path = TRAINED_DIR,
+    progress: bool = True,
+) -> Path:
+    """Train the shipped agent ``name`` and export it into ``dest_root/name``; returns that.
+
+    Raises:
+        ValueError: for an unknown name (listing the shipped ones); see :func:`train`.
+    """
+    entries = load_shipped()
+    if name not in entries:
+        raise ValueError(f"unknown shipped agent {name!r}; accepted: {', '.join(entries)}")
+    entry = entries[name]
+    overrides = {"env_kwargs": entry["env_kwargs"]} if "env_kwargs" in entry else {}
+    command = f"python -m agents.rl.train_shipped {shlex.quote(name)}"
+    run = train(entry["env_id"], entry["algo"], entry.get("timesteps"),
+                seed=entry.get("seed", 0), out_dir=Path(runs) / name, progress=progress,
+                command=command, **overrides)  # fmt: skip
+    return export_agent(run, Path(dest_root) / name, command)
+
+
+def export_agent(run: Path, dest: Path, command: str) -> Path:
+    """Copy a finished run's model and statistics into the agent folder ``dest`` with a meta file.
+
+    Args:
+        run: The run folder (:func:`agents.rl.train.train`'s).
+        dest: The agent folder (created; files replaced).
+        command: The command that reproduces the agent (written to ``meta.yaml``).
+
+    Raises:
+        ValueError: for a run without ``model.zip``.
+    """
+    model = run / MODEL_FILE
+    if not model.is_file():
+        raise ValueError(f"cannot export {run}: {model} is missing")
+    args = yaml.safe_load((run / "args.yml").read_text(encoding="utf-8"))
+    block = yaml.safe_load((run / "config.yml").read_text(encoding="utf-8"))[args["env_id"]]
+    dest.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(model, dest / MODEL_FILE)
+    if (run / STATS_FILE).is_file():
+        shutil.copyfile(run / STATS_FILE, dest / STATS_FILE)
+    curve = read_curve(run / "eval.csv")
+    meta = {"algo": args["algo"], "env_id": args["env_id"],
+            "env_kwargs": block.get("env_kwargs") or {}, "seed": args["seed"],
+            "total_timesteps": args["total_timesteps"], "command": command,
+            "last_evaluation": curve[-1] if curve else None}  # fmt: skip
+    (dest / META_FILE).write_text(yaml.safe_dump(meta, sort_keys=False), encoding="utf-8")
+    return dest
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m agents.rl.train_shipped NAME [NAME ...]``."""
+    parser = argparse.ArgumentParser(prog="python -m agents.rl.train_shipped",
+                                     description=__doc__.splitlines()[0])  # fmt: skip
+    parser.add_argument("names", nargs="*", metavar="NAME", help="agents of shipped.yml")
+    parser.add_argument("--list", action="store_true", help="list the shipped agents")
+    parser.add_argument("--runs", default="runs/shipped", help="parent of the run folders")
+    parser.add_argument("--dest", default=str(TRAINED_DIR), help="parent of the agent folders")
+    args = parser.parse_args(argv)
+    if args.list or not args.names:
+        for name, entry in load_shipped().items():
+            print(f"{name}: {entry['algo']} on {entry['env_id']}")
+        return 0
+    for name in args.names:
+        print(f"{name}: exported to {train_shipped(name, args.runs, args.dest)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
