@@ -157,3 +157,27 @@ def test_fuzzy_feedrate_shortens_the_cycle_of_both_feedrate_ids():
         constant = evaluate("constant_feedrate", env_id)
         assert fuzzy["finished"] == 1.0
         assert fuzzy["cycle_time"] < constant["cycle_time"]
+
+
+# a small 2-D part with two F words (mm, mm/min) and a free S curve: a user's own paths
+PART = """G21 G90 G17
+G1 X10 Y0 F600
+G3 X20 Y10 R10 F900
+G1 Y20
+M2
+"""
+
+
+@pytest.mark.parametrize("where", ["parametric", "gcode"])
+@pytest.mark.parametrize("name", ["fuzzy_feedrate", "constant_feedrate"])
+def test_each_feedrate_policy_runs_a_user_path_to_the_end(name, where):
+    from contour_gym.paths import from_gcode, parametric
+
+    if where == "gcode":
+        path = from_gcode(PART)
+    else:
+        path = parametric(lambda t: np.stack([0.02 * t, 0.0025 * np.sin(2 * np.pi * t)], 1),
+                          0.0, 1.0)  # fmt: skip
+    m = run_policy({"id": "contour_gym/Feedrate-v0", "path": path}, make_policy(name))
+    assert m["finished"] and not m["failed"] and not m["truncated"]
+    assert np.isfinite(m["max_contour_error"]) and m["cycle_time"] > 0.0

@@ -251,3 +251,37 @@ def test_saved_agent_without_model_file_names_the_path(agent_dir, tmp_path):
     (broken / "meta.yaml").write_text((agent_dir / "meta.yaml").read_text())
     with pytest.raises(ValueError, match=str(broken / "model.zip")):
         SavedAgent(broken)
+
+
+SHIPPED = sorted(p.name for p in (REPO / "agents" / "trained").iterdir() if p.is_dir())
+USER_PART = """G21 G90 G17
+G1 X10 Y0 F600
+G3 X20 Y10 R10 F900
+G1 Y20
+M2
+"""
+
+
+def test_the_shipped_agents_are_listed_by_available():
+    assert SHIPPED, "no shipped agent under agents/trained"
+    assert set(SHIPPED) <= set(policies.available())
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_every_shipped_agent_loads_by_name_and_runs_a_user_path(name):
+    from agents.evaluate import run_policy
+    from contour_gym.paths import from_gcode, parametric
+
+    agent = policies.make(name)
+    meta = yaml.safe_load((REPO / "agents" / "trained" / name / "meta.yaml").read_text())
+    curve = parametric(lambda t: np.stack([0.02 * t, 0.0025 * np.sin(2 * np.pi * t)], 1),
+                       0.0, 1.0)  # fmt: skip
+    if "Feedrate" in meta["env_id"]:
+        spec = {"id": "contour_gym/Feedrate-v0", "plant": "xy_servo_coulomb",
+                "path": from_gcode(USER_PART)}  # fmt: skip
+    else:
+        spec = {"id": "contour_gym/CCC-v0", "plant": "xy_dc_servo", "path": curve,
+                "estimator": "two_circle"}  # fmt: skip
+    m = run_policy(spec, agent)
+    assert m["finished"] and not m["failed"] and not m["truncated"]
+    assert np.isfinite(m["max_contour_error"])
