@@ -269,6 +269,7 @@ class ServoLoop:
         self._config = self._config_row()
         self.kernel = self._specialise()
         self._rec_width = 2 + 3 * stage.n_axes + 2 * len(stage.contours)
+        self._marked = False  # mark_compiled done (complete)
         self._no_record = np.zeros((b, 0, self._rec_width))
         self._no_noise = np.zeros((b, 0, 0))
         self._nominal = (self.ax_p.copy(), self.fr_p.copy(), self.dist.copy())
@@ -409,6 +410,7 @@ class ServoLoop:
         self.estimator = Estimator(ESTIMATORS.get(est_name), est_params)
         self._attach_views()
         self.kernel = self._specialise()
+        self._marked = False
 
     # ----------------------------------------------------------------- state
     def _restart_clock(self) -> None:
@@ -689,7 +691,9 @@ class ServoLoop:
         if paused is not None:
             self.status[paused] = STATUS_OK
             self.k_start[paused] += n_ticks
-        _compile.mark_compiled(self.kernel)
+        if not self._marked:  # once per loop: the marker is a file (a stat per call cost 7 us)
+            _compile.mark_compiled(self.kernel)
+            self._marked = True
 
     def planned_time(self, override: float | None = None) -> float:
         """A generous estimate of one contour's duration, s.

@@ -6,11 +6,11 @@ statistics; absent when trained without normalisation) and ``meta.yaml``::
     algo: sac
     env_id: contour_gym/CCC-Circle-v0
     env_kwargs: {randomize: true}      # the training env's
-    command: python -m agents.rl.train_shipped sac_ccc_circle
+    command: python -m agents.rl.train_shipped ppo_ccc_circle
 
 Every folder under ``agents/trained/`` is registered as a policy by its name
 (:func:`register_saved_agents`, run when :mod:`agents.policies` is imported), so
-``agents.policies.make("sac_ccc_circle", env)`` loads it and ``available()`` lists it; any
+``agents.policies.make("ppo_ccc_circle", env)`` loads it and ``available()`` lists it; any
 other folder loads with ``SavedAgent(path)``. The model is loaded (and stable-baselines3
 imported) when the policy is made, not at registration.
 

@@ -3,11 +3,11 @@
 ``python -m agents.rl.train_shipped NAME [NAME ...]`` (``--list`` lists the names) trains each
 agent with :func:`agents.rl.train.train` from its entry::
 
-    sac_ccc_circle:
-      algo: sac
+    ppo_ccc_circle:
+      algo: ppo
       env_id: contour_gym/CCC-Circle-v0
       seed: 0
-      timesteps: 200000            # optional: the config's n_timesteps
+      timesteps: 1000000           # optional: the config's n_timesteps
       env_kwargs: {randomize: true} # replace the config block's env_kwargs
 
 into ``runs/shipped/`` (``--runs``) and exports the run (:func:`export_agent`) into

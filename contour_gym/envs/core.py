@@ -345,20 +345,26 @@ class ContourTask:
         return out
 
     # ------------------------------------------------------------------ info
-    def _step_info(self) -> dict[str, Any]:
-        """Every member's per-step info as batched arrays (B, ...)."""
+    def _step_info(self, i: int | slice = slice(None)) -> dict[str, Any]:
+        """The per-step info of members ``i``.
+
+        Batched arrays (B, ...) for a slice; member ``i``'s values (arrays, Python floats and
+        bools) for an int, read directly (a single env's step built every member's first).
+        """
         loop, v = self.loop, self._v
-        seg = loop.ip_s[:, IS.seg].astype(np.int64)
-        comps = components_dict(v["comp"])
-        return {
-            "contour_error": loop.contour_error.copy(),
-            "contour_error_estimate": loop.contour_error_estimate.copy(),
-            "tracking_error": v["ref"] - loop.ax_s[:, :, ST.x],
-            "feedrate": loop.ip_p[:, IP.ovr] * loop.program.feed[seg],
-            "s": loop.s.copy(),
-            "failure": v["failure"] != 0.0,
-            "reward_components": comps,
-        }
+        seg = loop.ip_s[i, IS.seg].astype(np.int64)
+        comp = v["comp"][i]
+        out = {
+            "contour_error": loop.contour_error[i].copy(),
+            "contour_error_estimate": loop.contour_error_estimate[i].copy(),
+            "tracking_error": v["ref"][i] - loop.ax_s[i, :, ST.x],
+            "feedrate": loop.ip_p[i, IP.ovr] * loop.program.feed[seg],
+            "s": loop.s[i].copy(),
+            "failure": v["failure"][i] != 0.0,
+            "reward_components": {name: comp[..., j].copy()
+                                  for j, name in enumerate(COMPONENTS.names)},
+        }  # fmt: skip
+        return out if isinstance(i, slice) else _python(out)
 
     def _end_metrics(self) -> dict[str, Any]:
         loop = self.loop
@@ -369,10 +375,7 @@ class ContourTask:
 
     def info(self, b: int, ended: bool) -> dict[str, Any]:
         """Info of member ``b`` after a step or reset (SI units; see the env docstrings)."""
-        step = self._step_info()
-        out: dict[str, Any] = {}
-        for k, val in step.items():
-            out[k] = _member(val, b)
+        out = self._step_info(b)
         if ended:
             out["metrics"] = {k: _member(val, b) for k, val in self._end_metrics().items()}
         return out
@@ -401,6 +404,21 @@ def _member(value: Any, b: int) -> Any:
     if isinstance(item, np.bool_):
         return bool(item)
     return float(item)
+
+
+def _python(values: dict[str, Any]) -> dict[str, Any]:
+    # one member's values: numpy scalars as Python floats and bools, arrays as they are
+    out: dict[str, Any] = {}
+    for key, val in values.items():
+        if isinstance(val, dict):
+            out[key] = _python(val)
+        elif isinstance(val, np.bool_):
+            out[key] = bool(val)
+        elif isinstance(val, np.ndarray) and val.ndim > 0:
+            out[key] = val
+        else:
+            out[key] = float(val)
+    return out
 
 
 def _masked(values: dict[str, Any], mask: NDArray[np.bool_]) -> dict[str, Any]:
