@@ -65,3 +65,11 @@ def test_optimizer_claim_reports_medians_of_each_seed_on_a_short_budget() -> Non
     again, runs2 = optimizer_claim("000", "000_circle", "improved_pso", "pso", [0, 1],
                                    population=6, iterations=2)  # fmt: skip
     assert runs2 == runs and again == claim  # same seeds, same result
+
+
+def test_iabc_against_abc_on_protocol_003_on_a_short_budget() -> None:
+    claim, runs = optimizer_claim("003", "003", "improved_abc", "abc", [0], population=4,
+                                  iterations=1)  # fmt: skip
+    assert set(runs) == {"improved_abc", "abc"}
+    assert all(math.isfinite(v[0]) and v[0] > 0 for v in runs.values())
+    assert claim.paper == "003" and math.isfinite(claim.ours)
