@@ -44,15 +44,15 @@ import json
 import math
 import os
 import sys
-import tempfile
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, cast
 
 import numpy as np
 
+from agents._files import write_atomically
 from agents.evaluate import env_arguments, make_vector_env, run_episodes
 from agents.policies import Policy
 from agents.suites import PolicySpec, ScenarioSpec, Suite, load_suite
@@ -154,25 +154,6 @@ def evaluate_cell(scenario: ScenarioSpec, spec: PolicySpec, envs: EnvPool) -> Ce
 
 
 # ------------------------------------------------------------------------- the run folder
-def write_atomically(target: Path, write: Callable[[str], object]) -> None:
-    """Write ``target`` by ``write(temp)`` into a temp file beside it, then rename.
-
-    An interrupted write never leaves a partial ``target`` (nor the temp file).
-    """
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # a plain new file's mode, not mkstemp's private 0600
-    try:
-        write(tmp)
-        os.replace(tmp, target)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
 def _write_text(target: Path, text: str) -> None:
     write_atomically(target, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
 

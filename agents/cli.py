@@ -21,7 +21,6 @@ import math
 import os
 import shlex
 import sys
-import tempfile
 import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -29,6 +28,7 @@ from pathlib import Path as FilePath
 
 import numpy as np
 
+from agents._files import write_atomically
 from contour_gym._validate import choice
 from contour_gym.api import Scenario, make_scenario, run_trace
 from contour_gym.paths import WORK_SYSTEMS, GcodeError, GcodePath, from_gcode
@@ -184,19 +184,9 @@ def format_table(columns: dict[str, dict[str, float]]) -> str:
 
 
 def _save_atomically(fig: object, target: FilePath, dpi: float = 120.0) -> None:
-    # Write next to the target, then rename: an interrupted run never leaves half a file.
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(suffix=target.suffix, dir=target.parent)
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # a plain new file's mode, not mkstemp's private 0600
-    try:
-        fig.savefig(tmp, dpi=dpi)  # type: ignore[attr-defined]
-        os.replace(tmp, target)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    # an interrupted run never leaves half a file (agents._files); the format from the name
+    fmt = target.suffix[1:] or "png"
+    write_atomically(target, lambda tmp: fig.savefig(tmp, dpi=dpi, format=fmt))  # type: ignore[attr-defined]
 
 
 def read_part(args: argparse.Namespace) -> GcodePath:

@@ -90,7 +90,6 @@ import json
 import math
 import os
 import shlex
-import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -103,6 +102,7 @@ from numpy.typing import ArrayLike, NDArray
 
 import agents.ccc_laws  # noqa: F401  (registers the fuzzy_pid law)
 import contour_gym  # noqa: F401  (registers the env ids)
+from agents._files import write_atomically
 from agents.ccc_laws import K_DE_000, K_E_000
 from agents.optim import OPTIMIZERS, OptimResult, minimize, options_of
 from agents.optim.pso import schedules
@@ -876,18 +876,9 @@ def _command(
 
 
 def _write_json(target: Path, data: Mapping[str, Any]) -> None:
-    """Write ``data`` next to ``target``, then rename: a reader never sees half a file."""
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(suffix=".json", dir=target.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            json.dump(data, fh, indent=2)
-            fh.write("\n")
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, target)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    """Write ``data`` as JSON, whole or not at all (:func:`agents._files.write_atomically`)."""
+    text = json.dumps(data, indent=2) + "\n"
+    write_atomically(target, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
 
 
 def write_plots(result: TuneResult, folder: str | os.PathLike[str]) -> list[Path]:

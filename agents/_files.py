@@ -1,0 +1,28 @@
+"""Files a run writes: whole or not at all."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+
+def write_atomically(target: Path, write: Callable[[str], object]) -> None:
+    """Write ``target`` by ``write(temp)`` into a temp file beside it, then rename.
+
+    An interrupted write never leaves a partial ``target`` (nor the temp file). The temp file
+    ends in ``.tmp``: writers that infer a format from the name must be told it.
+    """
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # a plain new file's mode, not mkstemp's private 0600
+    try:
+        write(tmp)
+        os.replace(tmp, target)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
