@@ -4,7 +4,8 @@ Runs ``no_ccc``, ``fuzzy_pid_ccc`` (the law's defaults) and ``pso_fuzzy_pid_ccc`
 of tuning protocol 000, ``agents/data/pso_fuzzy_pid_ccc.json``) with
 :func:`agents.evaluate.run_policy` (seed 0, one episode) on 000's three envs, rig and ideal,
 and prints max / mean true contour error (um) and 000's claims: PSO-tuned vs no CCC on the
-circle >= 90 % lower max error; PSO-tuned vs untuned on "infinity" and trident >= 50 % lower.
+circle >= 90 % lower max error; PSO-tuned vs untuned on "infinity" and trident >= 50 % lower
+(:func:`agents.claims.claims_000`, the one home of those comparisons).
 
     python benchmarks/tune_000.py
 """
@@ -12,6 +13,7 @@ circle >= 90 % lower max error; PSO-tuned vs untuned on "infinity" and trident >
 from __future__ import annotations
 
 from agents.ccc_policies import tuned_factors_000
+from agents.claims import claims_000
 from agents.evaluate import run_policy
 from agents.policies import make_policy
 
@@ -35,15 +37,12 @@ def main() -> None:
             label = env.split("/")[1] if i == 0 else ""
             print(f"{label:<18}{name:<20}{cells[0]:>9.2f}{cells[1]:>10.2f}{cells[2]:>11.2f}"
                   f"{cells[3]:>12.2f}")  # fmt: skip
-    print("claims (max contour error, lower by):")
-    for env, against, need in ((ENVS[0], "no_ccc", 0.9), (ENVS[1], "fuzzy_pid_ccc", 0.5),
-                               (ENVS[2], "fuzzy_pid_ccc", 0.5)):  # fmt: skip
-        for ideal in (False, True):
-            cut = 1.0 - peak[env, "pso_fuzzy_pid_ccc", ideal] / peak[env, against, ideal]
-            verdict = "HOLDS" if cut >= need else "FAILS"
-            print(f"  {env.split('/')[1]:<16} {'ideal' if ideal else 'rig':<5} vs {against:<14} "
-                  f"{cut * 100:6.1f} % (000: >= {need * 100:.0f} %)  {verdict}")
-
+    print("claims (agents.claims.claims_000; max contour error):")
+    for ideal in (False, True):
+        for c in claims_000(ideal):
+            print(f"  {c.scenario:<9} {c.model:<5} {c.comparison:<45} {c.ours * 100:+7.1f} % "
+                  f"(000: {c.paper_change * 100:+.1f} %, needs <= {c.need * 100:+.0f} %)  "
+                  f"{c.verdict}")  # fmt: skip
 
 if __name__ == "__main__":
     main()
