@@ -155,6 +155,8 @@ def _parser() -> argparse.ArgumentParser:
                       help="run folder (default runs/tune/PROTOCOL-OPTIMIZER-seedN[-ideal])")
     tune.add_argument("--ideal", action="store_true",
                       help="no encoder, noise or delay (the papers' pure simulations)")
+    tune.add_argument("--workers", type=int, default=None, metavar="N",
+                      help="threads running the population (default: every CPU; same result)")
     tune.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_bench_parser(sub)
     return parser
@@ -330,7 +332,8 @@ def tune_command(args: argparse.Namespace) -> int:
     argv += ["--ideal"] * args.ideal + ["--out", out]
     result = tune(protocol, optimizer, seed=args.seed, population=args.population,
                   iterations=args.iterations, ideal=args.ideal, out=out,
-                  progress=not args.quiet, command=shlex.join(argv))  # fmt: skip
+                  progress=not args.quiet, command=shlex.join(argv),
+                  workers=args.workers)  # fmt: skip
     print(f"protocol {result.protocol}, {result.optimizer}, seed {result.seed}: best fitness "
           f"{result.fitness * 1e6:.6g} um ({result.settings['fitness']}) after "
           f"{result.nfev} candidates in {result.wall_time:.1f} s")  # fmt: skip

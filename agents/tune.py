@@ -70,14 +70,19 @@ three-leaf (``scenario_kwargs``; the envs run 003's 10 s windows): 003 tunes onl
 some n samples it does not give, and the short window makes the protocol ten times faster.
 003 starts its colony at random (eq. 22), and so does this protocol.
 
-Measured on this project's 2-core machine (shared with a CI run; seed 0, 40 x 201
-candidates, rig): the search takes 79 s (83 s for ``contour-gym tune 003``), against the
-issue's 15 s: every candidate simulates 2 x ~2400 servo ticks at 0.5 ms (the 1 s windows
-plus getting in position), 39 M member-ticks in all at ~0.5 M/s through two-dof-PID axes,
-Stribeck friction, six ripple harmonics and the rig's encoder, noise and delay each tick.
-Candidates that pass the hard limit stop at the next 256-tick check (:func:`_run_to_end`),
-which removed a factor of about 5 on unstable colonies. Seed 0 reaches 573.7 um (circle
-539.6, three-leaf 607.7; 93 s) against 1114 um for 003's hand-tuned point (1017, 1211).
+Measured on this project's 2-core machine (quiet; seed 0, 40 x 201 candidates, rig): the
+search takes 19-23 s on two threads (34 s on one; ``workers``), against the issue's 15 s
+(it took 93 s before three changes: harmonic ripple by recurrence, 2 sine calls per axis and
+substep instead of 12; the angle estimator's history scan no longer evaluates the path where
+the reference rests; and a candidate past the hard limit stops on that tick, in the kernel,
+:func:`_run_to_end`). Every candidate simulates 2 x ~2400 servo ticks at 0.5 ms (the 1 s
+windows plus getting in position), about 20 M member-ticks in all (more than half the
+candidates fail and stop early), at 0.87 M/s on the circle and 0.53 M/s on the three-leaf
+per thread, through two-dof-PID axes, Stribeck friction, six ripple harmonics and the rig's
+encoder, noise and delay each tick; the three-leaf's 868 segments make its foot-point
+searches the dearest part. Seed 0 reaches 573.7 um (circle 539.6, three-leaf 607.7) against
+1114 um for 003's hand-tuned point (1017, 1211); the three changes leave the search's path
+and its result unchanged (same parameters, fitness equal to 1e-18 m).
 Standard ABC against improved ABC over seeds: ``benchmarks/paper_tables.py`` (measured
 before the in-position speed fix, seeds 0-2: median 577.3 against 574.3 um, IABC ahead by
 0.5 %, within the spread of the seeds).
@@ -90,8 +95,10 @@ import json
 import math
 import os
 import shlex
+import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -544,17 +551,30 @@ def _case(
 class PopulationObjective:
     """A protocol's batch objective: ``(n, D)`` search coordinates -> ``(n,)`` fitness, m.
 
+    The scenarios, and slices of the population, run as separate batches on ``workers``
+    threads (the servo loop's kernel releases the GIL); every candidate's result is the same
+    for any number of workers (its run depends on its own parameters and seed only).
+
     Args:
         protocol: The protocol (or its name).
         ideal: Run the scenarios without the rig's encoder, noise and delay.
+        workers: Threads (None: the CPUs this process may use; 1: no threads).
 
     Attributes:
         penalty: The fitness of a failed candidate (module docstring), m.
+
+    Raises:
+        ValueError: for ``workers`` below 1.
     """
 
-    def __init__(self, protocol: str | Protocol, ideal: bool = False) -> None:
+    def __init__(
+        self, protocol: str | Protocol, ideal: bool = False, workers: int | None = None
+    ) -> None:
         self.protocol = get_protocol(protocol)
         self.ideal = bool(ideal)
+        self.workers = available_cpus() if workers is None else workers
+        if not isinstance(self.workers, int) or self.workers < 1:
+            raise ValueError(f"workers must be an int >= 1, got {workers!r}")
         proto = self.protocol
         self.cases = tuple(_case(e, proto.ccc_law, self.ideal, proto.scenario_kwargs.get(e))
                            for e in proto.scenarios)  # fmt: skip
@@ -563,7 +583,8 @@ class PopulationObjective:
                                                  for c in self.cases)  # fmt: skip
         self._set = SETTERS[proto.setter]
         self._fitness = FITNESSES[self.protocol.fitness]
-        self._loops: dict[int, list[ServoLoop]] = {}
+        self._loops: dict[tuple[int, int], list[ServoLoop]] = {}
+        self._lock = threading.Lock()
 
     def __call__(self, z: FloatArray, /) -> FloatArray:
         """Fitness of each row of ``z`` (search coordinates; see :meth:`Protocol.to_params`)."""
@@ -597,8 +618,21 @@ class PopulationObjective:
             raise ValueError(f"params must have shape (n, {d}), got {x.shape}")
         n = x.shape[0]
         fit, failed = np.empty((len(self.cases), n)), np.empty((len(self.cases), n), dtype=bool)
-        for i, (case, loop) in enumerate(zip(self.cases, self._loops_for(n), strict=True)):
-            fit[i], failed[i] = self._run(case, loop, x)
+        # work units: each scenario on slices of the population, enough to keep every worker busy
+        slices = np.array_split(np.arange(n), min(n, self.workers))
+        units = [(i, j, rows) for i in range(len(self.cases)) for j, rows in enumerate(slices)]
+
+        def run(unit: tuple[int, int, NDArray[np.intp]]) -> None:
+            i, j, rows = unit
+            loop = self._loops_for(len(rows), j)[i]
+            fit[i, rows], failed[i, rows] = self._run(self.cases[i], loop, x[rows])
+
+        if self.workers == 1 or len(units) == 1:
+            for unit in units:
+                run(unit)
+        else:
+            with ThreadPoolExecutor(max_workers=min(self.workers, len(units))) as pool:
+                list(pool.map(run, units))
         return fit, failed
 
     def metrics(self, params: ArrayLike) -> list[dict[str, FloatArray]]:
@@ -611,12 +645,14 @@ class PopulationObjective:
                         "finished": loop.done.astype(float)})  # fmt: skip
         return out
 
-    def _loops_for(self, n: int) -> list[ServoLoop]:
-        if n not in self._loops:
-            self._loops[n] = [
-                c.scenario.loop(batch_size=n, ccc_gains=c.base_gains) for c in self.cases
-            ]
-        return self._loops[n]
+    def _loops_for(self, n: int, part: int = 0) -> list[ServoLoop]:
+        """Each scenario's loop of ``n`` members for slice ``part`` (one per thread)."""
+        with self._lock:
+            if (n, part) not in self._loops:
+                self._loops[n, part] = [
+                    c.scenario.loop(batch_size=n, ccc_gains=c.base_gains) for c in self.cases
+                ]
+            return self._loops[n, part]
 
     def _run(
         self, case: _Case, loop: ServoLoop, x: FloatArray
@@ -630,14 +666,23 @@ class PopulationObjective:
         return f, failed | ~(f < self.penalty)
 
 
-CHUNK_TICKS = 256  # ticks between the hard-limit checks of _run_to_end
+def available_cpus() -> int:
+    """CPUs this process may run on (its affinity where the OS tells it)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+CHUNK_TICKS = 2048  # ticks per kernel call of _run_to_end
 
 
 def _run_to_end(loop: ServoLoop, hard_limit: float) -> dict[str, FloatArray]:
-    """:meth:`ServoLoop.run` with a member past ``hard_limit`` stopped at the next check.
+    """:meth:`ServoLoop.run` with a member past ``hard_limit`` stopped on that tick.
 
-    Stopping changes no result (such a member fails whatever it does next); the stopped
-    members are left not done (they count as failed).
+    Stopping changes no result (such a member fails whatever it does next): a diverging
+    candidate's ticks are the slowest (its error widens every foot-point search), and stopping
+    it in the kernel, not at the end of a call, made protocol 003 twice as fast.
     """
     return loop.run(chunk=CHUNK_TICKS, stop_above=hard_limit)
 
@@ -749,6 +794,7 @@ def tune(
     progress: bool = True,
     options: Mapping[str, Any] | None = None,
     command: str | None = None,
+    workers: int | None = None,
 ) -> TuneResult:
     """Run a tuning protocol with an optimiser.
 
@@ -766,6 +812,8 @@ def tune(
             else none).
         command: The command line to record in ``result.json`` (None: the equivalent
             ``contour-gym tune`` command).
+        workers: Threads running the population (:class:`PopulationObjective`; None: every
+            CPU). The result does not depend on it.
 
     Returns:
         The :class:`TuneResult`.
@@ -797,7 +845,7 @@ def tune(
     folder = None if out is None else Path(out)
     if name in PSO_FAMILY:  # checks the budget too, before any simulation
         settings["schedules"] = schedules(name, t, **options).tolist()
-    objective = PopulationObjective(proto, ideal=ideal)
+    objective = PopulationObjective(proto, ideal=ideal, workers=workers)
     settings["penalty"] = objective.penalty
     start = time.perf_counter()
 

@@ -42,6 +42,7 @@ from contour_gym._loopstate import (
     LS,
     REASON_DIVERGED,
     REASON_NOT_IN_POSITION,
+    REASON_OVER_LIMIT,
     STATE_LIMIT,
     STATUS_ARRIVED,
     STATUS_FAILED,
@@ -83,10 +84,11 @@ def axis_tick(ax, fr, rip, dist, ad, bd, st, i, u, t, ts, nsub, w):
     h = ts / nsub
     law = int(ax[i, AX.law])
     nrip = int(ax[i, AX.nrip])
+    harmonic = ax[i, AX.harm] > 0.0
     for _ in range(nsub):
         f_ext = d
         if nrip > 0:
-            f_ext -= ripple_force(rip, i, nrip, st[i, ST.x])
+            f_ext -= ripple_force(rip, i, nrip, harmonic, st[i, ST.x])
         if law == 0:
             FRICTION_0(ax, fr, ad, bd, st, i, u, f_ext, h)
         elif law == 1:
@@ -276,6 +278,16 @@ def _accumulate(A, P, cfg, b, k, n_axes):
 
 
 @numba.njit(cache=True, inline="always")
+def _over_limit(A, cfg, b):
+    # the run's stop_above (a tuner's hard limit): the episode's max contour error past it
+    n_c = A.c_axes.shape[0]
+    for c in range(n_c):  # noqa: SIM110 (numba compiles no generator)
+        if A.ep_c[b * n_c + c, AC.max] > cfg.stop_above:
+            return True
+    return False
+
+
+@numba.njit(cache=True, inline="always")
 def _record(A, b, j, s, v, rec, n_axes):
     work = A.work
     rec[b, j, 0], rec[b, j, 1] = s, v
@@ -375,6 +387,9 @@ def member_run(b, n, k0, cfg, A, P, noise, rec):
         _contours(A, P, cfg, b, s, n_axes)
         _axes(A, cfg, b, n_axes)
         _accumulate(A, P, cfg, b, k, n_axes)
+        if _over_limit(A, cfg, b):
+            A.mem[b, M.reason], A.mem[b, M.end] = REASON_OVER_LIMIT, k + 1
+            return STATUS_FAILED
         if cfg.record:
             _record(A, b, j, s, A.ip_s[b, IS.v], rec, n_axes)
         if not _plant(A, cfg, b, k, noise, j, n_axes, has_noise):
@@ -394,7 +409,7 @@ def member_run(b, n, k0, cfg, A, P, noise, rec):
     return STATUS_OK
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def run_ticks(n, k0, cf, fb, fl, ib, il, pk, pb, pl, noise, rec):
     """Run ``n`` ticks for every member whose status is OK; ends are flagged in ``status``.
 

@@ -14,12 +14,14 @@ rows rather than take row views.
 
 from __future__ import annotations
 
+import math
 from collections import namedtuple
 
 import numba
 
 from contour_gym._blob import rows2, rows3, view1, view2
-from contour_gym._schema import Schema, state_schema
+from contour_gym._schema import Param, Schema, state_schema
+from contour_gym._validate import number
 
 # float blob: (name, how the kernel views it)
 FLOATS = (
@@ -53,7 +55,7 @@ PathArrays = namedtuple("PathArrays", ("kind",) + PATH_NAMES)  # type: ignore[mi
 CONFIG = Schema(
     "loop config", ts=1e-3, nsub=1.0, dim=2.0, length=1.0, closed=0.0, meas_exact=1.0,
     delay=0.0, inj_ref=0.0, record=0.0, settle_ticks=1000.0, in_band=1e-6, in_speed=1e-3,
-    law_dt=1.0, sample_every=1.0,
+    law_dt=1.0, sample_every=1.0, stop_above=Param(math.inf, number),
 )  # fmt: skip
 CF = CONFIG.col
 Config = namedtuple("Config", CONFIG.names)  # type: ignore[misc]
@@ -75,7 +77,7 @@ WORK = state_schema("work", "r0", "r", "rdot", "rddot", "x", "y", "u", "ua", "uc
 W = WORK.col
 
 STATUS_OK, STATUS_FAILED, STATUS_PAUSED, STATUS_ARRIVED = 0, 1, 2, 3
-REASON_NONE, REASON_DIVERGED, REASON_NOT_IN_POSITION = 0.0, 1.0, 2.0
+REASON_NONE, REASON_DIVERGED, REASON_NOT_IN_POSITION, REASON_OVER_LIMIT = 0.0, 1.0, 2.0, 3.0
 STATE_LIMIT = 1e3  # |x| in m or |v| in m/s beyond this is a diverged member
 
 
@@ -115,4 +117,5 @@ def config(c):
         c[CF.ts], int(c[CF.nsub]), int(c[CF.dim]), c[CF.length], c[CF.closed] != 0.0,
         c[CF.meas_exact] != 0.0, c[CF.delay] != 0.0, c[CF.inj_ref] != 0.0, c[CF.record] != 0.0,
         c[CF.settle_ticks], c[CF.in_band], c[CF.in_speed], c[CF.law_dt], int(c[CF.sample_every]),
+        c[CF.stop_above],
     )  # fmt: skip

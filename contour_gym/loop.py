@@ -28,6 +28,7 @@ from contour_gym._blob import Blob
 from contour_gym._loopstate import ACC_A as ACC_A_SCHEMA
 from contour_gym._loopstate import ACC_C as ACC_C_SCHEMA
 from contour_gym._loopstate import (
+    CF,
     CONFIG,
     FLOAT_NAMES,
     FOOT,
@@ -598,7 +599,11 @@ class ServoLoop:
 
     @property
     def failure_reason(self) -> NDArray[np.float64]:
-        """(B,) 0 none, 1 diverged, 2 not in position after the settle time."""
+        """(B,) why a member failed: 0 none, 1 diverged, 2 not in position, 3 over stop_above.
+
+        2: not in position within the settle time after the path end; 3: stopped by
+        :meth:`run`'s ``stop_above``.
+        """
         return self.mem[:, M.reason].copy()
 
     @property
@@ -722,9 +727,10 @@ class ServoLoop:
             max_time: Stop after this much simulated time, s (default: 5x
                 :meth:`planned_time` + 1 s).
             chunk: Ticks per kernel call.
-            stop_above: If given, a member whose max contour error exceeds it (m) stops at
-                the end of the chunk and stays not done: it has failed whatever it would do
-                next (the max never falls), so a tuner saves simulating it to the time limit.
+            stop_above: If given, a member whose max contour error exceeds it (m) stops on
+                that tick and fails (:attr:`failure_reason` 3): it has failed whatever it
+                would do next (the max never falls), so a tuner saves simulating it. Its
+                metrics keep the errors measured until then.
 
         Returns:
             :func:`contour_gym.metrics.metrics_from_sums` of the whole run, with failed
@@ -734,12 +740,14 @@ class ServoLoop:
             max_time = 5.0 * self.planned_time() + 1.0
         limit = int(math.ceil(max_time / self.stage.ts))
         _compile.notice_first_compile(self.kernel, "servo loop")
-        over = np.zeros(self.batch_size, dtype=bool)
-        while self.tick < limit and np.any(self.running & ~over):
-            skip = np.flatnonzero(over) if over.any() else None
-            self.step(min(chunk, limit - self.tick), skip=skip)
-            if stop_above is not None:
-                over |= self.running & ~(self.metrics()["max_contour_error"] <= stop_above)
+        if stop_above is not None and not stop_above >= 0.0:
+            raise ValueError(f"stop_above must be a non-negative number, got {stop_above!r}")
+        self._config[CF.stop_above] = math.inf if stop_above is None else stop_above
+        try:
+            while self.tick < limit and np.any(self.running):
+                self.step(min(chunk, limit - self.tick))
+        finally:
+            self._config[CF.stop_above] = math.inf
         return self.metrics()
 
     def metrics(self) -> dict[str, Array]:

@@ -116,3 +116,42 @@ def test_shipped_parameters_lie_in_the_box() -> None:
     assert np.all((p.bounds[:, 0] <= x) & (x <= p.bounds[:, 1]))
     with pytest.raises(ValueError, match="unknown ACC2PID parameter"):
         make_policy("acc2pid", params={"kp_z": 1.0})
+
+
+def test_threads_change_no_result() -> None:
+    """The population on 1 or 2 threads (slices of it, both scenarios): the same fitness."""
+    p = get_protocol("003")
+    rng = np.random.default_rng(3)
+    z = p.to_search(_hand()[None]) + rng.normal(0.0, 0.3, (6, len(p.names)))
+    one = PopulationObjective("003", workers=1)(z)
+    two = PopulationObjective("003", workers=2)(z)
+    np.testing.assert_array_equal(one, two)
+    assert np.any(one < PopulationObjective("003", workers=1).penalty)  # not all failed
+    with pytest.raises(ValueError, match="workers"):
+        PopulationObjective("003", workers=0)
+
+
+def test_run_stops_a_member_past_the_limit_on_that_tick() -> None:
+    """stop_above: the member fails (reason 3) on the first tick its max error passes it."""
+    from contour_gym._loopstate import REASON_OVER_LIMIT, M
+
+    objective = PopulationObjective(CIRCLE_003, workers=1)
+    loop = objective._loops_for(2)[0]
+    free = PopulationObjective(CIRCLE_003, workers=1)._loops_for(2)[0]
+    limit = 50e-6
+    for lp in (loop, free):
+        lp.reset([0, 0])
+    stopped = loop.run(stop_above=limit)
+    full = free.run()
+    assert np.all(full["max_contour_error"] > limit)  # the hand-tuned point passes 50 um
+    assert np.all(loop.failure_reason == REASON_OVER_LIMIT) and not loop.done.any()
+    assert np.all(stopped["max_contour_error"] > limit)
+    # it stopped on the tick: its max is the first error past the limit, below the full run's
+    assert np.all(stopped["max_contour_error"] < full["max_contour_error"])
+    assert np.all(loop.mem[:, M.end] < free.mem[:, M.end])
+    # the next run without a limit runs to the end again
+    loop.reset([0, 0])
+    again = loop.run()
+    np.testing.assert_array_equal(again["max_contour_error"], full["max_contour_error"])
+    with pytest.raises(ValueError, match="stop_above"):
+        loop.run(stop_above=float("nan"))

@@ -175,7 +175,10 @@ def est_angle(lag, max_turn, kind, s0, data, p0, p1, p2, s, hist):
     if far_off(p0, p1, p2, rx, ry, rz, tx, ty, tz, kx, ky, kz, max_turn):
         return FAIL
     for j in range(lag, N_HIST + 1):
-        ax, ay, az, _, _, _, _, _, _ = eval_path(kind, s0, data, ref_arc(hist, s, j))
+        arc = ref_arc(hist, s, j)
+        if arc == s:  # the reference at rest here: no chord (and no path evaluation to see it)
+            continue
+        ax, ay, az, _, _, _, _, _, _ = eval_path(kind, s0, data, arc)
         ux, uy, uz = rx - ax, ry - ay, rz - az
         if ux * ux + uy * uy + uz * uz > _MIN_CHORD * _MIN_CHORD:
             qx, qy, qz = line_foot(p0, p1, p2, rx, ry, rz, ux, uy, uz)

@@ -49,6 +49,16 @@ class Ripple:
         for name in ("sin_amp", "cos_amp", "wavenumber"):
             as_finite_array(getattr(self, name), name, shape=(n,))
 
+    @property
+    def harmonic(self) -> bool:
+        """Whether the wavenumbers are the harmonics ``j w_1`` (to 1e-12), as in 003 eq. 6.
+
+        The kernel then evaluates the series from one sine and cosine (a recurrence).
+        """
+        w = np.asarray(self.wavenumber, dtype=np.float64)
+        j = np.arange(1, len(w) + 1)
+        return bool(w[0] != 0.0 and np.all(np.abs(w - j * w[0]) <= 1e-12 * np.abs(j * w[0])))
+
     def as_array(self) -> np.ndarray:
         """Return a (MAX_HARMONICS, 3) array of (a_j, b_j, w_j), zero-padded."""
         out = np.zeros((MAX_HARMONICS, 3))

@@ -122,7 +122,8 @@ def axis_row(axis: AxisParams, law: int = 0, *, ideal: bool = False) -> np.ndarr
         m=axis.mass, b=axis.damping, ks=axis.stiffness, k=axis.force_constant, u_max=axis.u_max,
         tau=axis.current_tau, enc=0.0 if ideal else axis.encoder_resolution,
         noise=0.0 if ideal else axis.noise_std,
-        nrip=0 if axis.ripple is None else len(axis.ripple.wavenumber), law=law,
+        nrip=0 if axis.ripple is None else len(axis.ripple.wavenumber),
+        harm=float(axis.ripple is not None and axis.ripple.harmonic), law=law,
     )  # fmt: skip
 
 

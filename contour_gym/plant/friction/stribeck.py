@@ -55,7 +55,9 @@ C = PARAMS.col
 def kinetic(fr, i, v):
     """Friction force opposing a velocity v != 0 (003 eqs. 7-8), N."""
     av = abs(v)
-    stribeck = (fr[i, C.fs] - fr[i, C.fc]) * math.exp(-((av / fr[i, C.vs]) ** fr[i, C.delta]))
+    r = av / fr[i, C.vs]
+    p = r * r if fr[i, C.delta] == 2.0 else r ** fr[i, C.delta]  # pow is a slow call
+    stribeck = (fr[i, C.fs] - fr[i, C.fc]) * math.exp(-p)
     force = fr[i, C.fc] + stribeck + fr[i, C.fv] * av
     return force if v > 0.0 else -force
 
