@@ -1,13 +1,14 @@
 """PPO and SAC training throughput: the native vector env against DummyVecEnv of single envs.
 
 Both backends train the same algo with the id's block of ``configs/rl/<algo>.yml`` at the same
-``n_envs`` (16 by default), wrapped the same way (VecMonitor, VecNormalize as configured), one
-torch thread. Each repeat times ``model.learn`` over a fixed number of env steps (learning
-included; SAC after its ``learning_starts``) on the same model, so the median is over
-repeats of one run. ``env share`` is the fraction of that time spent inside the VecEnv's
-``step_wait`` (the env, and for DummyVecEnv its Python loop); the rest is SB3 (policy
-forward passes, buffers, gradient steps). The ``env only`` row steps the same wrapped VecEnvs
-with random actions, without the wrappers and the agent: the ratio's ceiling were SB3 free.
+``n_envs`` (16 by default), wrapped the same way (the flattened observation, VecMonitor,
+VecNormalize as configured), one torch thread. Each repeat times ``model.learn`` over a fixed
+number of env steps (learning included; SAC after its ``learning_starts``) on the same model,
+so the median is over repeats of one run. ``env share`` is the fraction of that time spent
+inside the VecEnv's ``step_wait`` (the env, and for DummyVecEnv its Python loop); the rest is
+SB3 (policy forward passes, buffers, gradient steps). The ``env only`` row steps the same
+wrapped VecEnvs with random actions, without the wrappers and the agent: the ratio's ceiling
+were SB3 free.
 
     python benchmarks/train_throughput.py [--env ID] [--n-envs 16] [--repeats 3]
 """
@@ -31,6 +32,7 @@ from stable_baselines3.common.vec_env import (
 
 import contour_gym  # noqa: F401
 from agents.rl.config import algo_class, load_config
+from agents.rl.train import flattens
 from agents.rl.vec_env import make_native_vec_env
 
 
@@ -52,11 +54,15 @@ class StepTimer(VecEnvWrapper):
 
 
 def build(backend: str, config: Any, seed: int) -> tuple[Any, StepTimer]:
-    n, kwargs = config.n_envs, config.env_kwargs
+    n, kwargs, flat = config.n_envs, config.env_kwargs, flattens(config)
     if backend == "native":
-        base: Any = make_native_vec_env(config.env_id, n, **kwargs)
+        base: Any = make_native_vec_env(config.env_id, n, flatten=flat, **kwargs)
     else:
-        base = DummyVecEnv([lambda: gym.make(config.env_id, **kwargs) for _ in range(n)])
+        def single() -> gym.Env[Any, Any]:
+            env = gym.make(config.env_id, **kwargs)
+            return gym.wrappers.FlattenObservation(env) if flat else env
+
+        base = DummyVecEnv([single for _ in range(n)])
     timer = StepTimer(base)
     venv: Any = VecMonitor(timer)
     if config.normalize is not None:

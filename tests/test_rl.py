@@ -80,6 +80,57 @@ def test_adapter_equals_dummy_vec_env_of_single_envs(env_id, kwargs, steps):
     dummy.close()
 
 
+def test_flattened_adapter_equals_flatten_observation_of_single_envs():
+    """flatten=True: the Box of gymnasium's FlattenObservation on each single env, bit for bit."""
+    n, kwargs = 3, {"decision_ticks": 250, "randomize": True}
+    native = make_native_vec_env(CCC, n, flatten=True, **kwargs)
+    dummy = DummyVecEnv([lambda: gym.wrappers.FlattenObservation(gym.make(CCC, **kwargs))
+                         for _ in range(n)])  # fmt: skip
+    assert native.observation_space == dummy.observation_space
+    for venv in (native, dummy):
+        venv.seed(5)
+    np.testing.assert_array_equal(native.reset(), dummy.reset())
+    rng, ends = np.random.default_rng(1), 0
+    for _ in range(30):
+        action = rng.uniform(-1, 1, (n, 3)).astype(np.float32)
+        obs_a, rew_a, done_a, infos_a = native.step(action)
+        obs_d, rew_d, done_d, infos_d = dummy.step(action)
+        assert obs_a.dtype == obs_d.dtype == np.float32
+        np.testing.assert_array_equal(obs_a, obs_d)
+        np.testing.assert_array_equal(rew_a, rew_d)
+        np.testing.assert_array_equal(done_a, done_d)
+        for i in np.flatnonzero(done_d):
+            ends += 1
+            np.testing.assert_array_equal(infos_a[i]["terminal_observation"],
+                                          infos_d[i]["terminal_observation"])  # fmt: skip
+    assert ends >= n
+
+
+def test_only_flatten_observation_is_a_native_env_wrapper(tmp_path):
+    with pytest.raises(ValueError, match="env_wrapper.*FlattenObservation"):
+        _tiny(tmp_path, env_wrapper="gymnasium.wrappers.TimeAwareObservation")
+
+
+def test_a_flat_agent_acts_on_dict_observations(tmp_path):
+    """An agent trained on the flattened Dict (the shipped configs) takes the env's Dict."""
+    run = _tiny(tmp_path, steps=128)
+    agent = SavedAgent(export_agent(run, tmp_path / "flat_agent", "test"))
+    assert agent.model.observation_space.shape == (14,)
+    venv = gym.make_vec(CCC, num_envs=2, vectorization_mode="vector_entry_point",
+                        decision_ticks=50)  # fmt: skip
+    agent.reset(venv)
+    obs, _ = venv.reset(seed=0)
+    batch, _ = agent.predict(obs)
+    single, _ = agent.predict({k: v[1] for k, v in obs.items()})
+    assert batch.shape == (2, 3) and single.shape == (3,)
+    # torch's matrix products may round differently for 1 and 2 rows (float32)
+    np.testing.assert_allclose(batch[1], single, rtol=1e-6, atol=1e-9)
+    with pytest.raises(ValueError, match="flat Box of 14"):
+        agent.predict({k: v[:, :1] for k, v in obs.items()})
+    with pytest.raises(ValueError, match="does not fit"):
+        agent.reset(gym.make("contour_gym/Feedrate-Corner-v0"))
+
+
 def test_adapter_full_info_equals_dummy_infos():
     native = make_native_vec_env(CCC, 2, full_info=True, decision_ticks=250)
     dummy = DummyVecEnv([lambda: gym.make(CCC, decision_ticks=250) for _ in range(2)])
@@ -139,7 +190,7 @@ def test_interrupt_saves_and_resume_continues_the_step_count(tmp_path, monkeypat
     assert restored.num_timesteps == saved.num_timesteps == 128
     # SB3 stores a step's transitions after the callbacks: the checkpoint's step is not in it
     assert restored.replay_buffer.size() == 128 // 4 - 1
-    stats = restored.get_vec_normalize_env().obs_rms["contour_error"]
+    stats = restored.get_vec_normalize_env().obs_rms  # one flat Box (FlattenObservation)
     assert stats.count > 128  # the saved statistics, not a fresh start (count 1e-4)
 
     monkeypatch.setattr(rl_train.EvalCurve, "evaluate", evaluate)
@@ -187,7 +238,8 @@ def test_unknown_algo_and_env_id_are_rejected(tmp_path):
 def test_shipped_configs_cover_every_id_and_the_agent_list_loads(algo):
     for env_id in ENV_IDS:
         config = load_config(algo, env_id)
-        assert config.normalize is not None and config.block["policy"] == "MultiInputPolicy"
+        assert config.normalize is not None and config.block["policy"] == "MlpPolicy"
+        assert rl_train.flattens(config)  # env_wrapper FlattenObservation
     for entry in load_shipped().values():
         load_config(entry["algo"], entry["env_id"])
 
@@ -239,7 +291,7 @@ def test_saved_agent_registers_by_name(agent_dir):
 
 def test_saved_agent_on_an_env_it_does_not_fit_names_both_shapes(agent_dir):
     agent = SavedAgent(agent_dir)
-    with pytest.raises(ValueError, match=r"'gains': \(3,\).*'feedrate': \(2,\)"):
+    with pytest.raises(ValueError, match=r"flat Box of 14.*'feedrate': \(2,\)"):
         agent.reset(gym.make("contour_gym/Feedrate-Corner-v0"))
     with pytest.raises(ValueError, match="observes"):
         agent.predict({"feedrate": np.zeros(2)})

@@ -30,9 +30,9 @@ from typing import Any
 
 import numpy as np
 import yaml
-from numpy.typing import NDArray
 
 from agents.policies import POLICIES, Actions, Observation, Policy, batch_size, register_policy
+from agents.rl.observation import flatten_obs
 
 TRAINED_DIR = Path(__file__).resolve().parent.parent / "trained"
 TRAINING_ONLY = ("randomize",)  # env kwargs that vary the training, not the agent's interface
@@ -65,6 +65,12 @@ class SB3Policy(Policy):
         self.model, self.normalizer, self.label = model, normalizer, label
         self.deterministic = deterministic
         self._env_kwargs = {k: v for k, v in (env_kwargs or {}).items() if k not in TRAINING_ONLY}
+        space = model.observation_space
+        # trained on the flattened Dict (env_wrapper FlattenObservation): a Box
+        self._flat = not isinstance(getattr(space, "spaces", None), Mapping)
+        self._flat_size = int(np.prod(space.shape)) if self._flat else 0
+        self._shapes = {} if self._flat else space_shapes(space)
+        self._keys: tuple[str, ...] | None = None  # the env's Dict order (sorted until reset)
 
     @property
     def env_kwargs(self) -> dict[str, Any]:
@@ -82,10 +88,15 @@ class SB3Policy(Policy):
             return
         obs_space = getattr(env, "single_observation_space", env.observation_space)
         act_space = getattr(env, "single_action_space", env.action_space)
-        mine, theirs = space_shapes(self.model.observation_space), space_shapes(obs_space)
-        if mine != theirs:
-            raise ValueError(f"agent {self.label!r} observes {mine}, which does not fit the "
-                             f"env's observation space {theirs}")  # fmt: skip
+        theirs = space_shapes(obs_space)
+        if self._flat:
+            self._keys = tuple(theirs)
+            fits = flat_size(theirs) == self._flat_size
+        else:
+            fits = space_shapes(self.model.observation_space) == theirs
+        if not fits:
+            raise ValueError(f"agent {self.label!r} observes {self._observes()}, which does not "
+                             f"fit the env's observation space {theirs}")  # fmt: skip
         if self.model.action_space.shape != act_space.shape:
             raise ValueError(f"agent {self.label!r} acts with shape {self.model.action_space.shape}"
                              f", the env with {act_space.shape}")  # fmt: skip
@@ -108,25 +119,42 @@ class SB3Policy(Policy):
         Raises:
             ValueError: for an observation whose keys or shapes differ from the agent's.
         """
-        shapes = space_shapes(self.model.observation_space)
-        if not isinstance(obs, Mapping) or set(obs) != set(shapes):
+        if not isinstance(obs, Mapping) or (not self._flat and set(obs) != set(self._shapes)):
             got = sorted(obs) if isinstance(obs, Mapping) else type(obs).__name__
-            raise ValueError(f"agent {self.label!r} observes {shapes}, got {got}")
+            raise ValueError(f"agent {self.label!r} observes {self._observes()}, got {got}")
         given = {k: np.shape(v) for k, v in obs.items()}
-        single = all(given[k] == shapes[k] for k in shapes)
-        if not single and any(given[k][1:] != shapes[k] for k in shapes):
-            raise ValueError(f"agent {self.label!r} observes {shapes} (or a batch), got {given}")
+        if self._flat:  # a Dict of 1-D values (one observation), or of (B, ...) values
+            single = all(len(g) <= 1 for g in given.values())
+            size = flat_size(given if single else {k: g[1:] for k, g in given.items()})
+            fits = size == self._flat_size and (single or len({g[0] for g in given.values()}) == 1)
+        else:
+            shapes = self._shapes
+            single = all(given[k] == shapes[k] for k in shapes)
+            fits = single or all(given[k][1:] == shapes[k] for k in shapes)
+        if not fits:
+            raise ValueError(f"agent {self.label!r} observes {self._observes()} (or a batch), "
+                             f"got {given}")  # fmt: skip
         batch = {k: np.asarray(v)[None] for k, v in obs.items()} if single else dict(obs)
         actions, _ = self.model.predict(self._normalized(batch), deterministic=deterministic)
         actions = np.asarray(actions, dtype=np.float64)
         return (actions[0] if single else actions), state
 
-    def _normalized(self, obs: Observation) -> dict[str, NDArray[Any]]:
-        arrays = {k: np.asarray(v, dtype=np.float32) for k, v in obs.items()}
+    def _normalized(self, obs: Observation) -> Any:
+        arrays: Any = {k: np.asarray(v, dtype=np.float32) for k, v in obs.items()}
+        if self._flat:  # the Dict's values in its key order, as FlattenObservation gives them
+            keys = self._keys or tuple(sorted(arrays))
+            arrays = flatten_obs(arrays, keys, len(next(iter(arrays.values()))))
         if self.normalizer is None:
             return arrays
-        out: dict[str, NDArray[Any]] = self.normalizer.normalize_obs(arrays)
-        return out
+        return self.normalizer.normalize_obs(arrays)
+
+    def _observes(self) -> Any:
+        return f"a flat Box of {self._flat_size}" if self._flat else self._shapes
+
+
+def flat_size(shapes: Mapping[str, tuple[int, ...]]) -> int:
+    """Length of a Dict observation of ``shapes`` flattened."""
+    return int(sum(np.prod(s, dtype=np.int64) for s in shapes.values()))
 
 
 def space_shapes(space: Any) -> dict[str, tuple[int, ...]]:

@@ -166,18 +166,17 @@ def make_training_env(config: RunConfig, seed: int, venv_stats: Path | None = No
         venv_stats: Saved VecNormalize statistics to continue from.
 
     Raises:
-        ValueError: for a config with an ``env_wrapper`` (single-env wrappers do not apply to
-            the native vector env; rl-zoo's trainer applies them).
+        ValueError: for a config with an ``env_wrapper`` other than ``FlattenObservation``
+            (single-env wrappers do not apply to the native vector env, which flattens by
+            itself; rl-zoo's trainer applies them).
     """
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     from agents.rl.vec_env import make_native_vec_env
 
-    if config.block.get("env_wrapper") is not None:
-        raise ValueError(f"{config.source}: {config.env_id}: env_wrapper: contour-gym trains on "
-                         "the native vector env, which takes no single-env wrapper (rl_zoo3 "
-                         "does); set it to null")  # fmt: skip
-    venv: Any = VecMonitor(make_native_vec_env(config.env_id, config.n_envs, **config.env_kwargs))
+    native = make_native_vec_env(config.env_id, config.n_envs, flatten=flattens(config),
+                                 **config.env_kwargs)  # fmt: skip
+    venv: Any = VecMonitor(native)
     venv.seed(seed)
     normalize = config.normalize
     if venv_stats is not None:
@@ -186,6 +185,23 @@ def make_training_env(config: RunConfig, seed: int, venv_stats: Path | None = No
     elif normalize is not None:
         venv = VecNormalize(venv, **normalize)
     return venv
+
+
+def flattens(config: RunConfig) -> bool:
+    """Whether the config's ``env_wrapper`` is :data:`~agents.rl.vec_env.FLATTEN_WRAPPER`.
+
+    Raises:
+        ValueError: for any other wrapper, naming the config file and the env id.
+    """
+    from agents.rl.observation import FLATTEN_WRAPPER
+
+    wrapper = config.block.get("env_wrapper")
+    if wrapper is None or wrapper == FLATTEN_WRAPPER:
+        return wrapper is not None
+    raise ValueError(f"{config.source}: {config.env_id}: env_wrapper: contour-gym trains on the "
+                     f"native vector env, which flattens the observation itself "
+                     f"({FLATTEN_WRAPPER}) and takes no other single-env wrapper (rl_zoo3 "
+                     f"does); got {wrapper!r}")  # fmt: skip
 
 
 def _n_actions(venv: Any) -> int:
