@@ -7,9 +7,9 @@ from the same file)::
     contour_gym/CCC-Circle-v0:
       n_envs: 16                      # members of the vector env
       n_timesteps: 200000             # env steps (over all members)
-      policy: MultiInputPolicy        # the envs observe a Dict
+      policy: MlpPolicy               # on the flattened Dict observation
       normalize: true                 # VecNormalize: true, false or its kwargs as a mapping
-      env_wrapper: null               # rl-zoo's single-env wrapper (none here)
+      env_wrapper: gymnasium.wrappers.FlattenObservation  # or null (MultiInputPolicy)
       env_kwargs: {decision_ticks: 10}
       policy_kwargs: {net_arch: [64, 64]}
       n_steps: 256                    # ... and the algorithm's constructor arguments
