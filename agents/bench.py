@@ -46,7 +46,7 @@ import os
 import sys
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any, cast
 
@@ -61,7 +61,7 @@ from contour_gym.envs.core import FEEDRATE
 from contour_gym.loop import Trace
 
 DEFAULT_RUNS = Path("runs") / "bench"
-TRACE_FIELDS = ("t", "s", "v", "r", "x", "u", "eps", "eps_est")
+TRACE_FIELDS = tuple(f.name for f in fields(Trace))  # what a cell's .npz holds
 UM = 1e6
 
 

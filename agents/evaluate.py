@@ -15,6 +15,7 @@ that needs the same env arguments) or keeps a member's per-tick trace.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import fields
 from typing import Any, cast
 
 import gymnasium as gym
@@ -177,8 +178,7 @@ def _member_trace(trace: Trace, b: int, start: int, ticks: int) -> Trace:
     rows = slice(start, start + ticks)
     return Trace(
         t=trace.t[rows] - trace.t[start] if ticks else trace.t[rows],
-        **{name: getattr(trace, name)[b : b + 1, rows]
-           for name in ("s", "v", "r", "x", "u", "eps", "eps_est")},
+        **{f.name: getattr(trace, f.name)[b : b + 1, rows] for f in fields(Trace)[1:]},
     )  # fmt: skip
 
 

@@ -377,7 +377,7 @@ class ContourTask:
         """Info of member ``b`` after a step or reset (SI units; see the env docstrings)."""
         out = self._step_info(b)
         if ended:
-            out["metrics"] = {k: _member(val, b) for k, val in self._end_metrics().items()}
+            out["metrics"] = {k: _python(val[b]) for k, val in self._end_metrics().items()}
         return out
 
     def batch_info(self, ended: NDArray[np.bool_]) -> dict[str, Any]:
@@ -395,30 +395,15 @@ class ContourTask:
         return info
 
 
-def _member(value: Any, b: int) -> Any:
+def _python(value: Any) -> Any:
+    # one member's value(s): numpy scalars as Python floats and bools, arrays copied
     if isinstance(value, dict):
-        return {k: _member(v, b) for k, v in value.items()}
-    item = value[b]
-    if isinstance(item, np.ndarray):
-        return item.copy()
-    if isinstance(item, np.bool_):
-        return bool(item)
-    return float(item)
-
-
-def _python(values: dict[str, Any]) -> dict[str, Any]:
-    # one member's values: numpy scalars as Python floats and bools, arrays as they are
-    out: dict[str, Any] = {}
-    for key, val in values.items():
-        if isinstance(val, dict):
-            out[key] = _python(val)
-        elif isinstance(val, np.bool_):
-            out[key] = bool(val)
-        elif isinstance(val, np.ndarray) and val.ndim > 0:
-            out[key] = val
-        else:
-            out[key] = float(val)
-    return out
+        return {k: _python(v) for k, v in value.items()}
+    if isinstance(value, np.ndarray) and value.ndim > 0:
+        return value.copy()
+    if isinstance(value, np.bool_):
+        return bool(value)
+    return float(value)
 
 
 def _masked(values: dict[str, Any], mask: NDArray[np.bool_]) -> dict[str, Any]:
