@@ -45,10 +45,11 @@ for eq. 15. 000 tunes each path on its own; ``"000"`` tunes one set of factors o
 of its paths (the mean of the three eq.-15 values), and ``"000_circle"``, ``"000_infinity"``,
 ``"000_trident"`` tune one path each, as 000 does.
 
-Measured on this project's 2-core machine (shared with other jobs; seed 0, 50 x 101
-candidates, rig): ``000_circle`` (5050 episodes of the 2 s circle at 1 kHz, fuzzy PID every
-tick) searches in 6.2-8.7 s (9.4-12 s for the whole ``contour-gym tune 000_circle``
-command; the issue's target is 15 s); ``000`` (all three paths, 15150 episodes) in 98-151 s.
+Measured on this project's 2-core machine (seed 0, 50 x 101 candidates, rig):
+``000_circle`` (5050 episodes of the 2 s circle at 1 kHz, fuzzy PID every tick) searches in
+4.0 s on two threads (``benchmarks/paper_tables.py``, quiet machine; the issue's target is
+15 s); before the tuner ran on threads, 6.2-8.7 s on a machine shared with other jobs, and
+``000`` (all three paths, 15150 episodes) 98-151 s.
 ``000`` reaches 1.283 um (circle 0.919, "infinity" 1.083, trident 1.848 um; the law's
 defaults give 1.92, 2.42, 6.74 um), with ``k_pf`` at the top of its box. Standard PSO against
 improved PSO on ``000_circle``, seeds 0-9: median best 0.388 against 0.390 um (ranges
@@ -71,21 +72,20 @@ some n samples it does not give, and the short window makes the protocol ten tim
 003 starts its colony at random (eq. 22), and so does this protocol.
 
 Measured on this project's 2-core machine (quiet; seed 0, 40 x 201 candidates, rig): the
-search takes 19-23 s on two threads (34 s on one; ``workers``), against the issue's 15 s
-(it took 93 s before three changes: harmonic ripple by recurrence, 2 sine calls per axis and
-substep instead of 12; the angle estimator's history scan no longer evaluates the path where
-the reference rests; and a candidate past the hard limit stops on that tick, in the kernel,
-:func:`_run_to_end`). Every candidate simulates 2 x ~2400 servo ticks at 0.5 ms (the 1 s
-windows plus getting in position), about 20 M member-ticks in all (more than half the
-candidates fail and stop early), at 0.87 M/s on the circle and 0.53 M/s on the three-leaf
-per thread, through two-dof-PID axes, Stribeck friction, six ripple harmonics and the rig's
-encoder, noise and delay each tick; the three-leaf's 868 segments make its foot-point
-searches the dearest part. Seed 0 reaches 573.7 um (circle 539.6, three-leaf 607.7) against
-1114 um for 003's hand-tuned point (1017, 1211); the three changes leave the search's path
-and its result unchanged (same parameters, fitness equal to 1e-18 m).
-Standard ABC against improved ABC over seeds: ``benchmarks/paper_tables.py`` (measured
-before the in-position speed fix, seeds 0-2: median 577.3 against 574.3 um, IABC ahead by
-0.5 %, within the spread of the seeds).
+search takes 19-23 s on two threads (34 s on one; ``workers``), against the issue's 15 s. It
+took 93 s before three changes: the ripple's harmonics by recurrence (2 sine calls per axis
+and substep instead of 12); the angle estimator's history scan no longer evaluates the path
+where the reference rests; and a candidate past the hard limit stops on that tick, in the
+kernel (:meth:`ServoLoop.run`'s ``stop_above``). Every candidate simulates 2 x ~2400 servo
+ticks at 0.5 ms (the 1 s windows plus getting in position), about 20 M member-ticks in all
+(more than half the candidates fail and stop early), at 0.87 M/s on the circle and 0.53 M/s
+on the three-leaf per thread, through two-dof-PID axes, Stribeck friction, six ripple
+harmonics and the rig's encoder, noise and delay each tick; the three-leaf's 868 segments
+make its foot-point searches the dearest part. Seed 0 reaches 573.7 um (circle 539.6,
+three-leaf 607.7) against 1114 um for 003's hand-tuned point (1017, 1211); the changes leave
+the search's path and its result unchanged (same parameters, fitness equal within 1e-18 m).
+Standard ABC against improved ABC over seeds 0-9 (``benchmarks/paper_tables.py``): median
+580.9 against 583.4 um, ABC ahead by 0.4 %: even, not the gain 003 reports.
 What the parameters do to 003's P_eps and P_e, and 003's claims: :mod:`agents.ccc_policies`.
 """
 
@@ -660,7 +660,11 @@ class PopulationObjective:
         self._set(loop, self.protocol.names, x)
         # every member from the same seed: a candidate's result is its own (loop docstring)
         loop.reset([self.protocol.episode_seed] * x.shape[0])
-        metrics = _run_to_end(loop, case.hard_limit)
+        # a member past the hard limit stops on that tick, in the kernel: it fails whatever it
+        # does next, and a diverging candidate's ticks are the slowest (its error widens every
+        # foot-point search); stopping it there, not at the end of a 256-tick call, took
+        # protocol 003 on one thread from 63 s to 34 s
+        metrics = loop.run(stop_above=case.hard_limit)
         f = self._fitness(metrics)
         failed = ~loop.done | ~np.isfinite(f) | ~(metrics["max_contour_error"] <= case.hard_limit)
         return f, failed | ~(f < self.penalty)
@@ -672,19 +676,6 @@ def available_cpus() -> int:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
         return os.cpu_count() or 1
-
-
-CHUNK_TICKS = 2048  # ticks per kernel call of _run_to_end
-
-
-def _run_to_end(loop: ServoLoop, hard_limit: float) -> dict[str, FloatArray]:
-    """:meth:`ServoLoop.run` with a member past ``hard_limit`` stopped on that tick.
-
-    Stopping changes no result (such a member fails whatever it does next): a diverging
-    candidate's ticks are the slowest (its error widens every foot-point search), and stopping
-    it in the kernel, not at the end of a call, made protocol 003 twice as fast.
-    """
-    return loop.run(chunk=CHUNK_TICKS, stop_above=hard_limit)
 
 
 def combine(per_case: ArrayLike, failed: ArrayLike, penalty: float) -> FloatArray:

@@ -53,7 +53,8 @@ def ripple_force(rip, i, nrip, harmonic, x):
 
     With ``harmonic`` (the wavenumbers are ``j w_1``, :attr:`Ripple.harmonic`) the harmonics
     come from one sine and cosine by the angle-addition recurrence: 2 calls instead of
-    ``2 nrip``, equal to the direct sum within a few ulp.
+    ``2 nrip``, within 3e-12 of the direct sum for unit amplitudes (tested over the gantry's
+    six harmonics).
     """
     if harmonic:
         s1 = math.sin(rip[i, 0, 2] * x)

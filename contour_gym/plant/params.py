@@ -51,9 +51,11 @@ class Ripple:
 
     @property
     def harmonic(self) -> bool:
-        """Whether the wavenumbers are the harmonics ``j w_1`` (to 1e-12), as in 003 eq. 6.
+        """Whether the wavenumbers are the harmonics ``j w_1`` (to 1e-12 relative).
 
-        The kernel then evaluates the series from one sine and cosine (a recurrence).
+        003's eqs. 5-6 name six frequencies ``w_j`` without relating them; harmonics of one
+        magnet pole pitch are this library's choice for the ``xyy_gantry`` preset. For
+        harmonics the kernel evaluates the series from one sine and cosine (a recurrence).
         """
         w = np.asarray(self.wavenumber, dtype=np.float64)
         j = np.arange(1, len(w) + 1)
