@@ -552,8 +552,9 @@ class PopulationObjective:
     """A protocol's batch objective: ``(n, D)`` search coordinates -> ``(n,)`` fitness, m.
 
     The scenarios, and slices of the population, run as separate batches on ``workers``
-    threads (the servo loop's kernel releases the GIL); every candidate's result is the same
-    for any number of workers (its run depends on its own parameters and seed only).
+    threads (the servo loop's kernel releases the GIL), the scenario that has taken the most
+    time so far first; every candidate's result is the same for any number of workers and in
+    any order (its run depends on its own parameters and seed only).
 
     Args:
         protocol: The protocol (or its name).
@@ -585,6 +586,7 @@ class PopulationObjective:
         self._fitness = FITNESSES[self.protocol.fitness]
         self._loops: dict[tuple[int, int], list[ServoLoop]] = {}
         self._lock = threading.Lock()
+        self._cost = [0.0] * len(self.cases)  # seconds spent on each scenario so far
 
     def __call__(self, z: FloatArray, /) -> FloatArray:
         """Fitness of each row of ``z`` (search coordinates; see :meth:`Protocol.to_params`)."""
@@ -618,14 +620,20 @@ class PopulationObjective:
             raise ValueError(f"params must have shape (n, {d}), got {x.shape}")
         n = x.shape[0]
         fit, failed = np.empty((len(self.cases), n)), np.empty((len(self.cases), n), dtype=bool)
-        # work units: each scenario on slices of the population, enough to keep every worker busy
+        # work units: each scenario on slices of the population, enough to keep every worker
+        # busy; the dearest scenario's first (longest first: the last unit to start is a cheap
+        # one, so the workers finish close together)
         slices = np.array_split(np.arange(n), min(n, self.workers))
-        units = [(i, j, rows) for i in range(len(self.cases)) for j, rows in enumerate(slices)]
+        cases = sorted(range(len(self.cases)), key=lambda i: -self._cost[i])
+        units = [(i, j, rows) for i in cases for j, rows in enumerate(slices)]
 
         def run(unit: tuple[int, int, NDArray[np.intp]]) -> None:
             i, j, rows = unit
             loop = self._loops_for(len(rows), j)[i]
+            start = time.perf_counter()
             fit[i, rows], failed[i, rows] = self._run(self.cases[i], loop, x[rows])
+            with self._lock:
+                self._cost[i] += time.perf_counter() - start
 
         if self.workers == 1 or len(units) == 1:
             for unit in units:
