@@ -72,7 +72,11 @@ some n samples it does not give, and the short window makes the protocol ten tim
 003 starts its colony at random (eq. 22), and so does this protocol.
 
 Measured on this project's 2-core machine (quiet; seed 0, 40 x 201 candidates, rig): the
-search takes 19-23 s on two threads (34 s on one; ``workers``), against the issue's 15 s. It
+search takes 18-20 s on two threads (32 s on one; ``workers``), against the issue's 15 s.
+Where the time goes (perf, per tick): on the three-leaf the exact foot-point searches take
+59 %, on the circle sine and cosine 25 % (the ripple, the reference and the estimator's
+path points); on two threads the units run 8 % slower than alone and the threads idle 8 %
+at the end of each generation (the optimiser needs every fitness before it goes on). It
 took 93 s before three changes: the ripple's harmonics by recurrence (2 sine calls per axis
 and substep instead of 12); the angle estimator's history scan no longer evaluates the path
 where the reference rests; and a candidate past the hard limit stops on that tick, in the
