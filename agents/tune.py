@@ -552,13 +552,20 @@ def _case(
     return _Case(env_id, scenario, (float(kp), float(ki), float(kd)), float(hard))
 
 
+MEMO_SIZE = 100_000  # candidates a PopulationObjective remembers (a few hundred bytes each)
+
+
 class PopulationObjective:
     """A protocol's batch objective: ``(n, D)`` search coordinates -> ``(n,)`` fitness, m.
 
     The scenarios, and slices of the population, run as separate batches on ``workers``
     threads (the servo loop's kernel releases the GIL), the scenario that has taken the most
     time so far first; every candidate's result is the same for any number of workers and in
-    any order (its run depends on its own parameters and seed only).
+    any order (its run depends on its own parameters and seed only). For the same reason a
+    candidate met before (the same parameters, bit for bit) is not simulated again: its
+    result is remembered (up to :data:`MEMO_SIZE` candidates). Optimisers propose repeats:
+    in protocol 003 improved ABC re-proposes a food source whenever a perturbation is
+    clipped back onto it, 14.5 % of its candidates and 12.8 % of its simulation time.
 
     Args:
         protocol: The protocol (or its name).
@@ -591,6 +598,8 @@ class PopulationObjective:
         self._loops: dict[tuple[int, int], list[ServoLoop]] = {}
         self._lock = threading.Lock()
         self._cost = [0.0] * len(self.cases)  # seconds spent on each scenario so far
+        # candidates met before: parameters (bytes) -> (fitness (S,), failed (S,))
+        self._memo: dict[bytes, tuple[FloatArray, NDArray[np.bool_]]] = {}
 
     def __call__(self, z: FloatArray, /) -> FloatArray:
         """Fitness of each row of ``z`` (search coordinates; see :meth:`Protocol.to_params`)."""
@@ -622,6 +631,24 @@ class PopulationObjective:
         d = len(self.protocol.params)
         if x.ndim != 2 or x.shape[1] != d or x.shape[0] < 1:
             raise ValueError(f"params must have shape (n, {d}), got {x.shape}")
+        keys = [row.tobytes() for row in x]
+        new: dict[bytes, int] = {}  # a candidate not met before -> its first row here
+        for r, key in enumerate(keys):
+            if key not in self._memo and key not in new:
+                new[key] = r
+        results: dict[bytes, tuple[FloatArray, NDArray[np.bool_]]] = {}
+        if new:
+            fit, failed = self._simulate(x[np.fromiter(new.values(), dtype=np.intp)])
+            results = {key: (fit[:, c].copy(), failed[:, c].copy()) for c, key in enumerate(new)}
+            for key, value in results.items():
+                if len(self._memo) < MEMO_SIZE:
+                    self._memo[key] = value
+        cols = [results[key] if key in results else self._memo[key] for key in keys]
+        return (np.stack([c[0] for c in cols], axis=1),
+                np.stack([c[1] for c in cols], axis=1))  # fmt: skip
+
+    def _simulate(self, x: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
+        """:meth:`evaluate` without the memo: every row of ``x`` is simulated."""
         n = x.shape[0]
         fit, failed = np.empty((len(self.cases), n)), np.empty((len(self.cases), n), dtype=bool)
         # work units: each scenario on slices of the population, enough to keep every worker

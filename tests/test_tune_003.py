@@ -131,6 +131,35 @@ def test_threads_change_no_result() -> None:
         PopulationObjective("003", workers=0)
 
 
+def test_a_candidate_met_before_is_not_simulated_again() -> None:
+    """Repeats (within a batch and across calls) run once and get the simulated result."""
+    p = get_protocol(CIRCLE_003)
+    rng = np.random.default_rng(5)
+    x = p.to_params(p.to_search(_hand()[None]) + rng.normal(0.0, 0.2, (3, len(p.names))))
+    objective = PopulationObjective(CIRCLE_003, workers=1)
+    simulated: list[np.ndarray] = []
+    run = objective._run
+
+    def counting(case, loop, rows):  # type: ignore[no-untyped-def]
+        simulated.append(rows.copy())
+        return run(case, loop, rows)
+
+    objective._run = counting  # type: ignore[method-assign]
+    fit, failed = objective.evaluate(x[[0, 1, 0, 2, 1]])
+    assert sum(len(r) for r in simulated) == 3  # each distinct candidate once
+    fresh = PopulationObjective(CIRCLE_003, workers=1).evaluate(x)
+    np.testing.assert_array_equal(fit, fresh[0][:, [0, 1, 0, 2, 1]])
+    np.testing.assert_array_equal(failed, fresh[1][:, [0, 1, 0, 2, 1]])
+    simulated.clear()
+    again = objective.evaluate(x[[2, 0]])
+    assert simulated == []  # all met before
+    np.testing.assert_array_equal(again[0], fresh[0][:, [2, 0]])
+    moved = x[:1].copy()
+    moved[0, 0] = np.nextafter(moved[0, 0], np.inf)  # one ulp away: a new candidate
+    objective.evaluate(moved)
+    assert len(simulated) == 1
+
+
 def test_run_stops_a_member_past_the_limit_on_that_tick() -> None:
     """stop_above: the member fails (reason 3) on the first tick its max error passes it."""
     from contour_gym._loopstate import REASON_OVER_LIMIT, M
