@@ -677,35 +677,47 @@ class PopulationObjective:
     def metrics(self, params: ArrayLike) -> list[dict[str, FloatArray]]:
         """Every scenario's full loop metrics for each candidate (``(n,)`` arrays, SI)."""
         x = np.atleast_2d(np.asarray(params, dtype=np.float64))
+        n = x.shape[0]
         out = []
-        for case, loop in zip(self.cases, self._loops_for(x.shape[0]), strict=True):
+        for case, loop in zip(self.cases, self._loops_for(n), strict=True):
             self._run(case, loop, x)
-            out.append({**loop.metrics(), "failed": loop.failed.astype(float),
-                        "finished": loop.done.astype(float)})  # fmt: skip
+            out.append({**{k: v[:n] for k, v in loop.metrics().items()},
+                        "failed": loop.failed[:n].astype(float),
+                        "finished": loop.done[:n].astype(float)})  # fmt: skip
         return out
 
     def _loops_for(self, n: int, part: int = 0) -> list[ServoLoop]:
-        """Each scenario's loop of ``n`` members for slice ``part`` (one per thread)."""
+        """Each scenario's loop for ``n`` candidates of slice ``part`` (one per thread).
+
+        A loop holds the next power of two of members (the memo leaves batches of any size;
+        building a loop takes ~40 ms); :meth:`_run` runs as many as it has candidates.
+        """
+        size = 1 << max(n - 1, 0).bit_length()
         with self._lock:
-            if (n, part) not in self._loops:
-                self._loops[n, part] = [
-                    c.scenario.loop(batch_size=n, ccc_gains=c.base_gains) for c in self.cases
+            if (size, part) not in self._loops:
+                self._loops[size, part] = [
+                    c.scenario.loop(batch_size=size, ccc_gains=c.base_gains) for c in self.cases
                 ]
-            return self._loops[n, part]
+            return self._loops[size, part]
 
     def _run(
         self, case: _Case, loop: ServoLoop, x: FloatArray
     ) -> tuple[FloatArray, NDArray[np.bool_]]:
+        n, size = x.shape[0], loop.batch_size
+        if n < size:  # the spare members get the last candidate's values and sit out
+            x = np.concatenate([x, np.repeat(x[-1:], size - n, axis=0)])
         self._set(loop, self.protocol.names, x)
         # every member from the same seed: a candidate's result is its own (loop docstring)
-        loop.reset([self.protocol.episode_seed] * x.shape[0])
+        loop.reset([self.protocol.episode_seed] * size)
         # a member past the hard limit stops on that tick, in the kernel: it fails whatever it
         # does next, and a diverging candidate's ticks are the slowest (its error widens every
         # foot-point search); stopping it there, not at the end of a 256-tick call, took
         # protocol 003 on one thread from 63 s to 34 s
-        metrics = loop.run(stop_above=case.hard_limit)
+        run = loop.run(stop_above=case.hard_limit, members=np.arange(n) if n < size else None)
+        metrics = {k: v[:n] for k, v in run.items()}
         f = self._fitness(metrics)
-        failed = ~loop.done | ~np.isfinite(f) | ~(metrics["max_contour_error"] <= case.hard_limit)
+        failed = (~loop.done[:n] | ~np.isfinite(f)
+                  | ~(metrics["max_contour_error"] <= case.hard_limit))  # fmt: skip
         return f, failed | ~(f < self.penalty)
 
 

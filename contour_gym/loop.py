@@ -719,7 +719,11 @@ class ServoLoop:
         return move + dwell + stops + self.opts.settle_time
 
     def run(
-        self, max_time: float | None = None, chunk: int = 2048, stop_above: float | None = None
+        self,
+        max_time: float | None = None,
+        chunk: int = 2048,
+        stop_above: float | None = None,
+        members: ArrayLike | None = None,
     ) -> dict[str, Array]:
         """Run until every member has finished the contour (or failed), then return metrics.
 
@@ -731,6 +735,9 @@ class ServoLoop:
                 that tick and fails (:attr:`failure_reason` 3): it has failed whatever it
                 would do next (the max never falls), so a tuner saves simulating it. Its
                 metrics keep the errors measured until then.
+            members: Indices or mask of the members that run (default: all); the others sit
+                the run out as with :meth:`step`'s ``skip`` (a tuner running fewer
+                candidates than its loop holds).
 
         Returns:
             :func:`contour_gym.metrics.metrics_from_sums` of the whole run, with failed
@@ -742,10 +749,15 @@ class ServoLoop:
         _compile.notice_first_compile(self.kernel, "servo loop")
         if stop_above is not None and not stop_above >= 0.0:
             raise ValueError(f"stop_above must be a non-negative number, got {stop_above!r}")
+        active = np.ones(self.batch_size, dtype=bool)
+        if members is not None:
+            active[:] = False
+            active[np.asarray(members)] = True
+        skip = None if members is None else ~active
         self._config[CF.stop_above] = math.inf if stop_above is None else stop_above
         try:
-            while self.tick < limit and np.any(self.running):
-                self.step(min(chunk, limit - self.tick))
+            while self.tick < limit and np.any(self.running & active):
+                self.step(min(chunk, limit - self.tick), skip)
         finally:
             self._config[CF.stop_above] = math.inf
         return self.metrics()

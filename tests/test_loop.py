@@ -156,6 +156,23 @@ def test_resetting_some_members_matches_fresh_single_loops():
     assert np.array_equal(loop.ax_s[2], untouched.ax_s[0])
 
 
+def test_run_of_some_members_leaves_the_others_and_equals_a_loop_of_those():
+    sc = noisy_scenario()
+    gains = sc.preset.ccc_gains.as_tuple()
+    loop = sc.loop(batch_size=3, ccc_gains=gains)
+    loop.reset([4, 5, 6])
+    start = loop.ax_s.copy()
+    m = loop.run(members=[0, 2])
+    alone = sc.loop(batch_size=1, ccc_gains=gains)
+    alone.reset([6])
+    ma = alone.run()
+    assert loop.done[0] and loop.done[2] and loop.running[1]  # member 1 sat the run out
+    assert np.array_equal(loop.ax_s[1], start[1])
+    assert np.array_equal(loop.ax_s[2], alone.ax_s[0])
+    assert m["rms_contour_error"][2] == ma["rms_contour_error"][0]
+    assert loop.cycle_time[2] == alone.cycle_time[0]
+
+
 def test_plant_scaling_changes_only_the_scaled_member():
     sc = make_scenario("xy_servo_coulomb")
     loop = sc.loop(batch_size=2)
