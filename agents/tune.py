@@ -101,6 +101,7 @@ import os
 import shlex
 import threading
 import time
+import weakref
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -553,6 +554,7 @@ def _case(
 
 
 MEMO_SIZE = 100_000  # candidates a PopulationObjective remembers (a few hundred bytes each)
+RECENT = 400  # recent candidates a PopulationObjective predicts the work of new ones from
 
 
 class PopulationObjective:
@@ -595,9 +597,15 @@ class PopulationObjective:
                                                  for c in self.cases)  # fmt: skip
         self._set = SETTERS[proto.setter]
         self._fitness = FITNESSES[self.protocol.fitness]
-        self._loops: dict[tuple[int, int], list[ServoLoop]] = {}
+        self._loops: dict[int, list[ServoLoop]] = {}  # slice -> each scenario's loop
         self._lock = threading.Lock()
-        self._cost = [0.0] * len(self.cases)  # seconds spent on each scenario so far
+        # per scenario: seconds and member-ticks simulated so far, and candidates
+        self._cost, self._ticks = np.zeros(len(self.cases)), np.zeros(len(self.cases))
+        self._simulated = 0
+        self._recent_x = np.empty((RECENT, len(self.protocol.params)))
+        self._recent_ticks = np.empty((RECENT, len(self.cases)))
+        self._n_recent = 0
+        self._pool: ThreadPoolExecutor | None = None
         # candidates met before: parameters (bytes) -> (fitness (S,), failed (S,))
         self._memo: dict[bytes, tuple[FloatArray, NDArray[np.bool_]]] = {}
 
@@ -649,30 +657,76 @@ class PopulationObjective:
 
     def _simulate(self, x: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
         """:meth:`evaluate` without the memo: every row of ``x`` is simulated."""
-        n = x.shape[0]
-        fit, failed = np.empty((len(self.cases), n)), np.empty((len(self.cases), n), dtype=bool)
-        # work units: each scenario on slices of the population, enough to keep every worker
-        # busy; the dearest scenario's first (longest first: the last unit to start is a cheap
-        # one, so the workers finish close together)
-        slices = np.array_split(np.arange(n), min(n, self.workers))
-        cases = sorted(range(len(self.cases)), key=lambda i: -self._cost[i])
-        units = [(i, j, rows) for i in cases for j, rows in enumerate(slices)]
+        n, n_cases = x.shape[0], len(self.cases)
+        fit, failed = np.empty((n_cases, n)), np.empty((n_cases, n), dtype=bool)
+        ticks = np.empty((n_cases, n))
+        units = self._units(x)
 
         def run(unit: tuple[int, int, NDArray[np.intp]]) -> None:
             i, j, rows = unit
-            loop = self._loops_for(len(rows), j)[i]
+            loop = self._loops_for(n, j)[i]  # one size per batch: no loop built per slice
             start = time.perf_counter()
             fit[i, rows], failed[i, rows] = self._run(self.cases[i], loop, x[rows])
+            ticks[i, rows] = loop.ticks_run[: len(rows)]
             with self._lock:
                 self._cost[i] += time.perf_counter() - start
+                self._ticks[i] += ticks[i, rows].sum()
 
         if self.workers == 1 or len(units) == 1:
             for unit in units:
                 run(unit)
         else:
-            with ThreadPoolExecutor(max_workers=min(self.workers, len(units))) as pool:
-                list(pool.map(run, units))
+            list(self._thread_pool().map(run, units))
+        self._recall(x, ticks)
         return fit, failed
+
+    def _units(self, x: FloatArray) -> list[tuple[int, int, NDArray[np.intp]]]:
+        """Work units ``(scenario, slice, rows)``, dearest first, slices of equal predicted work.
+
+        A candidate's ticks are predicted from a recent candidate that differs from it in at
+        most one parameter (an ABC bee's food source; else the scenario's mean): a candidate
+        that fails in 100 ticks costs 25 times less than one that gets in position, and
+        slices of equal size came out unequal enough to leave a thread idle 11 % of the time.
+        Each scenario's candidates are dealt to ``workers`` slices, dearest first, each to
+        the slice with the least work so far; the units run longest first.
+        """
+        n, k = x.shape[0], min(x.shape[0], self.workers)
+        mean = np.maximum(self._ticks / max(self._simulated, 1), 1.0)  # 1: equal counts
+        pred = np.repeat(mean[:, None], n, axis=1)
+        m = min(self._n_recent, RECENT)
+        if m:
+            same = (x[:, None, :] == self._recent_x[None, :m]).sum(axis=2)
+            best = same.argmax(axis=1)
+            near = same[np.arange(n), best] >= x.shape[1] - 1
+            pred[:, near] = self._recent_ticks[best[near]].T
+        rate = self._cost / np.maximum(self._ticks, 1.0)  # seconds per member-tick
+        units = []
+        for i in range(len(self.cases)):
+            load = np.zeros(k)
+            slices: list[list[int]] = [[] for _ in range(k)]
+            for r in np.argsort(-pred[i], kind="stable"):
+                j = int(load.argmin())
+                slices[j].append(int(r))
+                load[j] += pred[i, r]
+            units += [(rate[i] * load[j], i, j, np.array(sorted(rows), dtype=np.intp))
+                      for j, rows in enumerate(slices) if rows]  # fmt: skip
+        units.sort(key=lambda u: -u[0])
+        return [(i, j, rows) for _, i, j, rows in units]
+
+    def _recall(self, x: FloatArray, ticks: FloatArray) -> None:
+        """Keep the last :data:`RECENT` candidates and their ticks for :meth:`_units`."""
+        for row, t in zip(x, ticks.T, strict=True):
+            slot = self._n_recent % RECENT
+            self._recent_x[slot], self._recent_ticks[slot] = row, t
+            self._n_recent += 1
+        self._simulated += x.shape[0]
+
+    def _thread_pool(self) -> ThreadPoolExecutor:
+        """The objective's worker threads (started once, shut down with the objective)."""
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(max_workers=self.workers)
+            weakref.finalize(self, self._pool.shutdown, wait=False)
+        return self._pool
 
     def metrics(self, params: ArrayLike) -> list[dict[str, FloatArray]]:
         """Every scenario's full loop metrics for each candidate (``(n,)`` arrays, SI)."""
@@ -689,16 +743,17 @@ class PopulationObjective:
     def _loops_for(self, n: int, part: int = 0) -> list[ServoLoop]:
         """Each scenario's loop for ``n`` candidates of slice ``part`` (one per thread).
 
-        A loop holds the next power of two of members (the memo leaves batches of any size;
-        building a loop takes ~40 ms); :meth:`_run` runs as many as it has candidates.
+        A part's loops hold the most candidates it has been given so far and run as many as
+        it has now (:meth:`_run`): the memo and the balanced slices leave batches of any
+        size, and building a loop took ~40 ms.
         """
-        size = 1 << max(n - 1, 0).bit_length()
         with self._lock:
-            if (size, part) not in self._loops:
-                self._loops[size, part] = [
-                    c.scenario.loop(batch_size=size, ccc_gains=c.base_gains) for c in self.cases
+            loops = self._loops.get(part)
+            if loops is None or loops[0].batch_size < n:
+                loops = self._loops[part] = [
+                    c.scenario.loop(batch_size=n, ccc_gains=c.base_gains) for c in self.cases
                 ]
-            return self._loops[size, part]
+            return loops
 
     def _run(
         self, case: _Case, loop: ServoLoop, x: FloatArray

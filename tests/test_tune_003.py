@@ -160,6 +160,24 @@ def test_a_candidate_met_before_is_not_simulated_again() -> None:
     assert len(simulated) == 1
 
 
+def test_work_units_cover_every_candidate_once_with_balanced_predicted_work() -> None:
+    """A bee one parameter from a candidate met before is predicted to cost what it cost."""
+    p = get_protocol(CIRCLE_003)
+    rng = np.random.default_rng(7)
+    z = p.to_search(_hand()[None]) + rng.normal(0.0, 0.5, (6, len(p.names)))
+    objective = PopulationObjective(CIRCLE_003, workers=2)
+    objective.evaluate(p.to_params(z))
+    ticks = objective._recent_ticks[:6, 0].copy()
+    bees = p.to_params(z)
+    bees[:, 3] = p.to_params(z[::-1])[:, 3]  # each differs from a food source in one parameter
+    units = objective._units(bees)
+    rows = np.sort(np.concatenate([r for _, _, r in units]))
+    np.testing.assert_array_equal(rows, np.arange(6))  # one scenario: each row once
+    work = sorted(ticks[r].sum() for _, _, r in units)
+    assert work[-1] - work[0] <= ticks.max()  # greedy: apart by at most one candidate's work
+    assert units[0][2].size and ticks[units[0][2]].sum() == work[-1]  # dearest first
+
+
 def test_run_stops_a_member_past_the_limit_on_that_tick() -> None:
     """stop_above: the member fails (reason 3) on the first tick its max error passes it."""
     from contour_gym._loopstate import REASON_OVER_LIMIT, M
