@@ -67,6 +67,7 @@ from contour_gym._slots import (
     FRICTION_2,
     FRICTION_3,
 )
+from contour_gym.contour._history import eval_path_memo
 from contour_gym.contour._kernel import ground_truth_from, history_push, resolve
 from contour_gym.motion import CUTTING, IS, interp_tick
 from contour_gym.paths._geom import eval_path, find_segment
@@ -110,9 +111,10 @@ def drive_axis(ax, fr, rip, dist, ad, bd, st, u, t0, ts, nsub, w, xs, vs):
 
 
 @numba.njit(cache=True, inline="always")
-def _reference(A, P, s, v, acc):
-    # r = P(s) + offset, r' = P'(s) v, r'' = P''(s) v^2 + P'(s) a, written per axis
-    px, py, pz, tx, ty, tz, kx, ky, kz = eval_path(P.kind, P.s0, P.data, s)
+def _reference(A, P, s, v, acc, hist):
+    # r = P(s) + offset, r' = P'(s) v, r'' = P''(s) v^2 + P'(s) a, written per axis; P(s)
+    # remembered in the member's history row (its estimator asks for it again this tick)
+    px, py, pz, tx, ty, tz, kx, ky, kz = eval_path_memo(P.kind, P.s0, P.data, s, hist)
     work, c_axes = A.work, A.c_axes
     for c in range(c_axes.shape[0]):
         for j in range(3):
@@ -382,7 +384,7 @@ def member_run(b, n, k0, cfg, A, P, noise, rec):
         in_pos = A.mem[b, M.in_pos] > 0.0
         interp_tick(A.ip_p, A.ip_s, b, k, cfg.ts, P.s0, prog, law, cfg.law_dt, in_pos)
         s = A.ip_s[b, IS.s]
-        _reference(A, P, s, A.ip_s[b, IS.v], A.ip_s[b, IS.a])
+        _reference(A, P, s, A.ip_s[b, IS.v], A.ip_s[b, IS.a], A.hist[b])
         _sense(A, cfg, b, noise, j, n_axes, has_noise)
         _contours(A, P, cfg, b, s, n_axes)
         _axes(A, cfg, b, n_axes)

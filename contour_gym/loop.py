@@ -49,7 +49,7 @@ from contour_gym._loopstate import LAST as LAST_SCHEMA
 from contour_gym._validate import as_finite_array, choice, non_negative, positive
 from contour_gym.ccc import CCC_LAWS, INJECTIONS, ccc_params
 from contour_gym.contour import ESTIMATORS, Estimator, get_estimator
-from contour_gym.contour._history import N_HIST
+from contour_gym.contour._history import HIST_WIDTH
 from contour_gym.metrics import ErrorSums, metrics_from_sums
 from contour_gym.motion import IP, IS, build_program
 from contour_gym.paths import Path
@@ -319,7 +319,7 @@ class ServoLoop:
         state = {
             "ax_s": (b, a, STATE.size), "ctrl_s": (b, a, self.controller.state.size),
             "comp_s": (b, a, COMP_STATE.size), "ccc_s": (b, c, 3, self.ccc_law.state.size),
-            "hist": (b, N_HIST + 1), "ip_s": (b, motion.IP_STATE.size), "foot": (b, c, FOOT.size),
+            "hist": (b, HIST_WIDTH), "ip_s": (b, motion.IP_STATE.size), "foot": (b, c, FOOT.size),
             "last": (b, c, LAST_SCHEMA.size), "acc_c": (b, c, ACC_C_SCHEMA.size),
             "acc_a": (b, a, ACC_A_SCHEMA.size), "ep_c": (b, c, ACC_C_SCHEMA.size),
             "ep_a": (b, a, ACC_A_SCHEMA.size), "u_cmd": (b, a), "y_last": (b, a),

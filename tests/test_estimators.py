@@ -407,3 +407,34 @@ def test_pid_ccc_beats_no_ccc_with_every_estimator(path_name):
         m = loop.run()
         assert not loop.failed.any(), name
         assert m["max_contour_error"][0] < 0.8 * none, name
+
+
+def test_the_path_memo_gives_what_eval_path_gives_bit_for_bit():
+    """The member row's memo of path points: exact, the sign of zero kept, a zeroed row empty."""
+    import numba
+
+    from contour_gym.contour._history import HIST_WIDTH, eval_path_memo
+    from contour_gym.paths._geom import eval_path
+
+    @numba.njit
+    def both(kind, s0, data, ss, hist, out_memo, out_plain):
+        for i in range(ss.shape[0]):
+            r = eval_path_memo(kind, s0, data, ss[i], hist)
+            q = eval_path(kind, s0, data, ss[i])
+            for j in range(9):
+                out_memo[i, j] = r[j]
+                out_plain[i, j] = q[j]
+
+    for name in ("circle", "three_leaf"):
+        t = cgp.load(name).table
+        rng = np.random.default_rng(0)
+        s = rng.uniform(-0.01, t.s0[-1] + 0.01, 40)
+        ss = np.concatenate([s, s[::-1], s[:5], [0.0, -0.0, 0.0, -0.0, np.nan, np.nan]])
+        hist = np.zeros(HIST_WIDTH)
+        memo, plain = np.empty((ss.size, 9)), np.empty((ss.size, 9))
+        both(t.kind, t.s0, t.data, ss, hist, memo, plain)
+        np.testing.assert_array_equal(memo, plain)
+        assert np.array_equal(np.signbit(memo), np.signbit(plain))
+        hist[:] = 0.0  # a reset member: nothing remembered, s = 0 evaluated afresh
+        both(t.kind, t.s0, t.data, np.zeros(1), hist, memo[:1], plain[:1])
+        np.testing.assert_array_equal(memo[:1], plain[:1])

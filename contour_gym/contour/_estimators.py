@@ -26,7 +26,7 @@ import numba
 
 from contour_gym._schema import Param, Schema
 from contour_gym._validate import positive
-from contour_gym.contour._history import N_HIST, history_at, ref_arc
+from contour_gym.contour._history import N_HIST, eval_path_memo, history_at, ref_arc
 from contour_gym.contour.base import ContourEstimator, int_in, one_of, register_estimator
 from contour_gym.paths._geom import (
     CORNER_TOL,
@@ -171,14 +171,16 @@ def est_angle(lag, max_turn, kind, s0, data, p0, p1, p2, s, hist):
     buffer the estimator falls back to the exact search, as it does when
     ``kappa |e| > max_turn``.
     """
-    rx, ry, rz, tx, ty, tz, kx, ky, kz = eval_path(kind, s0, data, s)
+    # both points remembered in the member's row: the loop's reference and the other
+    # contours ask for the same ones this tick
+    rx, ry, rz, tx, ty, tz, kx, ky, kz = eval_path_memo(kind, s0, data, s, hist)
     if far_off(p0, p1, p2, rx, ry, rz, tx, ty, tz, kx, ky, kz, max_turn):
         return FAIL
     for j in range(lag, N_HIST + 1):
         arc = ref_arc(hist, s, j)
         if arc == s:  # the reference at rest here: no chord (and no path evaluation to see it)
             continue
-        ax, ay, az, _, _, _, _, _, _ = eval_path(kind, s0, data, arc)
+        ax, ay, az, _, _, _, _, _, _ = eval_path_memo(kind, s0, data, arc, hist)
         ux, uy, uz = rx - ax, ry - ay, rz - az
         if ux * ux + uy * uy + uz * uz > _MIN_CHORD * _MIN_CHORD:
             qx, qy, qz = line_foot(p0, p1, p2, rx, ry, rz, ux, uy, uz)

@@ -8,7 +8,7 @@ import numba
 import numpy as np
 
 from contour_gym._slots import EST_FOOT, EST_SEARCH
-from contour_gym.contour._history import N_HIST
+from contour_gym.contour._history import HIST_WIDTH
 from contour_gym.contour._kernel import _fill_history, _row_finite, ground_truth, resolve
 
 
@@ -24,7 +24,7 @@ def estimate_many(est_p, kind, s0, data, bound, pos, s, s_hist, ds, mode, out, f
         -1, or the first member whose input is not finite (its row is then not computed).
     """
     dim = pos.shape[1]
-    hist = np.zeros(N_HIST + 1)
+    hist = np.zeros(HIST_WIDTH)
     for b in range(pos.shape[0]):
         sb = s[b if s.shape[0] > 1 else 0]
         hrow = s_hist[b if s_hist.shape[0] > 1 else 0]
