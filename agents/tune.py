@@ -72,22 +72,22 @@ some n samples it does not give, and the short window makes the protocol ten tim
 003 starts its colony at random (eq. 22), and so does this protocol.
 
 Measured on this project's 2-core machine (quiet; seed 0, 40 x 201 candidates, rig): the
-search takes 18-20 s on two threads (32 s on one; ``workers``), against the issue's 15 s.
-Where the time goes (perf, per tick): on the three-leaf the exact foot-point searches take
-59 %, on the circle sine and cosine 25 % (the ripple, the reference and the estimator's
-path points); on two threads the units run 8 % slower than alone and the threads idle 8 %
-at the end of each generation (the optimiser needs every fitness before it goes on). It
-took 93 s before three changes: the ripple's harmonics by recurrence (2 sine calls per axis
-and substep instead of 12); the angle estimator's history scan no longer evaluates the path
-where the reference rests; and a candidate past the hard limit stops on that tick, in the
-kernel (:meth:`ServoLoop.run`'s ``stop_above``). Every candidate simulates 2 x ~2400 servo
-ticks at 0.5 ms (the 1 s windows plus getting in position), about 20 M member-ticks in all
-(more than half the candidates fail and stop early), at 0.87 M/s on the circle and 0.53 M/s
-on the three-leaf per thread, through two-dof-PID axes, Stribeck friction, six ripple
-harmonics and the rig's encoder, noise and delay each tick; the three-leaf's 868 segments
-make its foot-point searches the dearest part. Seed 0 reaches 573.7 um (circle 539.6,
-three-leaf 607.7) against 1114 um for 003's hand-tuned point (1017, 1211); the changes leave
-the search's path and its result unchanged (same parameters, fitness equal within 1e-18 m).
+search takes 14.4-14.9 s on two threads (25 s on one; ``workers``), against the issue's 15 s.
+Every candidate simulates 2 x ~2400 servo ticks at 0.5 ms (the 1 s windows plus getting in
+position) through two-dof-PID axes, Stribeck friction, six ripple harmonics and the rig's
+encoder and delay; more than half fail and stop within ~100 ticks. Where the time went, and
+what took it from 93 s: the ripple's harmonics by recurrence (2 sine calls per axis and
+substep instead of 12); the angle estimator's history scan no longer evaluates the path where
+the reference rests; a candidate past the hard limit stops on that tick, in the kernel
+(:meth:`ServoLoop.run`'s ``stop_above``); the path points the reference and each contour's
+estimator share are evaluated once per tick (:func:`contour_gym.contour._history.eval_path_memo`);
+a candidate met before is not simulated again (:class:`PopulationObjective`: improved ABC
+re-proposes a food source whenever a perturbation is clipped back onto it, 14.5 % of the
+candidates); and the threads get slices of equal predicted work. What is left, per tick
+(perf): on the three-leaf (868 quintic segments) the exact foot-point searches take 59 %, on
+the circle sine and cosine 25 %. Seed 0 reaches 573.7 um (circle 539.6, three-leaf 607.7)
+against 1114 um for 003's hand-tuned point (1017, 1211); none of the changes moves the
+search's path or its result (same parameters, fitness and history, bit for bit).
 Standard ABC against improved ABC over seeds 0-9 (``benchmarks/paper_tables.py``): median
 580.9 against 583.4 um, ABC ahead by 0.4 %: even, not the gain 003 reports.
 What the parameters do to 003's P_eps and P_e, and 003's claims: :mod:`agents.ccc_policies`.
