@@ -471,21 +471,17 @@ class ServoLoop:
         None each when the loop draws no noise: a tuner's reset of 16 members spent 0.2 ms
         making generators it never used.
         """
-        draws = self._noise.active
         if seed is None or isinstance(seed, (int, np.integer)):
-            root = np.random.SeedSequence(seed)
-            if not draws:
-                return [None] * count
-            return [np.random.default_rng(s) for s in root.spawn(count)]
-        seeds = [int(s) for s in seed]
-        if len(seeds) != count:
-            raise ValueError(f"need {count} seeds, got {len(seeds)}")
-        if not draws:
-            for s in seeds:
-                if s < 0:
-                    raise ValueError(f"seeds must be non-negative, got {s}")
+            root = np.random.SeedSequence(seed)  # checks the seed
+            children = root.spawn(count) if self._noise.active else []
+        else:
+            roots = [np.random.SeedSequence(int(s)) for s in seed]  # checks each seed
+            if len(roots) != count:
+                raise ValueError(f"need {count} seeds, got {len(roots)}")
+            children = [r.spawn(1)[0] for r in roots] if self._noise.active else []
+        if not self._noise.active:
             return [None] * count
-        return [np.random.default_rng(np.random.SeedSequence(s).spawn(1)[0]) for s in seeds]
+        return [np.random.default_rng(c) for c in children]
 
     # ------------------------------------------------------------ parameters
     def set_ccc_gains(self, gains: ArrayLike | None) -> None:
