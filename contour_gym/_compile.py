@@ -27,6 +27,7 @@ from __future__ import annotations
 import ast
 import contextlib
 import hashlib
+import importlib.metadata
 import importlib.util
 import inspect
 import logging
@@ -35,19 +36,22 @@ import shutil
 import sys
 import tempfile
 import threading
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 import numba
+from numba.core import event
+
+from contour_gym import _inline_copy
 
 KEEP = 3  # cache folders kept; older ones are removed
 SLOTS_MODULE = "contour_gym._slots"  # the templates import their slots from here
 LOG = logging.getLogger("contour_gym")
 _PACKAGE = Path(__file__).resolve().parent
 _MODULES: dict[str, ModuleType] = {}
-_NOTIFIED: set[str] = set()
 _LOCK = threading.Lock()
 
 
@@ -75,13 +79,17 @@ def _is_docstring(node: ast.AST) -> bool:
 
 
 def kernel_sources() -> list[Path]:
-    """The package's modules that hold compiled code (they import numba), sorted."""
+    """The package's modules that hold compiled code (numba's decorators), sorted."""
     out = []
     for path in sorted(_PACKAGE.rglob("*.py")):
         text = path.read_text(encoding="utf-8")
-        if "import numba" in text or "from numba" in text:
+        if any(mark in text for mark in _KERNEL_MARKS):
             out.append(path)
     return out
+
+
+# what a module with compiled code contains (numba.config alone does not count)
+_KERNEL_MARKS = ("njit", "@intrinsic", "@overload", "register_jitable")
 
 
 def package_digest() -> str:
@@ -109,7 +117,11 @@ def cache_root() -> Path:
 
 
 def configure() -> None:
-    """Set ``numba.config.CACHE_DIR`` unless the user set ``NUMBA_CACHE_DIR``."""
+    """Set ``numba.config.CACHE_DIR`` unless the user set ``NUMBA_CACHE_DIR``; faster inlining.
+
+    Also installs :mod:`contour_gym._inline_copy` (numba copies inlined IR quadratically).
+    """
+    _inline_copy.install()
     if os.environ.get("NUMBA_CACHE_DIR"):
         return
     target = cache_root() / _package_digest_once()
@@ -181,20 +193,133 @@ def _used(module: ModuleType | None) -> list[tuple[str, str]]:
     return sorted(out)
 
 
-def _template_body(template: str) -> str:
-    """The template's source without its ``from contour_gym._slots import ...`` statement."""
+PLUGIN_GROUP = "contour_gym.components"  # entry points whose modules register built-ins
+_BUILTIN_PACKAGES: list[str] = []
+
+
+def builtin_packages() -> tuple[str, ...]:
+    """The packages whose registered components count as built-in (and load them once).
+
+    This package, and every package that declares a module under the entry-point group
+    :data:`PLUGIN_GROUP` (this wheel's ``agents`` declares its CCC laws): importing those
+    modules registers their components, so the kernel of the built-ins is the same whatever
+    the user imported first.
+    """
+    with _LOCK:
+        if not _BUILTIN_PACKAGES:
+            names = [_PACKAGE.name]
+            for entry in importlib.metadata.entry_points(group=PLUGIN_GROUP):
+                try:
+                    importlib.import_module(entry.value)
+                except ImportError as exc:  # a broken plugin: its components are the user's
+                    LOG.warning("contour-gym: component plugin %s failed: %s", entry.value, exc)
+                    continue
+                names.append(entry.value.split(".")[0])
+            _BUILTIN_PACKAGES.extend(sorted(set(names)))
+    return tuple(_BUILTIN_PACKAGES)
+
+
+def is_generic(slots: Mapping[str, Any]) -> bool:
+    """Whether slots made by :func:`bind` are the built-ins' kernel (no component of a user's)."""
+    return all(is_builtin(f) for v in slots.values() for f in (v if isinstance(v, tuple) else (v,)))
+
+
+def is_builtin(fn: Any) -> bool:
+    """Whether a compiled function comes from a built-in package (:func:`builtin_packages`)."""
+    module = getattr(getattr(fn, "py_func", fn), "__module__", None) or ""
+    return module.split(".")[0] in builtin_packages()
+
+
+@dataclass(frozen=True, eq=False)
+class Family:
+    """One kind of component as the kernels dispatch it (:data:`contour_gym._slots.DISPATCHED`).
+
+    Attributes:
+        name: What it is ("axis controller", ...), for labels.
+        slots: Slot name -> how to get that slot's compiled function from a component.
+        members: The candidates for the built-in kernel, in code order (a registry's
+            components sorted by name, or a fixed sequence); those whose functions are all
+            built-in (:func:`is_builtin`) are kept.
+    """
+
+    name: str
+    slots: Mapping[str, Callable[[Any], Any]]
+    members: Callable[[], Sequence[Any]]
+
+    def functions(self, component: Any) -> list[Any]:
+        """The component's compiled functions, one per slot."""
+        return [get(component) for get in self.slots.values()]
+
+    def builtins(self) -> list[Any]:
+        """The built-in components, in code order."""
+        return [m for m in self.members() if all(map(is_builtin, self.functions(m)))]
+
+
+def bind(uses: Mapping[Family, Sequence[Any]]) -> tuple[dict[str, Any], dict[str, list[int]]]:
+    """Slots and component codes for a kernel whose families run the components ``uses``.
+
+    When every component used is built-in, each family is bound to all its built-ins: one
+    kernel, compiled once per installation, serves every combination of them. Otherwise each
+    family is bound to just the components used (a kernel specialised to the run, compiled
+    for it: a user's component costs one compile of its own).
+
+    Returns:
+        ``(slots, codes)``: the tuples to pass to :func:`specialise`, and per family name the
+        code of each used component, in the order given.
+    """
+    generic = all(is_builtin(f) for fam, used in uses.items() for c in used
+                  for f in fam.functions(c))  # fmt: skip
+    slots: dict[str, Any] = {}
+    codes: dict[str, list[int]] = {}
+    for fam, used in uses.items():
+        members = fam.builtins() if generic else list(dict.fromkeys(used))
+        codes[fam.name] = [_index(members, c) for c in used]
+        for slot, get in fam.slots.items():
+            slots[slot] = tuple(get(m) for m in members)
+    return slots, codes
+
+
+def _index(members: Sequence[Any], component: Any) -> int:
+    for i, m in enumerate(members):
+        if m is component or m == component:
+            return i
+    raise ValueError(f"component {component!r} is not among {members!r}")
+
+
+def _template_body(template: str, insert: str = "") -> str:
+    """The template's source, ``insert`` in place of its ``from contour_gym._slots import ...``."""
     spec = importlib.util.find_spec(template)
     if spec is None or spec.origin is None:
         raise ImportError(f"kernel template {template!r} not found")
     text = Path(spec.origin).read_text(encoding="utf-8")
     lines = text.splitlines()
-    drop: set[int] = set()
     for node in ast.parse(text).body:
         if isinstance(node, ast.ImportFrom) and node.module == SLOTS_MODULE:
-            drop.update(range(node.lineno - 1, (node.end_lineno or node.lineno)))
-    if not drop:
-        raise ImportError(f"kernel template {template!r} imports no slots from {SLOTS_MODULE}")
-    return "\n".join(line for i, line in enumerate(lines) if i not in drop) + "\n"
+            first, last = node.lineno - 1, node.end_lineno or node.lineno
+            return "\n".join([*lines[:first], insert, *lines[last:]]) + "\n"
+    raise ImportError(f"kernel template {template!r} imports no slots from {SLOTS_MODULE}")
+
+
+def dispatcher_source(slot: str, n: int) -> str:
+    """Source of the dispatcher of ``slot`` over ``n`` components bound as ``SLOT__0`` ...
+
+    The dispatcher takes the component's code first, then the stub's arguments
+    (:data:`contour_gym._slots.DISPATCHED`), and calls component ``code`` (the last one for
+    any code past the others: codes are made by :func:`choose`, never by a user). Everything
+    is ``inline="always"``: the branch on a code constant over a run is well predicted, and
+    each component is inlined at its call site as if it were the only one.
+    """
+    from contour_gym._slots import DISPATCHED
+
+    args, returns = DISPATCHED[slot]
+    ret = "return " if returns else ""
+    lines = ["@numba.njit(cache=True, inline='always')", f"def {slot}(code, {args}):"]
+    for k in range(n - 1):
+        lines += [f"    if code == {k}:", f"        {ret}{slot}__{k}({args})"]
+        if not returns:
+            lines.append("        return")
+    lines.append(f"    {ret}{slot}__{n - 1}({args})")
+    return "\n".join(lines) + "\n"
 
 
 def specialise(template: str, slots: Mapping[str, Any], label: str) -> ModuleType:
@@ -203,28 +328,41 @@ def specialise(template: str, slots: Mapping[str, Any], label: str) -> ModuleTyp
     Args:
         template: Module name of the template (its ``from contour_gym._slots import ...``
             statement is dropped).
-        slots: Slot name -> component (an njit function or a constant).
+        slots: Slot name -> component (an njit function or a constant), or a tuple of
+            components for a dispatched slot (:data:`contour_gym._slots.DISPATCHED`): the
+            template then calls component ``code`` (:func:`dispatcher_source`).
         label: Human-readable description (the first-compile notice shows it).
 
     Returns:
         The generated module; the same object for the same template and slots.
     """
-    header = [f"# contour-gym generated kernel: {template}", f"# {label}"]
+    # the label stays out of the text (the module's key): kernels of the same slots are one
+    header = [f"# contour-gym generated kernel: {template}"]
     header.append(f"# package kernels @ {_package_digest_once()}")
-    header += [f"# slot {k} = {identity(v)}" for k, v in sorted(slots.items())]
-    text = "\n".join(header) + "\n" + _template_body(template)
+    bound: dict[str, Any] = {}
+    dispatch: list[str] = []
+    for k, v in sorted(slots.items()):
+        if isinstance(v, tuple):
+            header += [f"# slot {k}[{i}] = {identity(f)}" for i, f in enumerate(v)]
+            bound.update({f"{k}__{i}": f for i, f in enumerate(v)})
+            dispatch.append(dispatcher_source(k, len(v)))
+        else:
+            header.append(f"# slot {k} = {identity(v)}")
+            bound[k] = v
+    insert = "import numba\n\n\n" + "\n\n".join(dispatch) if dispatch else ""
+    text = "\n".join(header) + "\n" + _template_body(template, insert)
     key = hashlib.sha1(text.encode()).hexdigest()[:20]
     with _LOCK:
         if key in _MODULES:
             return _MODULES[key]
         path = generated_dir() / f"k_{key}.py"
         if not path.exists():
-            _write_atomically(path, text)
+            _create_atomically(path, text)
         name = f"contour_gym._generated.k_{key}"
         spec = importlib.util.spec_from_file_location(name, path)
         assert spec is not None and spec.loader is not None
         module = importlib.util.module_from_spec(spec)
-        module.__dict__.update(slots)
+        module.__dict__.update(bound)
         module.__dict__["KERNEL_LABEL"] = label
         sys.modules[name] = module
         spec.loader.exec_module(module)
@@ -232,27 +370,70 @@ def specialise(template: str, slots: Mapping[str, Any], label: str) -> ModuleTyp
         return module
 
 
-def _write_atomically(path: Path, text: str) -> None:
+def _create_atomically(path: Path, text: str) -> None:
+    # complete or absent, and never replaced: numba's cache entries for the generated module
+    # are keyed by its modification time, so another process' rewrite would invalidate them
     fd, tmp = tempfile.mkstemp(suffix=".py", dir=path.parent)
-    with os.fdopen(fd, "w", encoding="utf-8") as handle:
-        handle.write(text)
-    os.replace(tmp, path)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            handle.write(text)
+        with contextlib.suppress(FileExistsError):
+            os.link(tmp, path)
+    finally:
+        os.unlink(tmp)
 
 
-def notice_first_compile(module: ModuleType, what: str) -> None:
-    """Log once if ``module``'s kernels have not been compiled before (see module doc)."""
-    marker = Path(str(module.__file__)).with_suffix(".compiled")
-    key = f"{marker}:{what}"
-    if key in _NOTIFIED or marker.exists():
+def needs_compile(module: ModuleType) -> bool:
+    """Whether ``module``'s kernels have not been compiled (and cached) before."""
+    return not Path(str(module.__file__)).with_suffix(".compiled").exists()
+
+
+class _Progress(event.Listener):
+    """A progress line on stderr while numba compiles: what, and the time so far."""
+
+    def __init__(self, label: str) -> None:
+        from tqdm.auto import tqdm
+
+        self.bar = tqdm(total=None, file=sys.stderr, desc=f"contour-gym: compiling {label}",
+                        bar_format="{desc} [{elapsed}] {postfix}")  # fmt: skip
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self._tick, daemon=True)
+        self.thread.start()
+
+    def _tick(self) -> None:
+        while not self.stop.wait(0.5):
+            self.bar.refresh()
+
+    def on_start(self, ev: event.Event) -> None:
+        func = getattr(ev.data.get("dispatcher"), "py_func", None)
+        self.bar.set_postfix_str(f"now: {getattr(func, '__qualname__', '?')}", refresh=False)
+
+    def on_end(self, ev: event.Event) -> None:
+        pass
+
+    def close(self) -> None:
+        self.stop.set()
+        self.thread.join()
+        self.bar.set_postfix_str("done", refresh=False)
+        self.bar.close()
+
+
+@contextlib.contextmanager
+def compiling(label: str, show: bool = True) -> Iterator[None]:
+    """Show a progress line while the block compiles kernels in this process (if ``show``).
+
+    Used for kernels specialised to a user's component (the built-ins' kernels compile in
+    worker processes: :mod:`contour_gym._precompile`).
+    """
+    if not show:
+        yield
         return
-    _NOTIFIED.add(key)
-    LOG.warning(
-        "contour-gym: compiling the %s kernels for %s (first run of this combination only; "
-        "about 20-60 s on a laptop CPU; cached in %s)",
-        what,
-        getattr(module, "KERNEL_LABEL", "this setup"),
-        marker.parent.parent,
-    )
+    progress = _Progress(label)
+    try:
+        with event.install_listener("numba:compile", progress):
+            yield
+    finally:
+        progress.close()
 
 
 def mark_compiled(module: ModuleType) -> None:

@@ -61,11 +61,7 @@ from contour_gym._slots import (
     CTRL_COMMIT,
     CTRL_CONTROL,
     EST_FOOT,
-    EST_SEARCH,
-    FRICTION_0,
-    FRICTION_1,
-    FRICTION_2,
-    FRICTION_3,
+    FRICTION,
 )
 from contour_gym.contour._history import eval_path_memo
 from contour_gym.contour._kernel import ground_truth_from, history_push, resolve
@@ -79,7 +75,7 @@ def axis_tick(ax, fr, rip, dist, ad, bd, st, i, u, t, ts, nsub, w):
     """Advance axis row ``i`` by one tick ``ts`` with the control ``u`` held (ZOH).
 
     The disturbance (random part advanced with normal ``w``) is held over the tick; the
-    ripple and the axis' friction law (its slot ``AX.law``) act every substep.
+    ripple and the axis' friction law (its code ``AX.law``) act every substep.
     """
     d = disturbance_force(dist, st, i, t, w)
     h = ts / nsub
@@ -90,14 +86,7 @@ def axis_tick(ax, fr, rip, dist, ad, bd, st, i, u, t, ts, nsub, w):
         f_ext = d
         if nrip > 0:
             f_ext -= ripple_force(rip, i, nrip, harmonic, st[i, ST.x])
-        if law == 0:
-            FRICTION_0(ax, fr, ad, bd, st, i, u, f_ext, h)
-        elif law == 1:
-            FRICTION_1(ax, fr, ad, bd, st, i, u, f_ext, h)
-        elif law == 2:
-            FRICTION_2(ax, fr, ad, bd, st, i, u, f_ext, h)
-        else:
-            FRICTION_3(ax, fr, ad, bd, st, i, u, f_ext, h)
+        FRICTION(law, ax, fr, ad, bd, st, i, u, f_ext, h)
     if ax[i, AX.tau] == 0.0:
         st[i, ST.i] = u
 
@@ -163,11 +152,11 @@ def _track_foot(A, P, cfg, q, p0, p1, p2):
 @numba.njit(cache=True, inline="always")
 def _estimate(A, P, cfg, q, c, s, eps, g0, g1, g2):
     # the contour error the CCC sees: from the encoder readings, by the run's estimator
-    if cfg.meas_exact and EST_SEARCH:
+    if cfg.meas_exact and cfg.search:
         return eps, g0, g1, g2  # the exact search on the exact position: already known
     dim, p0, p1, p2 = _coords(A, c, W.y)
     b = q // A.c_axes.shape[0]
-    if EST_SEARCH:
+    if cfg.search:
         # an exact-search estimator tracks its own foot point from tick to tick (the reading's,
         # never the truth's): its search window is the reading's distance from that point
         f = A.foot
@@ -177,7 +166,7 @@ def _estimate(A, P, cfg, q, c, s, eps, g0, g1, g2):
         )  # fmt: skip
         f[q, FT.e_s], f[q, FT.e_qx], f[q, FT.e_qy], f[q, FT.e_qz] = sf, qx, qy, qz
         return e, c0, c1, c2
-    foot = EST_FOOT(A.est_p, P.kind, P.s0, P.data, P.bound, p0, p1, p2, s, A.hist[b])
+    foot = EST_FOOT(cfg.est, A.est_p, P.kind, P.s0, P.data, P.bound, p0, p1, p2, s, A.hist[b])
     e, c0, c1, c2, _ = resolve(foot, P.kind, P.s0, P.data, P.bound, dim, p0, p1, p2, s)
     return e, c0, c1, c2
 
@@ -191,13 +180,13 @@ def _ccc(A, cfg, q, c, dim, eps, g0, g1, g2):
     for i in range(1 if dim == 2 else 3):
         g = g0 if i == 0 else (g1 if i == 1 else g2)
         e_i = eps if dim == 2 else g * eps
-        out = CCC_OUTPUT(A.ccc_p, A.ccc_s, A.ccc_data, q, 3 * q + i, e_i, cfg.ts)
+        out = CCC_OUTPUT(cfg.ccc, A.ccc_p, A.ccc_s, A.ccc_data, q, 3 * q + i, e_i, cfg.ts)
         if dim == 2:
             work[row, axes[c, 0]] += w[q, 0] * g0 * out
             work[row, axes[c, 1]] += w[q, 1] * g1 * out
         else:
             work[row, axes[c, i]] += w[q, i] * out
-        CCC_COMMIT(A.ccc_p, A.ccc_s, A.ccc_data, q, 3 * q + i, e_i, cfg.ts, out, False)
+        CCC_COMMIT(cfg.ccc, A.ccc_p, A.ccc_s, A.ccc_data, q, 3 * q + i, e_i, cfg.ts, out, False)
 
 
 @numba.njit(cache=True, inline="always")
@@ -222,13 +211,14 @@ def _axes(A, cfg, b, n_axes):
     for a in range(n_axes):
         i = b * n_axes + a
         r, rd, rdd, y = work[W.r, a], work[W.rdot, a], work[W.rddot, a], work[W.y, a]
-        u_comp = COMP_OUTPUT(A.comp_p, A.comp_s, i, rd, y, ts)
-        u = CTRL_CONTROL(A.ctrl_p, A.ctrl_s, i, r, rd, rdd, y, ts) + u_comp + work[W.uccc, a]
+        u_comp = COMP_OUTPUT(cfg.comp, A.comp_p, A.comp_s, i, rd, y, ts)
+        u = CTRL_CONTROL(cfg.ctrl, A.ctrl_p, A.ctrl_s, i, r, rd, rdd, y, ts)
+        u += u_comp + work[W.uccc, a]
         u_max = A.ax_p[i, AX.u_max]
         u_sat = min(max(u, -u_max), u_max)
         applied = A.u_cmd[b, a] if cfg.delay else u_sat
-        CTRL_COMMIT(A.ctrl_p, A.ctrl_s, i, r, rd, rdd, y, ts, u, applied, u_comp, u_max)
-        COMP_COMMIT(A.comp_p, A.comp_s, i, rd, y, ts)
+        CTRL_COMMIT(cfg.ctrl, A.ctrl_p, A.ctrl_s, i, r, rd, rdd, y, ts, u, applied, u_comp, u_max)
+        COMP_COMMIT(cfg.comp, A.comp_p, A.comp_s, i, rd, y, ts)
         work[W.u, a], work[W.ua, a] = u_sat, applied
 
 

@@ -55,7 +55,8 @@ PathArrays = namedtuple("PathArrays", ("kind",) + PATH_NAMES)  # type: ignore[mi
 CONFIG = Schema(
     "loop config", ts=1e-3, nsub=1.0, dim=2.0, length=1.0, closed=0.0, meas_exact=1.0,
     delay=0.0, inj_ref=0.0, record=0.0, settle_ticks=1000.0, in_band=1e-6, in_speed=1e-3,
-    law_dt=1.0, sample_every=1.0, stop_above=Param(math.inf, number),
+    law_dt=1.0, sample_every=1.0, stop_above=Param(math.inf, number), ctrl=0.0, est=0.0,
+    search=0.0, ccc=0.0, comp=0.0,
 )  # fmt: skip
 CF = CONFIG.col
 Config = namedtuple("Config", CONFIG.names)  # type: ignore[misc]
@@ -117,5 +118,6 @@ def config(c):
         c[CF.ts], int(c[CF.nsub]), int(c[CF.dim]), c[CF.length], c[CF.closed] != 0.0,
         c[CF.meas_exact] != 0.0, c[CF.delay] != 0.0, c[CF.inj_ref] != 0.0, c[CF.record] != 0.0,
         c[CF.settle_ticks], c[CF.in_band], c[CF.in_speed], c[CF.law_dt], int(c[CF.sample_every]),
-        c[CF.stop_above],
+        c[CF.stop_above], int(c[CF.ctrl]), int(c[CF.est]), c[CF.search] != 0.0, int(c[CF.ccc]),
+        int(c[CF.comp]),
     )  # fmt: skip

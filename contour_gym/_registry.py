@@ -59,6 +59,10 @@ class Registry(Generic[T]):
             raise ValueError(f"unknown {self.kind} {name!r}; accepted: {', '.join(self.names())}")
         return self._items[name]
 
+    def components(self) -> list[T]:
+        """Registered components, sorted by name."""
+        return [self._items[name] for name in self.names()]
+
     def names(self) -> tuple[str, ...]:
         """Registered names, sorted."""
         return tuple(sorted(self._items))

@@ -3,41 +3,54 @@
 The templates (:mod:`contour_gym._loopkernel`, :mod:`contour_gym.envs._kernel`,
 :mod:`contour_gym.servo._bank`, :mod:`contour_gym.contour._many`) import these names from here
 so that they read, lint and type-check as ordinary modules; :func:`contour_gym._compile.specialise`
-drops that import statement and binds each name to a registered component instead. The stubs
-are never compiled.
+drops that import statement and binds each name instead. The stubs are never compiled.
+
+A *dispatched* slot (:data:`DISPATCHED`) takes a component code first: the kernel binds it to
+a tuple of components (every built-in one, or just the run's when a run uses a component of
+the user's) and calls component ``code`` (:func:`contour_gym._compile.dispatcher_source`). A
+registered component itself has the stub's signature without the code.
 """
 
 # ruff: noqa: N802, ARG001
 from __future__ import annotations
 
-from typing import Any
-
 import numba
+
+# slot -> (its arguments after the code, whether it returns a value)
+DISPATCHED: dict[str, tuple[str, bool]] = {
+    "CTRL_CONTROL": ("p, s, i, r, r_dot, r_ddot, y, ts", True),
+    "CTRL_COMMIT": ("p, s, i, r, r_dot, r_ddot, y, ts, u_total, u_applied, u_comp, u_max", False),
+    "EST_FOOT": ("p, kind, s0, data, bound, p0, p1, p2, s, hist", True),
+    "FRICTION": ("ax, fr, ad, bd, st, i, u, f_ext, h", False),
+    "COMP_OUTPUT": ("p, s, i, r_dot, y, ts", True),
+    "COMP_COMMIT": ("p, s, i, r_dot, y, ts", False),
+    "CCC_OUTPUT": ("p, s, data, q, row, e, ts", True),
+    "CCC_COMMIT": ("p, s, data, q, row, e, ts, out, saturated", False),
+    "REWARD": ("comp, w", True),
+}
 
 
 @numba.njit(cache=True, inline="always")
-def CTRL_CONTROL(p, s, i, r, r_dot, r_ddot, y, ts):
+def CTRL_CONTROL(code, p, s, i, r, r_dot, r_ddot, y, ts):
     """Axis controller: control of this tick (:mod:`contour_gym.servo.base`)."""
     return 0.0
 
 
 @numba.njit(cache=True, inline="always")
-def CTRL_COMMIT(p, s, i, r, r_dot, r_ddot, y, ts, u_total, u_applied, u_comp, u_max):
+def CTRL_COMMIT(code, p, s, i, r, r_dot, r_ddot, y, ts, u_total, u_applied, u_comp, u_max):
     """Axis controller: state update once the tick's control is known."""
 
 
 @numba.njit(cache=True, inline="always")
-def EST_FOOT(p, kind, s0, data, bound, p0, p1, p2, s, hist):
+def EST_FOOT(code, p, kind, s0, data, bound, p0, p1, p2, s, hist):
     """Estimator: ``(ok, qx, qy, qz, tx, ty, tz, e2)`` (:mod:`contour_gym.contour`)."""
     return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 
 
-EST_SEARCH: Any = True  # the estimator is the exact search itself (ground truth)
-
-
 @numba.njit(cache=True, inline="always")
-def unused_law(ax, fr, ad, bd, st, i, u, f_ext, h):
-    """Binds the friction slots a stage does not use (never called)."""
+def no_foot(p, kind, s0, data, bound, p0, p1, p2, s, hist):
+    """Binds EST_FOOT for the exact search (``ground_truth``), which has no foot function."""
+    return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 
 
 @numba.njit(cache=True, inline="always")
@@ -47,43 +60,38 @@ def no_compensation(p, s, i, r_dot, y, ts):
 
 
 @numba.njit(cache=True, inline="always")
-def FRICTION_0(ax, fr, ad, bd, st, i, u, f_ext, h):
-    """Friction law in slot 0: one plant substep (:mod:`contour_gym.plant.friction`)."""
-
-
-FRICTION_1 = FRICTION_0
-FRICTION_2 = FRICTION_0
-FRICTION_3 = FRICTION_0
+def FRICTION(code, ax, fr, ad, bd, st, i, u, f_ext, h):
+    """Friction law ``code``: one plant substep (:mod:`contour_gym.plant.friction`)."""
 
 
 @numba.njit(cache=True, inline="always")
-def COMP_OUTPUT(p, s, i, r_dot, y, ts):
+def COMP_OUTPUT(code, p, s, i, r_dot, y, ts):
     """Friction compensation: this tick's share (:mod:`contour_gym.servo.compensation`)."""
     return 0.0
 
 
 @numba.njit(cache=True, inline="always")
-def COMP_COMMIT(p, s, i, r_dot, y, ts):
+def COMP_COMMIT(code, p, s, i, r_dot, y, ts):
     """Friction compensation: state update."""
 
 
 @numba.njit(cache=True, inline="always")
-def CCC_OUTPUT(p, s, data, q, row, e, ts):
+def CCC_OUTPUT(code, p, s, data, q, row, e, ts):
     """CCC law: output for contour row ``q`` on error ``e`` (:mod:`contour_gym.ccc`)."""
     return 0.0
 
 
 @numba.njit(cache=True, inline="always")
-def CCC_COMMIT(p, s, data, q, row, e, ts, out, saturated):
+def CCC_COMMIT(code, p, s, data, q, row, e, ts, out, saturated):
     """CCC law: state update."""
 
 
 @numba.njit(cache=True)
 def RUN_TICKS(n, k0, cf, fb, fl, ib, il, pk, pb, pl, noise, rec):
-    """The specialised loop's run (:mod:`contour_gym._loopkernel`)."""
+    """The loop's run (:mod:`contour_gym._loopkernel`), bound to the loop's own kernel."""
 
 
 @numba.njit(cache=True, inline="always")
-def REWARD(comp, w):
+def REWARD(code, comp, w):
     """Reward of one member from its components and weights (:mod:`contour_gym.rewards`)."""
     return 0.0

@@ -29,12 +29,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from operator import attrgetter
 from typing import Any
 
 import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
+from contour_gym._compile import Family
 from contour_gym._registry import Registry
 from contour_gym._schema import Param, Schema
 from contour_gym._validate import as_finite_array, non_negative
@@ -113,6 +115,14 @@ class CCCLaw:
 
 
 CCC_LAWS: Registry[CCCLaw] = Registry("ccc_law")
+
+
+# the kernels' slots of a CCC law (contour_gym._slots)
+CCC_FAMILY = Family(
+    "ccc law",
+    {"CCC_OUTPUT": attrgetter("output"), "CCC_COMMIT": attrgetter("commit")},
+    CCC_LAWS.components,
+)
 
 
 def register_ccc_law(law: CCCLaw, *, replace: bool = False) -> CCCLaw:

@@ -15,6 +15,7 @@ all three (the papers' pure simulations).
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -23,7 +24,7 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from contour_gym import _compile, _slots, motion
+from contour_gym import _compile, _precompile, motion
 from contour_gym._blob import Blob
 from contour_gym._loopstate import ACC_A as ACC_A_SCHEMA
 from contour_gym._loopstate import ACC_C as ACC_C_SCHEMA
@@ -47,14 +48,15 @@ from contour_gym._loopstate import (
 )
 from contour_gym._loopstate import LAST as LAST_SCHEMA
 from contour_gym._validate import as_finite_array, choice, non_negative, positive
-from contour_gym.ccc import CCC_LAWS, INJECTIONS, ccc_params
+from contour_gym.ccc import CCC_FAMILY, CCC_LAWS, INJECTIONS, ccc_params
 from contour_gym.contour import ESTIMATORS, Estimator, get_estimator
 from contour_gym.contour._history import HIST_WIDTH
+from contour_gym.contour.base import ESTIMATOR_FAMILY
 from contour_gym.metrics import ErrorSums, metrics_from_sums
 from contour_gym.motion import IP, IS, build_program
 from contour_gym.paths import Path
 from contour_gym.plant._kernel import AX, DISTURBANCE, ST, STATE
-from contour_gym.plant.friction import FRICTION_LAWS, law_for
+from contour_gym.plant.friction import FRICTION_FAMILY, FRICTION_LAWS, law_for
 from contour_gym.plant.params import AxisParams
 from contour_gym.plant.stage import (
     Stage,
@@ -66,9 +68,14 @@ from contour_gym.plant.stage import (
     zoh_matrices,
 )
 from contour_gym.servo import CONTROLLERS, PIDGains, build_controller, compensation
+from contour_gym.servo.base import CONTROLLER_FAMILY
+from contour_gym.servo.compensation import COMPENSATION_FAMILY
 from contour_gym.servo.compensation import STATE as COMP_STATE
 
 Array = NDArray[np.float64]
+# config columns holding the code of the loop's one component of each family
+_CODED = {"ctrl": CONTROLLER_FAMILY, "est": ESTIMATOR_FAMILY, "ccc": CCC_FAMILY,
+          "comp": COMPENSATION_FAMILY}  # fmt: skip
 NOISE_CHUNK = 256  # ticks of normals drawn per member at a time
 DEFAULT_SETTLE = 1.0  # s the machine may take to get in position after the reference ends
 
@@ -264,6 +271,7 @@ class ServoLoop:
             path_tolerance=self.opts.path_tolerance,
             use_program_feeds=self.opts.use_program_feeds,
         )  # fmt: skip
+        self._bind(bool(np.any(comp_p[..., compensation.C.mode] != compensation.NONE)))
         params = self._parameter_arrays(ctrl_p, comp_p, ccc_gains, ccc_weights)
         self._build_blobs(params)
         self._build_path_blob()
@@ -282,9 +290,9 @@ class ServoLoop:
     ) -> dict[str, Array]:
         stage, b, ideal = self.stage, self.batch_size, self.opts.ideal
         c = len(stage.contours)
-        slot = {name: i for i, name in enumerate(self.law_names)}
+        code = dict(zip(self.law_names, self.codes[FRICTION_FAMILY.name], strict=True))
         ax_p = np.stack(
-            [axis_row(x, slot[law_for(x.friction).name], ideal=ideal) for x in stage.axes]
+            [axis_row(x, code[law_for(x.friction).name], ideal=ideal) for x in stage.axes]
         )
         ax_p = np.repeat(ax_p[None], b, axis=0)
         ad, bd = zoh_matrices(ax_p, stage.ts / stage.substeps)
@@ -361,22 +369,22 @@ class ServoLoop:
             settle_ticks=math.ceil(o.settle_time / stage.ts), in_band=stage.in_position,
             in_speed=stage.in_position_speed,
             law_dt=1.0 if self.path.time_law is None else self.path.time_law.dt,
-            sample_every=every,
+            sample_every=every, search=float(self.estimator.kind.foot is None),
+            **{key: self.codes[fam.name][0] for key, fam in _CODED.items()},
         )  # fmt: skip
 
+    def _bind(self, compensates: bool) -> None:
+        # the kernel's slots and this loop's component codes (contour_gym._compile.bind)
+        self._compensates = compensates
+        self._slots, self.codes = _compile.bind({
+            CONTROLLER_FAMILY: [self.controller], ESTIMATOR_FAMILY: [self.estimator.kind],
+            CCC_FAMILY: [self.ccc_law], COMPENSATION_FAMILY: [compensates],
+            FRICTION_FAMILY: [FRICTION_LAWS.get(n) for n in self.law_names],
+        })  # fmt: skip
+
     def slots(self) -> dict[str, Any]:
-        """The kernel slots of this loop: its controller, estimator, friction laws, CCC law."""
-        laws = [FRICTION_LAWS.get(n).substep for n in self.law_names]
-        laws += [_slots.unused_law] * (4 - len(laws))
-        compensates = bool(np.any(self.comp_p[..., compensation.C.mode] != compensation.NONE))
-        comp = (compensation.output, compensation.commit) if compensates else (
-            _slots.no_compensation, _slots.no_compensation)  # fmt: skip
-        return {
-            "CTRL_CONTROL": self.controller.control, "CTRL_COMMIT": self.controller.commit,
-            **self.estimator.slots(), "CCC_OUTPUT": self.ccc_law.output,
-            "CCC_COMMIT": self.ccc_law.commit, "COMP_OUTPUT": comp[0], "COMP_COMMIT": comp[1],
-            **{f"FRICTION_{i}": law for i, law in enumerate(laws)},
-        }  # fmt: skip
+        """The kernel slots of this loop (tuples of components: :func:`_compile.bind`)."""
+        return dict(self._slots)
 
     def describe(self) -> str:
         """The components of this loop, in one line."""
@@ -386,6 +394,8 @@ class ServoLoop:
         )
 
     def _specialise(self) -> Any:
+        if _compile.is_generic(self._slots):
+            _precompile.ensure("loop")  # once per installation, in worker processes
         return _compile.specialise("contour_gym._loopkernel", self.slots(), self.describe())
 
     def _attach_views(self) -> None:
@@ -401,6 +411,7 @@ class ServoLoop:
         state["controller"] = self.controller.name
         state["ccc_law"] = self.ccc_law.name
         state["estimator"] = (self.estimator.name, self.estimator.params)
+        del state["_slots"]  # the codes stay: the blob's axis rows hold the friction codes
         return state
 
     def __setstate__(self, state: dict[str, object]) -> None:
@@ -410,6 +421,11 @@ class ServoLoop:
         est_name, est_params = cast(tuple[str, Array], state["estimator"])
         self.estimator = Estimator(ESTIMATORS.get(est_name), est_params)
         self._attach_views()
+        codes = self.codes
+        self._bind(self._compensates)
+        if codes != self.codes:
+            raise ValueError(f"the components' codes changed since pickling: {codes} -> "
+                             f"{self.codes}")
         self.kernel = self._specialise()
         self._marked = False
 
@@ -662,9 +678,15 @@ class ServoLoop:
         Members that failed or arrived stay frozen.
         """
         call = self.prepare(n_ticks, skip)
-        self.kernel.run_ticks(*self.kernel_args(call))
+        with self.compiling():
+            self.kernel.run_ticks(*self.kernel_args(call))
         self.complete(call)
         return ErrorSums(self.acc_c.copy(), self.acc_a.copy())
+
+    def compiling(self) -> contextlib.AbstractContextManager[None]:
+        """A progress line around the first call if this loop's kernel compiles in-process."""
+        show = not self._marked and _compile.needs_compile(self.kernel)
+        return _compile.compiling(f"the servo loop for {self.describe()}", show)
 
     def prepare(self, n_ticks: int, skip: ArrayLike | None = None) -> tuple[int, Any, Array, Array]:
         """Bookkeeping before a kernel call; returns what :meth:`kernel_args` needs."""
@@ -761,7 +783,6 @@ class ServoLoop:
         if max_time is None:
             max_time = 5.0 * self.planned_time() + 1.0
         limit = int(math.ceil(max_time / self.stage.ts))
-        _compile.notice_first_compile(self.kernel, "servo loop")
         if stop_above is not None and not stop_above >= 0.0:
             raise ValueError(f"stop_above must be a non-negative number, got {stop_above!r}")
         active = np.ones(self.batch_size, dtype=bool)
@@ -852,12 +873,12 @@ def simulate_axis(
     n = u.shape[0]
     w = np.zeros(n) if noise is None else np.ascontiguousarray(
         as_finite_array(noise, "noise", shape=(n,)))  # fmt: skip
-    ax = axis_row(axis, ideal=True)[None]
+    law = law_for(axis.friction)
+    slots, codes = _compile.bind({FRICTION_FAMILY: [law]})
+    ax = axis_row(axis, codes[FRICTION_FAMILY.name][0], ideal=True)[None]
     ad, bd = zoh_matrices(ax, positive(ts, "ts") / substeps)
     st = np.zeros((1, STATE.size))
     st[0, ST.x], st[0, ST.v] = x0, v0
-    law = law_for(axis.friction)
-    slots = {"FRICTION_0": law.substep, **{f"FRICTION_{i}": _slots.unused_law for i in (1, 2, 3)}}
     kernel = _compile.specialise("contour_gym._loopkernel", slots, f"axis with {law.name} friction")
     xs, vs = np.zeros(n), np.zeros(n)
     kernel.drive_axis(ax, friction_row(axis)[None], ripple_rows(axis)[None],

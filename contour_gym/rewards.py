@@ -35,12 +35,14 @@ from __future__ import annotations
 import itertools
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from operator import attrgetter
 from typing import Any, Protocol
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from contour_gym._compile import Family
 from contour_gym._registry import Registry
 from contour_gym._schema import Param, Schema, state_schema
 from contour_gym._validate import non_negative
@@ -76,6 +78,10 @@ class CompiledReward:
 
 
 REWARDS: Registry[CompiledReward] = Registry("reward")
+
+
+# the kernels' slot of a compiled reward (contour_gym._slots)
+REWARD_FAMILY = Family("reward", {"REWARD": attrgetter("fn")}, REWARDS.components)
 
 
 def register_reward(reward: CompiledReward, *, replace: bool = False) -> CompiledReward:

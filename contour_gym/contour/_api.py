@@ -5,21 +5,15 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from contour_gym import _compile
 from contour_gym.contour import _estimators  # noqa: F401 (registers the built-ins)
-from contour_gym.contour.base import ESTIMATORS, ContourEstimator
+from contour_gym.contour.base import ESTIMATOR_FAMILY, ESTIMATORS, ContourEstimator
 from contour_gym.paths import Path
 
 FloatArray = NDArray[np.float64]
-
-
-@numba.njit(cache=True, inline="always")
-def _no_foot(p, kind, s0, data, bound, p0, p1, p2, s, hist):
-    return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 
 
 @dataclass(frozen=True)
@@ -92,10 +86,11 @@ class Estimator:
         """Whether it reads previous reference points."""
         return self.kind.needs_history
 
-    def slots(self) -> dict[str, Any]:
-        """The kernel slots this estimator fills (:mod:`contour_gym._slots`)."""
-        search = self.kind.foot is None
-        return {"EST_FOOT": _no_foot if search else self.kind.foot, "EST_SEARCH": search}
+    def _kernel(self) -> tuple[Any, int]:
+        # the batch kernel with this estimator among the family's, and its code
+        slots, codes = _compile.bind({ESTIMATOR_FAMILY: [self.kind]})
+        kernel = _compile.specialise("contour_gym.contour._many", slots, f"estimator {self.name}")
+        return kernel, codes[ESTIMATOR_FAMILY.name][0]
 
     def __call__(self, path: Path, s_ref: ArrayLike, positions: ArrayLike, *,
                  s_hist: ArrayLike | None = None, ds: ArrayLike | None = None) -> ContourEstimate:
@@ -128,10 +123,9 @@ class Estimator:
         out = np.empty((pos.shape[0], 4))
         fell = np.empty(pos.shape[0], dtype=np.bool_)
         t = path.table
-        kernel = _compile.specialise("contour_gym.contour._many", self.slots(),
-                                     f"estimator {self.name}")
-        bad = kernel.estimate_many(self.params, t.kind, t.s0, t.data, t.bound, pos, s, past,
-                                   step, mode, out, fell)
+        kernel, code = self._kernel()
+        bad = kernel.estimate_many(code, self.kind.foot is None, self.params, t.kind, t.s0,
+                                   t.data, t.bound, pos, s, past, step, mode, out, fell)
         if bad >= 0:
             raise ValueError(f"positions, s_ref and the history must be finite; member {bad} "
                              "is not")

@@ -7,15 +7,16 @@ import math
 import numba
 import numpy as np
 
-from contour_gym._slots import EST_FOOT, EST_SEARCH
+from contour_gym._slots import EST_FOOT
 from contour_gym.contour._history import HIST_WIDTH
 from contour_gym.contour._kernel import _fill_history, _row_finite, ground_truth, resolve
 
 
 @numba.njit(cache=True)
-def estimate_many(est_p, kind, s0, data, bound, pos, s, s_hist, ds, mode, out, fell):
+def estimate_many(code, search, est_p, kind, s0, data, bound, pos, s, s_hist, ds, mode, out, fell):
     """The estimate for every member: ``out[b] = (eps, c0, c1, c2)``, ``fell[b]``.
 
+    ``code`` is the estimator's (slot ``EST_FOOT``); ``search``: it is the exact search itself.
     ``pos`` (B, dim) tool positions in path coordinates; ``s`` (B,) or (1,) references;
     ``s_hist`` (B or 1, n) previous references, most recent first (mode 1), or ``ds``
     (B,) or (1,) a constant interpolation step (mode 2); mode 0: the reference at rest.
@@ -38,12 +39,12 @@ def estimate_many(est_p, kind, s0, data, bound, pos, s, s_hist, ds, mode, out, f
             return b
         _fill_history(hist, sb, hrow, db, mode)
         p2 = pos[b, 2] if dim == 3 else 0.0
-        if EST_SEARCH:
+        if search:
             p0, p1 = pos[b, 0], pos[b, 1]
             eps, c0, c1, c2, _ = ground_truth(kind, s0, data, bound, dim, p0, p1, p2, sb)
             fb = False
         else:
-            foot = EST_FOOT(est_p, kind, s0, data, bound, pos[b, 0], pos[b, 1], p2, sb, hist)
+            foot = EST_FOOT(code, est_p, kind, s0, data, bound, pos[b, 0], pos[b, 1], p2, sb, hist)
             p0, p1 = pos[b, 0], pos[b, 1]
             eps, c0, c1, c2, fb = resolve(foot, kind, s0, data, bound, dim, p0, p1, p2, sb)
         out[b, 0], out[b, 1], out[b, 2], out[b, 3] = eps, c0, c1, c2

@@ -20,8 +20,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from contour_gym._compile import Family
 from contour_gym._registry import Registry
 from contour_gym._schema import Schema
+from contour_gym._slots import no_foot
 from contour_gym._validate import choice
 
 if TYPE_CHECKING:
@@ -52,6 +54,14 @@ class ContourEstimator:
 
 
 ESTIMATORS: Registry[ContourEstimator] = Registry("estimator")
+
+
+# the kernels' slot of an estimator (contour_gym._slots); the exact search has no foot function
+ESTIMATOR_FAMILY = Family(
+    "estimator",
+    {"EST_FOOT": lambda est: no_foot if est.foot is None else est.foot},
+    ESTIMATORS.components,
+)
 
 
 def register_estimator(est: ContourEstimator, *, replace: bool = False) -> ContourEstimator:

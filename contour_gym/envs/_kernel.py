@@ -43,7 +43,7 @@ EnvArrays = namedtuple("EnvArrays", ENV_FLOATS)  # type: ignore[misc]
 ENV_CONFIG = Schema(
     "env config", kind=0.0, dovr=0.1, ovr_lo=0.2, ovr_hi=2.0, tol=1e-5, hard=1e-3, penalty=100.0,
     r_lo=-1.0, r_hi=0.0, n_max=1000.0, nominal=1.0, f_nom=1.0, python_reward=0.0, dim=2.0,
-    length=1.0,
+    length=1.0, reward=0.0,
 )  # fmt: skip
 EC = ENV_CONFIG.col
 
@@ -225,7 +225,7 @@ def finish(eb, el, fb, fl, ib, il, pk, pb, pl, ec):
             failed = _components(A, V, ec, b)
             V.failure[b] = 1.0 if failed else 0.0
             if ec[EC.python_reward] == 0.0:
-                V.raw[b] = REWARD(V.comp[b], V.weights)
+                V.raw[b] = REWARD(int(ec[EC.reward]), V.comp[b], V.weights)
         else:
             V.failure[b] = 0.0
     observe(eb, el, fb, fl, ib, il, pk, pb, pl, ec, np.arange(V.reward.shape[0]))

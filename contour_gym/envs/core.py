@@ -9,6 +9,7 @@ to the loop's components and the reward).
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Callable
 from typing import Any, cast
@@ -18,7 +19,7 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from numpy.typing import NDArray
 
-from contour_gym import _compile
+from contour_gym import _compile, _precompile
 from contour_gym._blob import Blob
 from contour_gym._loopstate import STATUS_ARRIVED
 from contour_gym.api import make_scenario
@@ -29,6 +30,7 @@ from contour_gym.motion import IP, IS
 from contour_gym.plant._kernel import ST
 from contour_gym.rewards import (
     COMPONENTS,
+    REWARD_FAMILY,
     REWARDS,
     CompiledReward,
     component_bounds,
@@ -74,11 +76,7 @@ class ContourTask:
         self._reward, weights = self._resolve_reward()
         self.max_episode_steps = config.step_limit or self._step_limit()
         self._build_blob(weights)
-        self.kernel = _compile.specialise(
-            "contour_gym.envs._kernel",
-            {"RUN_TICKS": self.loop.kernel.run_ticks, "REWARD": self._reward_slot()},
-            f"{self.loop.describe()}, {kind} env, reward {self.reward_name}",
-        )
+        self._specialise()
 
     # --------------------------------------------------------------- building
     def _gain_map(self) -> tuple[Array, Array]:
@@ -112,10 +110,27 @@ class ContourTask:
             return self._reward.name
         return getattr(self._reward, "__name__", type(self._reward).__name__)
 
-    def _reward_slot(self) -> Any:
+    def _compiled_reward(self) -> CompiledReward:
         if isinstance(self._reward, CompiledReward):
-            return self._reward.fn
-        return REWARDS.get("ccc").fn  # compiled but never called: the Python reward runs
+            return self._reward
+        return REWARDS.get("ccc")  # compiled but never called: the Python reward runs
+
+    def _compiling(self) -> contextlib.AbstractContextManager[None]:
+        # a progress line while the env kernel compiles in this process (a user's component)
+        show = not self._stepped and _compile.needs_compile(self.kernel)
+        return _compile.compiling(f"the env step for {self.loop.describe()}", show)
+
+    def _specialise(self) -> None:
+        # the env kernel on the loop's run, with this task's reward among the family's
+        slots, codes = _compile.bind({REWARD_FAMILY: [self._compiled_reward()]})
+        self._econfig[EK.EC.reward] = codes[REWARD_FAMILY.name][0]
+        if _compile.is_generic(slots) and _compile.is_generic(self.loop.slots()):
+            _precompile.ensure("env")  # once per installation, in worker processes
+        self.kernel = _compile.specialise(
+            "contour_gym.envs._kernel", {"RUN_TICKS": self.loop.kernel.run_ticks, **slots},
+            f"{self.loop.describe()}, {self.kind} env, reward {self.reward_name}",
+        )  # fmt: skip
+        self._stepped = False
 
     def _step_limit(self) -> int:
         slowest = float(self.ovr_bounds[0]) if self.kind == FEEDRATE else 1.0
@@ -174,11 +189,7 @@ class ContourTask:
         if isinstance(self._reward, str):  # a compiled reward, pickled by name
             self._reward = REWARDS.get(self._reward)
         self._attach_views()  # views alias the unpickled buffer again
-        self.kernel = _compile.specialise(
-            "contour_gym.envs._kernel",
-            {"RUN_TICKS": self.loop.kernel.run_ticks, "REWARD": self._reward_slot()},
-            f"{self.loop.describe()}, {self.kind} env, reward {self.reward_name}",
-        )
+        self._specialise()
 
     def __getstate__(self) -> dict[str, Any]:
         drop = ("_v", "_action", "_skip", "_reward_out", "kernel")
@@ -258,7 +269,8 @@ class ContourTask:
             v["action"][members] = np.clip(start, -1.0, 1.0)
         else:
             self.loop.ip_p[members, IP.ovr] = self.scenario.feed_override
-        self.kernel.observe(*self._kernel_blobs(), np.asarray(members, dtype=np.int64))
+        with self._compiling():
+            self.kernel.observe(*self._kernel_blobs(), np.asarray(members, dtype=np.int64))
 
     def _kernel_blobs(self) -> tuple[Any, ...]:
         loop = self.loop
@@ -300,9 +312,14 @@ class ContourTask:
             self.config.decision_ticks, None if skip is None else np.flatnonzero(skip)
         )
         eb, el = self._blob.buffer, self._blob.layout
-        if not self.kernel.env_step(eb, el, self._econfig, *loop.kernel_args(call)):
+        with self._compiling():
+            ran = self.kernel.env_step(eb, el, self._econfig, *loop.kernel_args(call))
+        if not ran:
             raise ValueError(f"actions must be finite, got {actions}")  # nothing was run
         loop.complete(call)
+        if not self._stepped:  # the env kernel is in numba's cache now
+            _compile.mark_compiled(self.kernel)
+            self._stepped = True
         if not isinstance(self._reward, CompiledReward):
             self._python_rewards()
 

@@ -15,7 +15,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from contour_gym import _compile
 from contour_gym._validate import as_finite_array
-from contour_gym.servo import compensation
+from contour_gym.servo.base import CONTROLLER_FAMILY
+from contour_gym.servo.compensation import COMPENSATION_FAMILY
 from contour_gym.servo.compensation import STATE as COMP_STATE
 from contour_gym.servo.gains import PIDGains
 
@@ -62,12 +63,12 @@ class AxisControllers:
         b, a = self.params.shape[:2]
         self.state = np.zeros((b, a, self.controller.state.size))
         self.comp_state = np.zeros((b, a, COMP_STATE.size))
-        self._kernel = _compile.specialise(
-            "contour_gym.servo._bank",
-            {"CTRL_CONTROL": self.controller.control, "CTRL_COMMIT": self.controller.commit,
-             "COMP_OUTPUT": compensation.output, "COMP_COMMIT": compensation.commit},
-            f"axis controller {name}",
-        )  # fmt: skip
+        slots, codes = _compile.bind(
+            {CONTROLLER_FAMILY: [self.controller], COMPENSATION_FAMILY: [True]}
+        )
+        self._codes = (codes[CONTROLLER_FAMILY.name][0], codes[COMPENSATION_FAMILY.name][0])
+        self._kernel = _compile.specialise("contour_gym.servo._bank", slots,
+                                           f"axis controller {name}")
 
     def reset(self) -> None:
         """Zero every member's state (integrators, observer, bristle state, history)."""
@@ -118,7 +119,7 @@ class AxisControllers:
         """
         out = np.zeros(self.params.shape[:2])
         ins = self._inputs(r, r_dot, r_ddot, y)
-        self._kernel.control_all(*self._tables(), ins, self.ts, out)
+        self._kernel.control_all(*self._codes, *self._tables(), ins, self.ts, out)
         return out
 
     def step(
@@ -148,7 +149,7 @@ class AxisControllers:
         ins = self._inputs(r, r_dot, r_ddot, y)
         total = np.zeros(self.params.shape[:2])
         tables = self._tables()
-        self._kernel.control_all(*tables, ins, self.ts, total)
+        self._kernel.control_all(*self._codes, *tables, ins, self.ts, total)
         total += self._input(u_extra, "u_extra")
-        self._kernel.commit_all(*tables, ins, self.ts, total, self.u_max)
+        self._kernel.commit_all(*self._codes, *tables, ins, self.ts, total, self.u_max)
         return np.clip(total, -self.u_max, self.u_max)

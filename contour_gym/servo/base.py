@@ -20,12 +20,14 @@ from __future__ import annotations
 import inspect
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from operator import attrgetter
 from typing import TYPE_CHECKING, Any
 
 import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from contour_gym._compile import Family
 from contour_gym._registry import Registry
 from contour_gym._schema import Schema
 from contour_gym._validate import as_finite_array
@@ -67,6 +69,12 @@ class AxisController:
 
 
 CONTROLLERS: Registry[AxisController] = Registry("axis_controller")
+# the kernels' slots of an axis controller (contour_gym._slots)
+CONTROLLER_FAMILY = Family(
+    "axis controller",
+    {"CTRL_CONTROL": attrgetter("control"), "CTRL_COMMIT": attrgetter("commit")},
+    CONTROLLERS.components,
+)
 
 
 def register_controller(ctrl: AxisController, *, replace: bool = False) -> AxisController:

@@ -25,7 +25,9 @@ from typing import TYPE_CHECKING
 import numba
 import numpy as np
 
+from contour_gym._compile import Family
 from contour_gym._schema import Schema, state_schema
+from contour_gym._slots import no_compensation
 from contour_gym._validate import choice
 from contour_gym.plant.friction.lugre import (
     LuGreFriction,
@@ -87,6 +89,17 @@ def commit(p, s, i, r_dot, y, ts):
         s[i, S.z] = lugre_advance(a, s[i, S.z], v, ts)
     s[i, S.y_prev] = y
     s[i, S.n] += 1.0
+
+
+# the kernels' slots of the compensation (contour_gym._slots): off (code 0) or on (code 1)
+COMPENSATION_FAMILY = Family(
+    "compensation",
+    {
+        "COMP_OUTPUT": lambda on: output if on else no_compensation,
+        "COMP_COMMIT": lambda on: commit if on else no_compensation,
+    },
+    lambda: (False, True),
+)
 
 
 def compensation_rows(

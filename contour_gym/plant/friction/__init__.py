@@ -33,11 +33,13 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from operator import attrgetter
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from contour_gym._compile import Family
 from contour_gym._registry import Registry
 from contour_gym._schema import Schema
 from contour_gym.plant._kernel import N_FR
@@ -84,6 +86,11 @@ class FrictionLaw:
 
 
 FRICTION_LAWS: Registry[FrictionLaw] = Registry("friction law")
+
+
+# the kernels' slot of a friction law (contour_gym._slots)
+FRICTION_FAMILY = Family("friction law", {"FRICTION": attrgetter("substep")},
+                         FRICTION_LAWS.components)
 
 
 def register_friction_law(law: FrictionLaw, *, replace: bool = False) -> FrictionLaw:

@@ -1,0 +1,251 @@
+"""Compile the built-in kernels up front, in worker processes, with a progress bar.
+
+A *warm-up* is a small run that makes numba compile (and cache) one group of kernels: the
+servo loop of the built-in components, the env step on it, and whatever a plugin package
+registers (``agents`` adds its policies' kernels). :func:`compile_builtins` runs the warm-ups
+not yet done in worker processes, as many at a time as there are workers and their order
+allows, while the terminal shows what compiles, how many are left and the time so far; the
+calling process then loads everything from numba's cache. A warm-up done is remembered by a
+marker file in the cache folder, keyed by the package's kernel digest and the plugins, so the
+next run starts at once. Workers are fresh interpreters, ``python -m contour_gym._precompile
+NAME`` (never forked: the caller may hold threads and numba's locks; never multiprocessing's
+spawn: it re-runs the user's script).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import importlib
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numba
+
+from contour_gym import _compile
+from contour_gym._registry import Registry
+
+IN_WORKER = "CONTOUR_GYM_COMPILE_WORKER"  # set in the workers: they compile in-process
+
+
+@dataclass(frozen=True)
+class Warmup:
+    """One group of kernels and how to make numba compile them.
+
+    Attributes:
+        name: Registry key (letters, digits, ``_``).
+        target: ``"module:function"``, a function without arguments that runs the kernels on
+            tiny inputs (imported and called in a worker process).
+        after: Warm-ups whose kernels this one calls (they run first).
+        doc: What it compiles, in a few words (the progress bar shows it).
+    """
+
+    name: str
+    target: str
+    after: tuple[str, ...] = ()
+    doc: str = field(default="", compare=False)
+
+
+WARMUPS: Registry[Warmup] = Registry("warm-up")
+
+
+def register_warmup(warmup: Warmup, *, replace: bool = False) -> Warmup:
+    """Register a warm-up (see the module docstring); returns it."""
+    for dep in warmup.after:
+        WARMUPS.get(dep)
+    return WARMUPS.register(warmup, replace=replace)
+
+
+def _marker(name: str) -> Path:
+    key = hashlib.sha1(
+        "|".join((_compile.package_digest(), *_compile.builtin_packages(), name)).encode()
+    ).hexdigest()[:16]
+    return _compile.generated_dir() / f"warm_{name}_{key}.done"
+
+
+def pending(names: Sequence[str] | None = None) -> list[str]:
+    """The warm-ups among ``names`` (default: all) and their prerequisites not yet done."""
+    _compile.builtin_packages()  # plugins register their warm-ups on import
+    todo: list[str] = []
+
+    def visit(name: str) -> None:
+        warm = WARMUPS.get(name)
+        for dep in warm.after:
+            visit(dep)
+        if name not in todo and not _marker(name).exists():
+            todo.append(name)
+
+    for name in WARMUPS.names() if names is None else names:
+        visit(name)
+    return todo
+
+
+def run_warmup(name: str) -> float:
+    """Run warm-up ``name`` in this process, mark it done; returns its seconds."""
+    start = time.perf_counter()
+    module, _, func = WARMUPS.get(name).target.partition(":")
+    fn: Callable[[], object] = getattr(importlib.import_module(module), func)
+    fn()
+    _marker(name).touch()
+    return time.perf_counter() - start
+
+
+def _spawn(name: str) -> subprocess.Popen[str]:
+    # a fresh interpreter (never multiprocessing: its spawn re-runs the user's __main__)
+    env = dict(os.environ, **{IN_WORKER: "1"})
+    cache = str(getattr(numba.config, "CACHE_DIR", "") or "")
+    if cache:
+        env["NUMBA_CACHE_DIR"] = cache
+    return subprocess.Popen(
+        [sys.executable, "-m", "contour_gym._precompile", name], env=env,
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+
+
+def compile_builtins(
+    names: Sequence[str] | None = None, workers: int | None = None, progress: bool = True
+) -> list[str]:
+    """Compile the kernels of the warm-ups ``names`` (default: all) not compiled yet.
+
+    Args:
+        names: Warm-up names (:data:`WARMUPS`); their prerequisites are included.
+        workers: Worker processes at a time (default: every core).
+        progress: Show a progress bar on stderr.
+
+    Returns:
+        The warm-ups that were run (empty when everything was compiled before).
+
+    Raises:
+        RuntimeError: when a warm-up fails (with its error output).
+    """
+    if os.environ.get(IN_WORKER):
+        return []  # a worker compiles in its own process, by running its warm-up
+    if not pending(names):
+        return []
+    with _locked(_compile.generated_dir() / "compile.lock"):
+        todo = pending(names)  # another process may have compiled them meanwhile
+        if todo:
+            _run_all(todo, max(1, workers or os.cpu_count() or 1), progress)
+    return todo
+
+
+def _run_all(todo: list[str], workers: int, progress: bool) -> None:
+    bar = _Bar(todo) if progress else None
+    running: dict[str, subprocess.Popen[str]] = {}
+    waiting = list(todo)
+    try:
+        while waiting or running:
+            for name in [w for w in waiting if _ready(w, waiting, running)]:
+                if len(running) >= workers:
+                    break
+                waiting.remove(name)
+                running[name] = _spawn(name)
+                if bar:
+                    bar.start(name)
+            time.sleep(0.2)
+            for name, proc in list(running.items()):
+                if proc.poll() is None:
+                    continue
+                del running[name]
+                err = proc.stderr.read() if proc.stderr else ""
+                if proc.returncode != 0:
+                    raise RuntimeError(f"compiling the {name!r} kernels failed:\n{err}")
+                if bar:
+                    bar.finish(name)
+            if bar:
+                bar.tick()
+    finally:
+        for proc in running.values():
+            proc.kill()
+        if bar:
+            bar.close()
+
+
+def _ready(name: str, waiting: list[str], running: Mapping[str, object]) -> bool:
+    return not any(d in waiting or d in running for d in WARMUPS.get(name).after)
+
+
+@contextlib.contextmanager
+def _locked(path: Path) -> Iterator[None]:
+    # one compiling process per cache folder; the others wait, then find the work done
+    with open(path, "a") as handle:
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - Windows: no lock, at worst work done twice
+            yield
+            return
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+_ENSURED: set[str] = set()
+
+
+def ensure(*names: str) -> None:
+    """Compile the warm-ups ``names`` unless done (cheap after the first call per process)."""
+    if set(names) <= _ENSURED:
+        return
+    compile_builtins(names)
+    _ENSURED.update(names)
+
+
+class _Bar:
+    """The progress bar: warm-ups done of all, the ones compiling now, the time so far."""
+
+    def __init__(self, todo: list[str]) -> None:
+        from tqdm.auto import tqdm
+
+        self.running: list[str] = []
+        self.bar = tqdm(total=len(todo), unit="group", file=sys.stderr,
+                        desc="contour-gym: compiling kernels (first run only)",
+                        bar_format="{desc}: {n}/{total} groups [{elapsed}] {postfix}")  # fmt: skip
+
+    def start(self, name: str) -> None:
+        self.running.append(name)
+        self._show()
+
+    def finish(self, name: str) -> None:
+        self.running.remove(name)
+        self.bar.update(1)
+        self._show()
+
+    def tick(self) -> None:
+        self.bar.refresh()
+
+    def _show(self) -> None:
+        now = ", ".join(WARMUPS.get(n).doc or n for n in self.running)
+        self.bar.set_postfix_str(f"now: {now}" if now else "", refresh=True)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+# --------------------------------------------------------------------------------------
+# the package's own warm-ups
+# --------------------------------------------------------------------------------------
+register_warmup(Warmup("loop", "contour_gym._warmups:servo_loop",
+                       doc="servo loop of every built-in component"))  # fmt: skip
+register_warmup(Warmup("env", "contour_gym._warmups:env_step", after=("loop",),
+                       doc="env step"))  # fmt: skip
+register_warmup(Warmup("estimators", "contour_gym._warmups:estimators",
+                       doc="estimator API"))  # fmt: skip
+register_warmup(Warmup("axes", "contour_gym._warmups:axes",
+                       doc="axis controllers and single-axis plant"))  # fmt: skip
+
+
+def _main(name: str) -> None:
+    _compile.builtin_packages()  # the plugins' warm-ups and components
+    run_warmup(name)
+
+
+if __name__ == "__main__":
+    # through the package's module, not this __main__ copy: plugins register with that one
+    importlib.import_module("contour_gym._precompile")._main(sys.argv[1])

@@ -1,0 +1,93 @@
+"""Built-in components compile once: equal results, no compile for a new built-in combination.
+
+The reference numbers were measured with the release before the compiled-once kernel (commit
+749ec14, one kernel specialised per combination of components): dispatching the built-in
+components by code inside one kernel must give the same results, bit for bit.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numba
+import numpy as np
+import pytest
+from numba.core import event
+
+import agents.ccc_laws  # noqa: F401 (registers the fuzzy CCC laws)
+import contour_gym
+from contour_gym.contour import ContourEstimator, register_estimator
+from contour_gym.contour.base import ESTIMATORS
+from contour_gym.params import Schema
+
+KEYS = ("max_contour_error", "mean_contour_error", "rms_contour_error", "cycle_time")
+# (preset, options, (max, mean, RMS contour error, cycle time)) from commit 749ec14
+REFERENCE: list[tuple[str, dict[str, Any], tuple[float, float, float, float]]] = [
+    ("lugre_linear_motor", {}, (0.00012843816161525545, 3.412113546382069e-06,
+                                8.024560918800663e-06, 31.949)),
+    ("xy_dc_servo", {}, (2.276754682914346e-05, 1.967641847842128e-06, 5.3051630349073984e-06,
+                         2.132)),
+    ("xy_servo_coulomb", {}, (4.213831994765177e-06, 1.3774951141627241e-06,
+                              1.6351093069795774e-06, 2.965)),
+    ("xyy_gantry", {}, (0.0003788395429945025, 0.00011189048184615097, 0.0001338547576724028,
+                        10.194)),
+    ("xyz_pmlsm", {}, (3.6000927451657324e-05, 7.929644142424692e-06, 9.259662325244627e-06,
+                       12.647)),
+    ("xy_dc_servo", {"ccc_law": "fuzzy_pid", "estimator": "two_circle"},
+     (2.1026325048845518e-05, 1.917238835320176e-06, 5.149127974639523e-06, 2.132)),
+    ("xy_dc_servo", {"axis_controller": "smc_dob", "estimator": "iterative", "ideal": True},
+     (2.31225680652012e-05, 1.1116439702764471e-06, 3.468492439000421e-06, 2.142)),
+    ("xyz_pmlsm", {"ccc_law": "adaptive_fuzzy_pid", "estimator": "frenet"},
+     (3.343869236289588e-05, 6.366534976630735e-06, 7.447964321670752e-06, 12.647)),
+    ("lugre_linear_motor", {"axis_controller": "pid", "estimator": "window",
+                            "controller_options": {"friction": "feedforward"}},
+     (6.304622790284943e-05, 3.024789895624315e-07, 1.8829592884432101e-06, 32.241)),
+    ("xy_servo_coulomb", {"estimator": "ground_truth", "axis_controller": "two_dof_pid"},
+     (4.518664599818291e-06, 1.2364866516583112e-06, 1.4698548296835757e-06, 2.853)),
+]  # fmt: skip
+
+
+def _run(preset: str, options: dict[str, Any]) -> tuple[float, ...]:
+    gains = contour_gym.make_scenario(preset, **options).preset.ccc_gains.as_tuple()
+    m = contour_gym.simulate(plant=preset, ccc_gains=gains, **options)
+    return tuple(float(m[k]) for k in KEYS)
+
+
+@pytest.mark.parametrize(("preset", "options", "expected"), REFERENCE,
+                         ids=[f"{p}-{'-'.join(map(str, o.values())) or 'own'}"
+                              for p, o, _ in REFERENCE])  # fmt: skip
+def test_results_equal_the_previous_release_bit_for_bit(
+    preset: str, options: dict[str, Any], expected: tuple[float, ...]
+) -> None:
+    assert _run(preset, options) == expected
+
+
+def _compiles(fn: Any) -> list[str]:
+    with event.install_recorder("numba:compile") as rec:
+        fn()
+    return [ev.data["dispatcher"].py_func.__qualname__ for _, ev in rec.buffer if ev.is_start]
+
+
+def test_a_new_combination_of_builtins_compiles_nothing() -> None:
+    _run("xy_dc_servo", {})  # the built-ins' kernel, compiled or loaded once
+    options = {"axis_controller": "pd_robust", "estimator": "tangent", "ccc_law": "fuzzy_pid"}
+    assert _compiles(lambda: _run("xy_servo_coulomb", options)) == []
+    env = gym.make("contour_gym/Feedrate-Corner-v0", estimator="angle")
+    env.reset(seed=0)
+    assert _compiles(lambda: [env.step(np.zeros(1)) for _ in range(3)]) == []
+
+
+def test_a_users_estimator_works_by_registration_alone() -> None:
+    @numba.njit(cache=True, inline="always")
+    def foot(p, kind, s0, data, bound, p0, p1, p2, s, hist):  # type: ignore[no-untyped-def]
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0  # always falls back to the exact search
+
+    est = ContourEstimator("test_fallback_only", Schema("test_fallback_only"), foot)
+    register_estimator(est)
+    try:
+        mine = _run("xy_dc_servo", {"estimator": "test_fallback_only"})
+        exact = _run("xy_dc_servo", {"estimator": "exact"})
+        assert mine == pytest.approx(exact, rel=1e-3)
+    finally:
+        ESTIMATORS.unregister("test_fallback_only")
