@@ -268,11 +268,19 @@ def _headline(scenario: Scenario, part: str | None) -> str:
     return line
 
 
+def _compile_up_front(args: argparse.Namespace, *groups: str) -> None:
+    # the built-ins' kernels a command needs, compiled in parallel before it runs (first run)
+    from contour_gym import precompile
+
+    precompile(groups, progress=not getattr(args, "quiet", False))
+
+
 def simulate_command(args: argparse.Namespace) -> int:
     """Run ``contour-gym simulate``."""
     from contour_gym.render import contour_figure, part_figure
 
     scenario = scenario_of(args)
+    _compile_up_front(args, "loop", "path_api")
     columns, traces = {}, {}
     for label, gains in (("no CCC", None), ("PID CCC", scenario.preset.ccc_gains.as_tuple())):
         columns[label], traces[label] = run_trace(scenario, gains, args.seed)
@@ -301,6 +309,7 @@ def train_command(args: argparse.Namespace) -> int:
     argv += ["--timesteps", str(args.timesteps)] if args.timesteps is not None else []
     argv += ["--config", args.config] if args.config is not None else []
     run = args.resume or os.path.join(args.out, run_name(args.env, args.algo, args.seed))
+    _compile_up_front(args, "env")
     try:
         train(args.env, args.algo, args.timesteps, seed=args.seed, out_dir=args.out,
               resume=args.resume, config_file=args.config, progress=not args.quiet,
@@ -330,6 +339,7 @@ def tune_command(args: argparse.Namespace) -> int:
         if value is not None:
             argv += [flag, str(value)]
     argv += ["--ideal"] * args.ideal + ["--out", out]
+    _compile_up_front(args, "loop")
     result = tune(protocol, optimizer, seed=args.seed, population=args.population,
                   iterations=args.iterations, ideal=args.ideal, out=out,
                   progress=not args.quiet, command=shlex.join(argv),
@@ -349,6 +359,7 @@ def bench_command(args: argparse.Namespace) -> int:
     """Run ``contour-gym bench``: prints the table, writes the run folder (resumable)."""
     from agents.bench import run_suite
 
+    _compile_up_front(args, "loop", "env", "path_api")
     result = run_suite(args.suite, args.out, progress=not args.quiet)
     print(result.markdown, end="")
     print(f"\n{len(result.computed)} cell(s) computed in {result.wall_time:.1f} s; tables and "

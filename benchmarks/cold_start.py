@@ -47,33 +47,17 @@ while not done:
 print(time.perf_counter() - t)
 """
 
-USER_ESTIMATOR = '''
-import time, numba, contour_gym
+# the README's toy estimator, from a user's module (tests/test_house.py)
+USER_ESTIMATOR = """
+import time, contour_gym
 from contour_gym.contour import ContourEstimator, register_estimator
-from contour_gym.contour.kernels import eval_path, far_off, line_foot
-from contour_gym.params import Param, Schema, finite
-
-TOY = Schema("toy_tangent", bias=Param(0.0, finite, "offset to the left of travel, m"))
-C = TOY.col
-
-
-@numba.njit(cache=True, inline="always")
-def toy_foot(p, kind, s0, data, bound, p0, p1, p2, s, hist):
-    rx, ry, rz, tx, ty, tz, kx, ky, kz = eval_path(kind, s0, data, s)
-    if far_off(p0, p1, p2, rx, ry, rz, tx, ty, tz, kx, ky, kz, 1.0):
-        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    qx, qy, qz = line_foot(p0, p1, p2, rx, ry, rz, tx, ty, tz)
-    norm = (tx * tx + ty * ty) ** 0.5
-    b = p[C.bias]
-    return True, qx - b * ty / norm, qy + b * tx / norm, qz, tx, ty, tz, -1.0
-
-
+from tests.test_house import TOY, toy_foot
 register_estimator(ContourEstimator("toy_tangent", TOY, toy_foot, doc="my estimator"))
 t = time.perf_counter()
 contour_gym.simulate(plant="xy_dc_servo", estimator="toy_tangent",
                      estimator_options={"bias": 2e-6})
 print(time.perf_counter() - t)
-'''
+"""
 
 WARM = {
     "loop B = 1 (ticks/s)": "from loop_throughput import measure; print(measure(1, 2000))",

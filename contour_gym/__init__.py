@@ -10,6 +10,7 @@ from contour_gym import _compile
 
 _compile.configure()  # before any kernel module is imported
 
+from contour_gym._precompile import compile_builtins as precompile  # noqa: E402
 from contour_gym.api import make_scenario, simulate  # noqa: E402
 from contour_gym.envs import ENV_IDS, register_envs  # noqa: E402
 
@@ -17,4 +18,4 @@ __version__ = "0.1.0"
 
 register_envs()
 
-__all__ = ["ENV_IDS", "__version__", "make_scenario", "simulate"]
+__all__ = ["ENV_IDS", "__version__", "make_scenario", "precompile", "simulate"]

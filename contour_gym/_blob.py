@@ -15,6 +15,7 @@ from typing import Any
 import numba
 import numpy as np
 from numba.core import cgutils, types
+from numba.core.imputils import impl_ret_borrowed
 from numba.extending import intrinsic
 from numpy.typing import NDArray
 
@@ -81,6 +82,23 @@ def borrow(typingctx, arr):
         return out._getvalue()
 
     return arr(arr), codegen
+
+
+@intrinsic
+def readonly(typingctx, arr):
+    """The array ``arr`` typed read-only (the same data; compiled code only).
+
+    numba compiles a function anew for each argument type, and a read-only array is another
+    type: the path tables a user's Python calls pass are read-only, so the loop reads its
+    path blob through this too, and one compile of the path searches serves both.
+    """
+    if not isinstance(arr, types.Array):
+        return None
+
+    def codegen(context, builder, signature, args):
+        return impl_ret_borrowed(context, builder, signature.return_type, args[0])
+
+    return arr.copy(readonly=True)(arr), codegen
 
 
 @numba.njit(cache=True)

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import ast
 import contextlib
+import functools
 import hashlib
 import importlib.metadata
 import importlib.util
@@ -55,6 +56,7 @@ _MODULES: dict[str, ModuleType] = {}
 _LOCK = threading.Lock()
 
 
+@functools.lru_cache(maxsize=1024)
 def code_digest(source: str) -> str:
     r"""Digest of Python source over its syntax tree, docstrings removed (comments never count).
 
@@ -221,7 +223,8 @@ def builtin_packages() -> tuple[str, ...]:
 
 def is_generic(slots: Mapping[str, Any]) -> bool:
     """Whether slots made by :func:`bind` are the built-ins' kernel (no component of a user's)."""
-    return all(is_builtin(f) for v in slots.values() for f in (v if isinstance(v, tuple) else (v,)))
+    fns = [f for v in slots.values() for f in (v if isinstance(v, tuple) else (v,))]
+    return all(is_builtin(f.fn if isinstance(f, Called) else f) for f in fns)
 
 
 def is_builtin(fn: Any) -> bool:
@@ -240,11 +243,13 @@ class Family:
         members: The candidates for the built-in kernel, in code order (a registry's
             components sorted by name, or a fixed sequence); those whose functions are all
             built-in (:func:`is_builtin`) are kept.
+        inlined: Whether the kernels inline a component (else they call it: :class:`Called`).
     """
 
     name: str
     slots: Mapping[str, Callable[[Any], Any]]
     members: Callable[[], Sequence[Any]]
+    inlined: Callable[[Any], bool] = lambda component: True
 
     def functions(self, component: Any) -> list[Any]:
         """The component's compiled functions, one per slot."""
@@ -275,7 +280,7 @@ def bind(uses: Mapping[Family, Sequence[Any]]) -> tuple[dict[str, Any], dict[str
         members = fam.builtins() if generic else list(dict.fromkeys(used))
         codes[fam.name] = [_index(members, c) for c in used]
         for slot, get in fam.slots.items():
-            slots[slot] = tuple(get(m) for m in members)
+            slots[slot] = tuple(get(m) if fam.inlined(m) else Called(get(m)) for m in members)
     return slots, codes
 
 
@@ -300,25 +305,42 @@ def _template_body(template: str, insert: str = "") -> str:
     raise ImportError(f"kernel template {template!r} imports no slots from {SLOTS_MODULE}")
 
 
-def dispatcher_source(slot: str, n: int) -> str:
+@dataclass(frozen=True)
+class Called:
+    """A component that a kernel calls instead of inlining (see :func:`dispatcher_source`)."""
+
+    fn: Any
+
+
+def dispatcher_source(slot: str, n: int, called: frozenset[int] = frozenset()) -> str:
     """Source of the dispatcher of ``slot`` over ``n`` components bound as ``SLOT__0`` ...
 
     The dispatcher takes the component's code first, then the stub's arguments
-    (:data:`contour_gym._slots.DISPATCHED`), and calls component ``code`` (the last one for
-    any code past the others: codes are made by :func:`choose`, never by a user). Everything
-    is ``inline="always"``: the branch on a code constant over a run is well predicted, and
-    each component is inlined at its call site as if it were the only one.
+    (:data:`contour_gym._slots.DISPATCHED`), and runs component ``code`` (the last one for
+    any code past the others: codes are made by :func:`bind`, never by a user). The
+    dispatcher is ``inline="always"``: the branch on a code constant over a run is well
+    predicted, and each component is inlined at its call site as if it were the only one,
+    except those in ``called``, which the dispatcher calls through a function of their own
+    (``SLOT__k__call``), compiled apart: a large component whose work per call dwarfs a call
+    then costs the kernel's compile nothing.
     """
     from contour_gym._slots import DISPATCHED
 
     args, returns = DISPATCHED[slot]
     ret = "return " if returns else ""
-    lines = ["@numba.njit(cache=True, inline='always')", f"def {slot}(code, {args}):"]
-    for k in range(n - 1):
-        lines += [f"    if code == {k}:", f"        {ret}{slot}__{k}({args})"]
+    lines: list[str] = []
+    for k in sorted(called):
+        lines += ["@numba.njit(cache=True)", f"def {slot}__{k}__call({args}):",
+                  f"    {ret}{slot}__{k}({args})", "", ""]  # fmt: skip
+    lines += ["@numba.njit(cache=True, inline='always')", f"def {slot}(code, {args}):"]
+    for k in range(n):
+        call = f"{ret}{slot}__{k}{'__call' if k in called else ''}({args})"
+        if k == n - 1:
+            lines.append(f"    {call}")
+            break
+        lines += [f"    if code == {k}:", f"        {call}"]
         if not returns:
             lines.append("        return")
-    lines.append(f"    {ret}{slot}__{n - 1}({args})")
     return "\n".join(lines) + "\n"
 
 
@@ -343,9 +365,12 @@ def specialise(template: str, slots: Mapping[str, Any], label: str) -> ModuleTyp
     dispatch: list[str] = []
     for k, v in sorted(slots.items()):
         if isinstance(v, tuple):
-            header += [f"# slot {k}[{i}] = {identity(f)}" for i, f in enumerate(v)]
-            bound.update({f"{k}__{i}": f for i, f in enumerate(v)})
-            dispatch.append(dispatcher_source(k, len(v)))
+            called = frozenset(i for i, f in enumerate(v) if isinstance(f, Called))
+            fns = [f.fn if isinstance(f, Called) else f for f in v]
+            header += [f"# slot {k}[{i}] = {'called ' * (i in called)}{identity(f)}"
+                       for i, f in enumerate(fns)]  # fmt: skip
+            bound.update({f"{k}__{i}": f for i, f in enumerate(fns)})
+            dispatch.append(dispatcher_source(k, len(v), called))
         else:
             header.append(f"# slot {k} = {identity(v)}")
             bound[k] = v
@@ -402,7 +427,8 @@ class _Progress(event.Listener):
 
     def _tick(self) -> None:
         while not self.stop.wait(0.5):
-            self.bar.refresh()
+            if sys.stderr.isatty():  # redrawn in place; a log file gets the start and end
+                self.bar.refresh()
 
     def on_start(self, ev: event.Event) -> None:
         func = getattr(ev.data.get("dispatcher"), "py_func", None)

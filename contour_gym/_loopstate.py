@@ -19,7 +19,7 @@ from collections import namedtuple
 
 import numba
 
-from contour_gym._blob import rows2, rows3, view1, view2
+from contour_gym._blob import readonly, rows2, rows3, view1, view2
 from contour_gym._schema import Param, Schema, state_schema
 from contour_gym._validate import number
 
@@ -102,7 +102,11 @@ def loop_arrays(fb, fl, ib, il):
 
 @numba.njit(cache=True, inline="always")
 def path_arrays(pk, pb, pl):
-    """The path's arrays (kind, then the float blob ``pb`` in :data:`PATH_FLOATS` order)."""
+    """The path's arrays (kind, then the float blob ``pb`` in :data:`PATH_FLOATS` order).
+
+    Typed read-only, as the path tables of the Python API are (:func:`_blob.readonly`).
+    """
+    pk, pb = readonly(pk), readonly(pb)
     return PathArrays(
         pk, view1(pb, pl, PF.s0), view2(pb, pl, PF.data), view2(pb, pl, PF.bound),
         view1(pb, pl, PF.feed), view1(pb, pl, PF.flags), view1(pb, pl, PF.vcap),

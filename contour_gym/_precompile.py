@@ -2,14 +2,14 @@
 
 A *warm-up* is a small run that makes numba compile (and cache) one group of kernels: the
 servo loop of the built-in components, the env step on it, and whatever a plugin package
-registers (``agents`` adds its policies' kernels). :func:`compile_builtins` runs the warm-ups
+registers. :func:`compile_builtins` runs the warm-ups
 not yet done in worker processes, as many at a time as there are workers and their order
 allows, while the terminal shows what compiles, how many are left and the time so far; the
 calling process then loads everything from numba's cache. A warm-up done is remembered by a
 marker file in the cache folder, keyed by the package's kernel digest and the plugins, so the
-next run starts at once. Workers are fresh interpreters, ``python -m contour_gym._precompile
-NAME`` (never forked: the caller may hold threads and numba's locks; never multiprocessing's
-spawn: it re-runs the user's script).
+next run starts at once. Workers are fresh interpreters calling :func:`main` (never forked:
+the caller may hold threads and numba's locks; never multiprocessing's spawn: it re-runs the
+user's script).
 """
 
 from __future__ import annotations
@@ -101,9 +101,10 @@ def _spawn(name: str) -> subprocess.Popen[str]:
     cache = str(getattr(numba.config, "CACHE_DIR", "") or "")
     if cache:
         env["NUMBA_CACHE_DIR"] = cache
+    code = "import sys; from contour_gym._precompile import main; main(sys.argv[1])"
     return subprocess.Popen(
-        [sys.executable, "-m", "contour_gym._precompile", name], env=env,
-        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+        [sys.executable, "-c", code, name], env=env, stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
 
 
@@ -153,8 +154,9 @@ def _run_all(todo: list[str], workers: int, progress: bool) -> None:
                     continue
                 del running[name]
                 err = proc.stderr.read() if proc.stderr else ""
-                if proc.returncode != 0:
-                    raise RuntimeError(f"compiling the {name!r} kernels failed:\n{err}")
+                if proc.returncode != 0 or not _marker(name).exists():
+                    raise RuntimeError(f"compiling the {name!r} kernels failed "
+                                       f"(exit code {proc.returncode}):\n{err}")  # fmt: skip
                 if bar:
                     bar.finish(name)
             if bar:
@@ -218,7 +220,8 @@ class _Bar:
         self._show()
 
     def tick(self) -> None:
-        self.bar.refresh()
+        if sys.stderr.isatty():  # the elapsed time, redrawn in place (a log gets updates only)
+            self.bar.refresh()
 
     def _show(self) -> None:
         now = ", ".join(WARMUPS.get(n).doc or n for n in self.running)
@@ -231,21 +234,22 @@ class _Bar:
 # --------------------------------------------------------------------------------------
 # the package's own warm-ups
 # --------------------------------------------------------------------------------------
+register_warmup(Warmup("searches", "contour_gym._warmups:searches", doc="exact searches"))
+register_warmup(Warmup("estimator_cores", "contour_gym._warmups:estimator_cores",
+                       doc="estimators"))  # fmt: skip
+register_warmup(Warmup("path_api", "contour_gym._warmups:path_api", after=("searches",),
+                       doc="path searches for plots"))  # fmt: skip
 register_warmup(Warmup("loop", "contour_gym._warmups:servo_loop",
-                       doc="servo loop of every built-in component"))  # fmt: skip
+                       after=("searches", "estimator_cores"), doc="servo loop"))  # fmt: skip
 register_warmup(Warmup("env", "contour_gym._warmups:env_step", after=("loop",),
                        doc="env step"))  # fmt: skip
 register_warmup(Warmup("estimators", "contour_gym._warmups:estimators",
-                       doc="estimator API"))  # fmt: skip
+                       after=("estimator_cores",), doc="estimator API"))  # fmt: skip
 register_warmup(Warmup("axes", "contour_gym._warmups:axes",
                        doc="axis controllers and single-axis plant"))  # fmt: skip
 
 
-def _main(name: str) -> None:
+def main(name: str) -> None:
+    """A worker's entry point: load the plugins, run warm-up ``name``."""
     _compile.builtin_packages()  # the plugins' warm-ups and components
     run_warmup(name)
-
-
-if __name__ == "__main__":
-    # through the package's module, not this __main__ copy: plugins register with that one
-    importlib.import_module("contour_gym._precompile")._main(sys.argv[1])

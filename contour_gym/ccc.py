@@ -97,6 +97,8 @@ class CCCLaw:
         commit: Compiled state update.
         data: ``data()`` -> constant (n,) float table the law reads (fuzzy surfaces), or None.
         doc: One line on the law and its source.
+        inline: Whether the kernel inlines the law (fast, but compiled into the kernel) or
+            calls it (compiled apart: for a large law whose work per tick dwarfs a call).
     """
 
     name: str
@@ -106,6 +108,7 @@ class CCCLaw:
     commit: Any = field(repr=False)
     data: Callable[[], np.ndarray] | None = field(default=None, repr=False)
     doc: str = ""
+    inline: bool = True
 
     def table(self) -> np.ndarray:
         """The law's constant data table (a one-element placeholder when it has none)."""
@@ -122,6 +125,7 @@ CCC_FAMILY = Family(
     "ccc law",
     {"CCC_OUTPUT": attrgetter("output"), "CCC_COMMIT": attrgetter("commit")},
     CCC_LAWS.components,
+    attrgetter("inline"),
 )
 
 
