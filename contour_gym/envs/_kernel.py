@@ -13,7 +13,6 @@ import math
 from collections import namedtuple
 
 import numba
-import numpy as np
 
 from contour_gym._blob import borrow, view1, view2
 from contour_gym._loopstate import (
@@ -129,7 +128,8 @@ def apply_rewards(eb, el, fb, fl, ib, il, ec):
     ``n_max r_lo - penalty``, below any completed episode's (each of at most ``n_max`` steps
     earns at least ``r_lo <= 0``).
     """
-    A, V = loop_arrays(fb, fl, ib, il), env_arrays(eb, el)
+    # borrowed (contour_gym._blob.borrow): the caller keeps the blobs alive
+    A, V = loop_arrays(borrow(fb), fl, borrow(ib), il), env_arrays(borrow(eb), el)
     r_lo, r_hi = ec[EC.r_lo], ec[EC.r_hi]
     for b in range(V.reward.shape[0]):
         if V.skip[b] != 0.0:
@@ -208,10 +208,18 @@ def _observe(A, P, V, ec, b):
         col = _put(obs, b, col, A.ip_s[b, IS.v] / f_block)
 
 
+@numba.njit(cache=True, inline="always")
+def _views(eb, el, fb, fl, ib, il, pk, pb, pl):
+    # the loop's, the path's and the env's arrays, borrowed (the caller keeps the blobs alive:
+    # views of a borrowed blob count no references, contour_gym._blob.borrow)
+    A = loop_arrays(borrow(fb), fl, borrow(ib), il)
+    return A, path_arrays(borrow(pk), borrow(pb), pl), env_arrays(borrow(eb), el)
+
+
 @numba.njit(cache=True)
 def observe(eb, el, fb, fl, ib, il, pk, pb, pl, ec, members):
     """Write the observation rows of ``members`` (after a reset and after every step)."""
-    A, P, V = loop_arrays(fb, fl, ib, il), path_arrays(pk, pb, pl), env_arrays(eb, el)
+    A, P, V = _views(eb, el, fb, fl, ib, il, pk, pb, pl)
     for b in members:
         _observe(A, P, V, ec, b)
 
@@ -219,7 +227,7 @@ def observe(eb, el, fb, fl, ib, il, pk, pb, pl, ec, members):
 @numba.njit(cache=True)
 def finish(eb, el, fb, fl, ib, il, pk, pb, pl, ec):
     """Components, failure flags and (compiled reward) raw rewards; observations."""
-    A, V = loop_arrays(fb, fl, ib, il), env_arrays(eb, el)
+    A, P, V = _views(eb, el, fb, fl, ib, il, pk, pb, pl)
     for b in range(V.reward.shape[0]):
         if V.skip[b] == 0.0:
             failed = _components(A, V, ec, b)
@@ -228,7 +236,7 @@ def finish(eb, el, fb, fl, ib, il, pk, pb, pl, ec):
                 V.raw[b] = REWARD(int(ec[EC.reward]), V.comp[b], V.weights)
         else:
             V.failure[b] = 0.0
-    observe(eb, el, fb, fl, ib, il, pk, pb, pl, ec, np.arange(V.reward.shape[0]))
+        _observe(A, P, V, ec, b)
 
 
 @numba.njit(cache=True)

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from contour_gym import _compile, _precompile
 from contour_gym._blob import Blob
-from contour_gym._loopstate import STATUS_ARRIVED
+from contour_gym._loopstate import LS, STATUS_ARRIVED
 from contour_gym.api import make_scenario
 from contour_gym.envs import _kernel as EK
 from contour_gym.envs.config import HARD_LIMIT_TOLERANCES, EnvConfig
@@ -312,8 +312,11 @@ class ContourTask:
             self.config.decision_ticks, None if skip is None else np.flatnonzero(skip)
         )
         eb, el = self._blob.buffer, self._blob.layout
-        with self._compiling():
+        if self._stepped:
             ran = self.kernel.env_step(eb, el, self._econfig, *loop.kernel_args(call))
+        else:
+            with self._compiling():
+                ran = self.kernel.env_step(eb, el, self._econfig, *loop.kernel_args(call))
         if not ran:
             raise ValueError(f"actions must be finite, got {actions}")  # nothing was run
         loop.complete(call)
@@ -362,26 +365,36 @@ class ContourTask:
         return out
 
     # ------------------------------------------------------------------ info
-    def _step_info(self, i: int | slice = slice(None)) -> dict[str, Any]:
-        """The per-step info of members ``i``.
-
-        Batched arrays (B, ...) for a slice; member ``i``'s values (arrays, Python floats and
-        bools) for an int, read directly (a single env's step built every member's first).
-        """
+    def _step_info(self) -> dict[str, Any]:
+        """The per-step info of every member, batched arrays (B, ...)."""
         loop, v = self.loop, self._v
-        seg = loop.ip_s[i, IS.seg].astype(np.int64)
-        comp = v["comp"][i]
-        out = {
-            "contour_error": loop.contour_error[i].copy(),
-            "contour_error_estimate": loop.contour_error_estimate[i].copy(),
-            "tracking_error": v["ref"][i] - loop.ax_s[i, :, ST.x],
-            "feedrate": loop.ip_p[i, IP.ovr] * loop.program.feed[seg],
-            "s": loop.s[i].copy(),
-            "failure": v["failure"][i] != 0.0,
-            "reward_components": {name: comp[..., j].copy()
+        seg = loop.ip_s[:, IS.seg].astype(np.int64)
+        comp = v["comp"]
+        return {
+            "contour_error": loop.contour_error.copy(),
+            "contour_error_estimate": loop.contour_error_estimate.copy(),
+            "tracking_error": v["ref"] - loop.ax_s[:, :, ST.x],
+            "feedrate": loop.ip_p[:, IP.ovr] * loop.program.feed[seg],
+            "s": loop.s.copy(),
+            "failure": v["failure"] != 0.0,
+            "reward_components": {name: comp[:, j].copy()
                                   for j, name in enumerate(COMPONENTS.names)},
         }  # fmt: skip
-        return out if isinstance(i, slice) else _python(out)
+
+    def _member_info(self, b: int) -> dict[str, Any]:
+        """Member ``b``'s per-step info: its arrays, Python floats and bools (as batched)."""
+        loop, v = self.loop, self._v
+        last, ip_s = loop.last[b], loop.ip_s[b]
+        return {
+            "contour_error": last[:, LS.true].copy(),
+            "contour_error_estimate": last[:, LS.est].copy(),
+            "tracking_error": v["ref"][b] - loop.ax_s[b, :, ST.x],
+            "feedrate": float(loop.ip_p[b, IP.ovr] * loop.program.feed[int(ip_s[IS.seg])]),
+            "s": float(ip_s[IS.s]),
+            "failure": bool(v["failure"][b] != 0.0),
+            "reward_components": dict(zip(COMPONENTS.names, v["comp"][b].tolist(),
+                                          strict=True)),
+        }  # fmt: skip
 
     def _end_metrics(self) -> dict[str, Any]:
         loop = self.loop
@@ -392,7 +405,7 @@ class ContourTask:
 
     def info(self, b: int, ended: bool) -> dict[str, Any]:
         """Info of member ``b`` after a step or reset (SI units; see the env docstrings)."""
-        out = self._step_info(b)
+        out = self._member_info(b)
         if ended:
             out["metrics"] = {k: _python(val[b]) for k, val in self._end_metrics().items()}
         return out
