@@ -1,25 +1,33 @@
-"""Compiled code: numba's cache folder, kernels specialised per component, the first-run notice.
+"""Compiled code: numba's cache folder, the kernels' slots and their components, progress.
 
 **Cache folder.** numba's ``cache=True`` keys a function's machine code on its own file only,
 so after an edit to a function it *calls* in another module it would load stale code.
 :func:`configure` points numba at a folder named by a digest of the package's kernel modules
-(every module that imports numba), taken over their syntax trees without docstrings: editing
+(every module with compiled code), taken over their syntax trees without docstrings: editing
 a docstring or comment, or any module without compiled code, recompiles nothing. Set
 ``NUMBA_CACHE_DIR`` to choose the folder yourself (then this does nothing).
 
-**Specialised kernels.** The servo loop and the env step are written once, as templates
+**Kernels and their slots.** The servo loop and the env step are written once, as templates
 (``contour_gym._loopkernel``, ``contour_gym.envs._kernel``), whose *slots* (the axis
-controller, the estimator, the friction laws, the CCC law, the reward) are module globals.
-:func:`specialise` writes the template's source into a generated module named by a digest of
-its text and of the components' sources, imports it and binds the slots to the components:
-numba then compiles only the components a run uses and inlines them, and each combination is
-cached on disk like any module. A component registered from a user's own module (a test, a
-script) is bound the same way, so registering it is all it takes.
+controller, the estimator, the friction law, the compensation, the CCC law, the reward) are
+module globals. :func:`specialise` writes the template's source into a generated module named
+by a digest of its text and of the components' sources, imports it and binds the slots.
+A slot is *dispatched* (:data:`contour_gym._slots.DISPATCHED`): it takes a component code and
+is bound to a tuple of components (:func:`dispatcher_source`). :func:`bind` chooses the tuple:
 
-**First run.** The first call of a kernel not yet in the cache compiles it (tens of seconds on
-a laptop CPU); :func:`notice_first_compile` says so once per kernel on the ``contour_gym``
-logger at WARNING level, which Python prints to stderr unless the user configured logging
-(``logging.getLogger("contour_gym").setLevel(logging.ERROR)`` silences it).
+* every built-in component of the family when a run uses built-ins only: one kernel serves
+  every combination of them, compiled once per installation (and cached);
+* just the components the run uses when one of them is a user's (registered from a module
+  outside the built-in packages, :func:`builtin_packages`): a kernel of its own, compiled at
+  its first run, so registering a component is all it takes.
+
+Components are inlined into the kernel (fast, and numba would not inline a call across
+compiled functions by itself) unless their family says to call them (:class:`Called`: large
+components whose work per call dwarfs a call, compiled apart).
+
+**First run.** The built-ins' kernels compile in worker processes, several at a time, with a
+progress bar (:mod:`contour_gym._precompile`); a kernel for a user's component compiles in
+the calling process with a progress line (:func:`compiling`).
 """
 
 from __future__ import annotations

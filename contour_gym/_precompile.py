@@ -31,6 +31,7 @@ from contour_gym import _compile
 from contour_gym._registry import Registry
 
 IN_WORKER = "CONTOUR_GYM_COMPILE_WORKER"  # set in the workers: they compile in-process
+LAST_SECONDS: dict[str, float] = {}  # wall seconds of each warm-up this process ran
 
 
 @dataclass(frozen=True)
@@ -43,12 +44,15 @@ class Warmup:
             tiny inputs (imported and called in a worker process).
         after: Warm-ups whose kernels this one calls (they run first).
         doc: What it compiles, in a few words (the progress bar shows it).
+        seconds: About how long it takes on one core of a 2-core machine (the first-run
+            message adds these up as the workers would run them).
     """
 
     name: str
     target: str
     after: tuple[str, ...] = ()
     doc: str = field(default="", compare=False)
+    seconds: float = field(default=10.0, compare=False)
 
 
 WARMUPS: Registry[Warmup] = Registry("warm-up")
@@ -85,10 +89,10 @@ def pending(names: Sequence[str] | None = None) -> list[str]:
     return todo
 
 
-def run_warmup(name: str) -> float:
-    """Run warm-up ``name`` in this process, mark it done; returns its seconds."""
+def run_warmup(name: str, target: str | None = None) -> float:
+    """Run warm-up ``name`` in this process (``target``: its own), mark it done; seconds."""
     start = time.perf_counter()
-    module, _, func = WARMUPS.get(name).target.partition(":")
+    module, _, func = (target or WARMUPS.get(name).target).partition(":")
     fn: Callable[[], object] = getattr(importlib.import_module(module), func)
     fn()
     _marker(name).touch()
@@ -101,9 +105,10 @@ def _spawn(name: str) -> subprocess.Popen[str]:
     cache = str(getattr(numba.config, "CACHE_DIR", "") or "")
     if cache:
         env["NUMBA_CACHE_DIR"] = cache
-    code = "import sys; from contour_gym._precompile import main; main(sys.argv[1])"
+    code = "import sys; from contour_gym._precompile import main; main(*sys.argv[1:])"
     return subprocess.Popen(
-        [sys.executable, "-c", code, name], env=env, stdout=subprocess.DEVNULL,
+        [sys.executable, "-c", code, name, WARMUPS.get(name).target], env=env,
+        stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
 
@@ -135,10 +140,20 @@ def compile_builtins(
     return todo
 
 
+def _by_priority(todo: Sequence[str]) -> list[str]:
+    # longest chain of work through a warm-up's dependents first (critical path scheduling)
+    def chain(name: str) -> float:
+        after = [w for w in todo if name in WARMUPS.get(w).after]
+        return WARMUPS.get(name).seconds + max(map(chain, after), default=0.0)
+
+    return sorted(todo, key=chain, reverse=True)
+
+
 def _run_all(todo: list[str], workers: int, progress: bool) -> None:
-    bar = _Bar(todo) if progress else None
+    bar = _Bar(todo, expected_seconds(todo, workers)) if progress else None
     running: dict[str, subprocess.Popen[str]] = {}
-    waiting = list(todo)
+    started: dict[str, float] = {}
+    waiting = _by_priority(todo)
     try:
         while waiting or running:
             for name in [w for w in waiting if _ready(w, waiting, running)]:
@@ -146,6 +161,7 @@ def _run_all(todo: list[str], workers: int, progress: bool) -> None:
                     break
                 waiting.remove(name)
                 running[name] = _spawn(name)
+                started[name] = time.perf_counter()
                 if bar:
                     bar.start(name)
             time.sleep(0.2)
@@ -153,6 +169,7 @@ def _run_all(todo: list[str], workers: int, progress: bool) -> None:
                 if proc.poll() is None:
                     continue
                 del running[name]
+                LAST_SECONDS[name] = time.perf_counter() - started[name]
                 err = proc.stderr.read() if proc.stderr else ""
                 if proc.returncode != 0 or not _marker(name).exists():
                     raise RuntimeError(f"compiling the {name!r} kernels failed "
@@ -170,6 +187,23 @@ def _run_all(todo: list[str], workers: int, progress: bool) -> None:
 
 def _ready(name: str, waiting: list[str], running: Mapping[str, object]) -> bool:
     return not any(d in waiting or d in running for d in WARMUPS.get(name).after)
+
+
+def expected_seconds(todo: Sequence[str], workers: int) -> float:
+    """Wall time the warm-ups ``todo`` should take on ``workers`` (as :func:`_run_all` runs)."""
+    clock, waiting = 0.0, _by_priority(todo)
+    running: dict[str, float] = {}  # name -> end time
+    while waiting or running:
+        for name in [w for w in waiting if _ready(w, waiting, running)]:
+            if len(running) >= workers:
+                break
+            waiting.remove(name)
+            running[name] = clock + WARMUPS.get(name).seconds
+        if not running:  # pragma: no cover - a cycle (registration forbids unknown deps)
+            raise ValueError(f"warm-ups {waiting} wait on each other")
+        first = min(running, key=running.__getitem__)
+        clock = running.pop(first)
+    return clock
 
 
 @contextlib.contextmanager
@@ -202,12 +236,13 @@ def ensure(*names: str) -> None:
 class _Bar:
     """The progress bar: warm-ups done of all, the ones compiling now, the time so far."""
 
-    def __init__(self, todo: list[str]) -> None:
+    def __init__(self, todo: list[str], expected: float) -> None:
         from tqdm.auto import tqdm
 
         self.running: list[str] = []
-        self.bar = tqdm(total=len(todo), unit="group", file=sys.stderr,
-                        desc="contour-gym: compiling kernels (first run only)",
+        about = f"about {expected:.0f} s" if expected < 120 else f"about {expected / 60:.0f} min"
+        desc = f"contour-gym: compiling kernels, first run only ({about} on 2 cores)"
+        self.bar = tqdm(total=len(todo), unit="group", file=sys.stderr, desc=desc,
                         bar_format="{desc}: {n}/{total} groups [{elapsed}] {postfix}")  # fmt: skip
 
     def start(self, name: str) -> None:
@@ -234,22 +269,26 @@ class _Bar:
 # --------------------------------------------------------------------------------------
 # the package's own warm-ups
 # --------------------------------------------------------------------------------------
-register_warmup(Warmup("searches", "contour_gym._warmups:searches", doc="exact searches"))
+# seconds: measured on this project's 2-core machine, each group in a worker of its own
+register_warmup(Warmup("searches", "contour_gym._warmups:searches", doc="exact searches",
+                       seconds=17.0))  # fmt: skip
 register_warmup(Warmup("estimator_cores", "contour_gym._warmups:estimator_cores",
-                       doc="estimators"))  # fmt: skip
+                       doc="estimators", seconds=17.0))  # fmt: skip
 register_warmup(Warmup("path_api", "contour_gym._warmups:path_api", after=("searches",),
-                       doc="path searches for plots"))  # fmt: skip
+                       doc="path searches for plots", seconds=11.0))  # fmt: skip
 register_warmup(Warmup("loop", "contour_gym._warmups:servo_loop",
-                       after=("searches", "estimator_cores"), doc="servo loop"))  # fmt: skip
+                       after=("searches", "estimator_cores"), doc="servo loop",
+                       seconds=23.0))  # fmt: skip
 register_warmup(Warmup("env", "contour_gym._warmups:env_step", after=("loop",),
-                       doc="env step"))  # fmt: skip
+                       doc="env step", seconds=10.0))  # fmt: skip
 register_warmup(Warmup("estimators", "contour_gym._warmups:estimators",
-                       after=("estimator_cores",), doc="estimator API"))  # fmt: skip
+                       after=("estimator_cores",), doc="estimator API",
+                       seconds=4.5))  # fmt: skip
 register_warmup(Warmup("axes", "contour_gym._warmups:axes",
-                       doc="axis controllers and single-axis plant"))  # fmt: skip
+                       doc="axis controllers and single-axis plant", seconds=5.5))  # fmt: skip
 
 
-def main(name: str) -> None:
-    """A worker's entry point: load the plugins, run warm-up ``name``."""
-    _compile.builtin_packages()  # the plugins' warm-ups and components
-    run_warmup(name)
+def main(name: str, target: str) -> None:
+    """A worker's entry point: load the plugins, run warm-up ``name`` (its ``target``)."""
+    _compile.builtin_packages()  # the plugins' components
+    run_warmup(name, target)

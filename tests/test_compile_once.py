@@ -7,6 +7,8 @@ components by code inside one kernel must give the same results, bit for bit.
 
 from __future__ import annotations
 
+import os
+import time
 from typing import Any
 
 import gymnasium as gym
@@ -17,6 +19,7 @@ from numba.core import event
 
 import agents.ccc_laws  # noqa: F401 (registers the fuzzy CCC laws)
 import contour_gym
+from contour_gym import _precompile
 from contour_gym.contour import ContourEstimator, register_estimator
 from contour_gym.contour.base import ESTIMATORS
 from contour_gym.params import Schema
@@ -91,3 +94,43 @@ def test_a_users_estimator_works_by_registration_alone() -> None:
         assert mine == pytest.approx(exact, rel=1e-3)
     finally:
         ESTIMATORS.unregister("test_fallback_only")
+
+
+def _noop() -> None:
+    """A warm-up that compiles nothing (run in a worker process)."""
+
+
+def _boom() -> None:
+    raise RuntimeError("boom: a warm-up that fails")
+
+
+@pytest.fixture
+def warmups():  # type: ignore[no-untyped-def]
+    added: list[str] = []
+
+    def add(name: str, target: str, **kw: Any) -> None:
+        _precompile.register_warmup(_precompile.Warmup(name, target, **kw))
+        added.append(name)
+
+    yield add
+    for name in added:
+        _precompile.WARMUPS.unregister(name)
+
+
+def test_a_warmup_runs_in_a_worker_once_and_a_failure_names_its_error(warmups) -> None:  # type: ignore[no-untyped-def]
+    salt = f"{os.getpid()}_{time.time_ns()}"  # a marker no earlier run left
+    warmups(f"test_noop_{salt}", "tests.test_compile_once:_noop")
+    assert _precompile.compile_builtins([f"test_noop_{salt}"], progress=False) == [
+        f"test_noop_{salt}"]
+    assert _precompile.compile_builtins([f"test_noop_{salt}"], progress=False) == []
+    warmups(f"test_boom_{salt}", "tests.test_compile_once:_boom")
+    with pytest.raises(RuntimeError, match="boom: a warm-up that fails"):
+        _precompile.compile_builtins([f"test_boom_{salt}"], progress=False)
+
+
+def test_the_first_run_estimate_follows_the_dependencies(warmups) -> None:  # type: ignore[no-untyped-def]
+    warmups("test_a", "x:y", seconds=10.0)
+    warmups("test_b", "x:y", seconds=20.0)
+    warmups("test_c", "x:y", after=("test_a", "test_b"), seconds=5.0)
+    assert _precompile.expected_seconds(["test_a", "test_b", "test_c"], 2) == 25.0
+    assert _precompile.expected_seconds(["test_a", "test_b", "test_c"], 1) == 35.0
