@@ -36,7 +36,6 @@ import ast
 import contextlib
 import functools
 import hashlib
-import importlib.metadata
 import importlib.util
 import inspect
 import logging
@@ -55,6 +54,7 @@ import numba
 from numba.core import event
 
 from contour_gym import _inline_copy
+from contour_gym._registry import load_plugins
 
 KEEP = 3  # cache folders kept; older ones are removed
 SLOTS_MODULE = "contour_gym._slots"  # the templates import their slots from here
@@ -203,30 +203,15 @@ def _used(module: ModuleType | None) -> list[tuple[str, str]]:
     return sorted(out)
 
 
-PLUGIN_GROUP = "contour_gym.components"  # entry points whose modules register built-ins
-_BUILTIN_PACKAGES: list[str] = []
-
-
 def builtin_packages() -> tuple[str, ...]:
-    """The packages whose registered components count as built-in (and load them once).
+    """The packages whose registered components count as built-in (plugins loaded once).
 
     This package, and every package that declares a module under the entry-point group
-    :data:`PLUGIN_GROUP` (this wheel's ``agents`` declares its CCC laws): importing those
-    modules registers their components, so the kernel of the built-ins is the same whatever
-    the user imported first.
+    :data:`contour_gym._registry.PLUGIN_GROUP` (this wheel's ``agents`` declares its CCC
+    laws): importing those modules registers their components, so the kernel of the
+    built-ins is the same whatever the user imported first.
     """
-    with _LOCK:
-        if not _BUILTIN_PACKAGES:
-            names = [_PACKAGE.name]
-            for entry in importlib.metadata.entry_points(group=PLUGIN_GROUP):
-                try:
-                    importlib.import_module(entry.value)
-                except ImportError as exc:  # a broken plugin: its components are the user's
-                    LOG.warning("contour-gym: component plugin %s failed: %s", entry.value, exc)
-                    continue
-                names.append(entry.value.split(".")[0])
-            _BUILTIN_PACKAGES.extend(sorted(set(names)))
-    return tuple(_BUILTIN_PACKAGES)
+    return tuple(sorted({_PACKAGE.name, *load_plugins()}))
 
 
 def is_generic(slots: Mapping[str, Any]) -> bool:

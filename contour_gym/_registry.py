@@ -1,9 +1,40 @@
-"""One registry class behind every extension point (presets, estimators, controllers, ...)."""
+"""One registry class behind every extension point (presets, estimators, controllers, ...).
+
+Packages may ship components as plugins: a module declared under the entry-point group
+:data:`PLUGIN_GROUP` registers them on import. :func:`load_plugins` imports every such module
+once; a registry asked for a name it does not hold loads them before it says no, so a
+plugin's component can be named as soon as ``contour_gym`` is imported.
+"""
 
 from __future__ import annotations
 
+import importlib
+import importlib.metadata
+import logging
+import threading
 from collections.abc import Iterator
 from typing import Generic, Protocol, TypeVar
+
+PLUGIN_GROUP = "contour_gym.components"
+_PLUGINS: list[str] = []
+_LOCK = threading.RLock()
+
+
+def load_plugins() -> tuple[str, ...]:
+    """Import the plugin modules (once); returns the top-level packages that declared them."""
+    with _LOCK:
+        if not _PLUGINS:
+            names = []
+            for entry in importlib.metadata.entry_points(group=PLUGIN_GROUP):
+                try:
+                    importlib.import_module(entry.value)
+                except ImportError as exc:  # a broken plugin: its components are missing
+                    logging.getLogger("contour_gym").warning(
+                        "contour-gym: component plugin %s failed: %s", entry.value, exc)
+                    continue
+                names.append(entry.value.split(".")[0])
+            _PLUGINS.extend(sorted(set(names)) or [""])
+    return tuple(p for p in _PLUGINS if p)
 
 
 class Named(Protocol):
@@ -55,6 +86,8 @@ class Registry(Generic[T]):
         Raises:
             ValueError: for an unknown name, listing the accepted ones.
         """
+        if isinstance(name, str) and name not in self._items:
+            load_plugins()  # a plugin's component, not imported yet
         if not isinstance(name, str) or name not in self._items:
             raise ValueError(f"unknown {self.kind} {name!r}; accepted: {', '.join(self.names())}")
         return self._items[name]
