@@ -152,7 +152,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--baseline", type=Path, default=None, metavar="DIR",
                         help="checkout of the previous release, for the warm rows")
-    parser.add_argument("--repeats", type=int, default=3, help="processes per warm figure")
+    parser.add_argument("--repeats", type=int, default=5, help="processes per warm figure")
     parser.add_argument("--skip-bench", action="store_true", help="no bench cold row")
     parser.add_argument("--skip-warm", action="store_true", help="no warm rows")
     args = parser.parse_args()
