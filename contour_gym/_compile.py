@@ -337,7 +337,7 @@ def dispatcher_source(slot: str, n: int, called: frozenset[int] = frozenset()) -
     return "\n".join(lines) + "\n"
 
 
-def specialise(template: str, slots: Mapping[str, Any], label: str) -> ModuleType:
+def specialise(template: str, slots: Mapping[str, Any]) -> ModuleType:
     """The template module with its slots bound to ``slots``: generated, cached, imported.
 
     Args:
@@ -346,12 +346,10 @@ def specialise(template: str, slots: Mapping[str, Any], label: str) -> ModuleTyp
         slots: Slot name -> component (an njit function or a constant), or a tuple of
             components for a dispatched slot (:data:`contour_gym._slots.DISPATCHED`): the
             template then calls component ``code`` (:func:`dispatcher_source`).
-        label: Human-readable description (the first-compile notice shows it).
 
     Returns:
         The generated module; the same object for the same template and slots.
     """
-    # the label stays out of the text (the module's key): kernels of the same slots are one
     header = [f"# contour-gym generated kernel: {template}"]
     header.append(f"# package kernels @ {_package_digest_once()}")
     bound: dict[str, Any] = {}
@@ -381,7 +379,6 @@ def specialise(template: str, slots: Mapping[str, Any], label: str) -> ModuleTyp
         assert spec is not None and spec.loader is not None
         module = importlib.util.module_from_spec(spec)
         module.__dict__.update(bound)
-        module.__dict__["KERNEL_LABEL"] = label
         sys.modules[name] = module
         spec.loader.exec_module(module)
         _MODULES[key] = module

@@ -29,7 +29,7 @@ def _probes() -> tuple[Any, int]:
 
     members = ESTIMATOR_FAMILY.builtins()
     slots, _ = _compile.bind({ESTIMATOR_FAMILY: members})
-    return _compile.specialise("contour_gym._probes", slots, "probes"), len(members)
+    return _compile.specialise("contour_gym._probes", slots), len(members)
 
 
 def searches() -> None:

@@ -396,7 +396,7 @@ class ServoLoop:
     def _specialise(self) -> Any:
         if _compile.is_generic(self._slots):
             _precompile.ensure("loop")  # once per installation, in worker processes
-        return _compile.specialise("contour_gym._loopkernel", self.slots(), self.describe())
+        return _compile.specialise("contour_gym._loopkernel", self.slots())
 
     def _attach_views(self) -> None:
         for name, view in {**self._fblob.views, **self._iblob.views}.items():
@@ -879,7 +879,7 @@ def simulate_axis(
     ad, bd = zoh_matrices(ax, positive(ts, "ts") / substeps)
     st = np.zeros((1, STATE.size))
     st[0, ST.x], st[0, ST.v] = x0, v0
-    kernel = _compile.specialise("contour_gym._loopkernel", slots, f"axis with {law.name} friction")
+    kernel = _compile.specialise("contour_gym._loopkernel", slots)
     xs, vs = np.zeros(n), np.zeros(n)
     kernel.drive_axis(ax, friction_row(axis)[None], ripple_rows(axis)[None],
                       disturbance_row(axis, ts)[None], ad, bd, st, u, 0.0, ts, substeps, w, xs,

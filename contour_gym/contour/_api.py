@@ -89,7 +89,7 @@ class Estimator:
     def _kernel(self) -> tuple[Any, int]:
         # the batch kernel with this estimator among the family's, and its code
         slots, codes = _compile.bind({ESTIMATOR_FAMILY: [self.kind]})
-        kernel = _compile.specialise("contour_gym.contour._many", slots, f"estimator {self.name}")
+        kernel = _compile.specialise("contour_gym.contour._many", slots)
         return kernel, codes[ESTIMATOR_FAMILY.name][0]
 
     def __call__(self, path: Path, s_ref: ArrayLike, positions: ArrayLike, *,

@@ -127,9 +127,8 @@ class ContourTask:
         if _compile.is_generic(slots) and _compile.is_generic(self.loop.slots()):
             _precompile.ensure("env")  # once per installation, in worker processes
         self.kernel = _compile.specialise(
-            "contour_gym.envs._kernel", {"RUN_TICKS": self.loop.kernel.run_ticks, **slots},
-            f"{self.loop.describe()}, {self.kind} env, reward {self.reward_name}",
-        )  # fmt: skip
+            "contour_gym.envs._kernel", {"RUN_TICKS": self.loop.kernel.run_ticks, **slots}
+        )
         self._stepped = False
 
     def _step_limit(self) -> int:

@@ -67,8 +67,7 @@ class AxisControllers:
             {CONTROLLER_FAMILY: [self.controller], COMPENSATION_FAMILY: [True]}
         )
         self._codes = (codes[CONTROLLER_FAMILY.name][0], codes[COMPENSATION_FAMILY.name][0])
-        self._kernel = _compile.specialise("contour_gym.servo._bank", slots,
-                                           f"axis controller {name}")
+        self._kernel = _compile.specialise("contour_gym.servo._bank", slots)
 
     def reset(self) -> None:
         """Zero every member's state (integrators, observer, bristle state, history)."""
