@@ -1,8 +1,5 @@
 """Many arrays in one contiguous buffer, so a compiled call takes a few arguments, not dozens.
 
-The view functions are inlined: a kernel builds tens of views per call, and a call each cost
-~3 us per env step (numba calls a compiled function it loaded from the cache, never inlines it).
-
 Unboxing each array argument of a numba call costs ~0.2 us; the servo loop has ~30 arrays and
 is called once per env step. The Python side keeps ordinary numpy views into the buffer (so
 code reads and writes ``loop.ax_s`` as usual, in place); the compiled side rebuilds the same
@@ -104,21 +101,21 @@ def readonly(typingctx, arr):
     return arr.copy(readonly=True)(arr), codegen
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def view1(buf, lay, i):
     """1-D view number ``i`` of a blob."""
     o = lay[i, 0]
     return buf[o : o + lay[i, 2]]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def view2(buf, lay, i):
     """2-D view number ``i`` of a blob."""
     o, a, b = lay[i, 0], lay[i, 2], lay[i, 3]
     return buf[o : o + a * b].reshape((a, b))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def view3(buf, lay, i):
     """3-D view number ``i`` of a blob."""
     o, a, b, c = lay[i, 0], lay[i, 2], lay[i, 3], lay[i, 4]
@@ -134,7 +131,7 @@ def _size(lay, i, ndim):
     return n
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def rows2(buf, lay, i):
     """Array ``i`` of a blob as a 2-D row table: all but its last dimension merged into rows."""
     nd = lay[i, 1]
@@ -142,7 +139,7 @@ def rows2(buf, lay, i):
     return buf[lay[i, 0] : lay[i, 0] + n * last].reshape((n, last))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def rows3(buf, lay, i):
     """Array ``i`` of a blob as a 3-D row table: all but its last two dimensions merged."""
     nd = lay[i, 1]
@@ -150,7 +147,7 @@ def rows3(buf, lay, i):
     return buf[lay[i, 0] : lay[i, 0] + n * r * c].reshape((n, r, c))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def flat(buf, lay, i):
     """All elements of array ``i`` of a blob as one 1-D view."""
     return buf[lay[i, 0] : lay[i, 0] + _size(lay, i, lay[i, 1])]

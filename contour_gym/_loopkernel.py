@@ -297,7 +297,6 @@ def _record(A, b, j, s, v, rec, n_axes):
 @numba.njit(cache=True, inline="always")
 def _plant(A, cfg, b, k, noise, j, n_axes, has_noise):
     # advance every axis with the applied command; False if the state left the physical range
-    # (j: the member's row in the noise buffer)
     ok = True
     for a in range(n_axes):
         i = b * n_axes + a
@@ -368,7 +367,6 @@ def member_run(b, n, k0, cfg, A, P, noise, rec):
     """Run ``n`` servo ticks of member ``b`` from its local tick ``k0``; returns its status."""
     n_axes = A.work.shape[1]
     has_noise = noise.shape[1] > 0
-    row = A.noise_at[b]  # the member's noise row of tick k0
     prog = (P.feed, P.flags, P.vcap, P.vj, P.wait, P.dwell)
     law = (P.law_s, P.law_v)
     for j in range(n):
@@ -377,7 +375,7 @@ def member_run(b, n, k0, cfg, A, P, noise, rec):
         interp_tick(A.ip_p, A.ip_s, b, k, cfg.ts, P.s0, prog, law, cfg.law_dt, in_pos)
         s = A.ip_s[b, IS.s]
         _reference(A, P, s, A.ip_s[b, IS.v], A.ip_s[b, IS.a], A.hist[b])
-        _sense(A, cfg, b, noise, row + j, n_axes, has_noise)
+        _sense(A, cfg, b, noise, j, n_axes, has_noise)
         _contours(A, P, cfg, b, s, n_axes)
         _axes(A, cfg, b, n_axes)
         _accumulate(A, P, cfg, b, k, n_axes)
@@ -386,7 +384,7 @@ def member_run(b, n, k0, cfg, A, P, noise, rec):
             return STATUS_FAILED
         if cfg.record:
             _record(A, b, j, s, A.ip_s[b, IS.v], rec, n_axes)
-        if not _plant(A, cfg, b, k, noise, row + j, n_axes, has_noise):
+        if not _plant(A, cfg, b, k, noise, j, n_axes, has_noise):
             A.mem[b, M.reason], A.mem[b, M.end] = REASON_DIVERGED, k + 1
             return STATUS_FAILED
         inpos = _in_position(A, cfg, b, n_axes)
@@ -413,8 +411,6 @@ def run_ticks(n, k0, cf, fb, fl, ib, il, pk, pb, pl, noise, rec):
     just these ticks, ``ep_*`` the episode's running sums (kept in the kernel so they do not
     depend on how an episode is cut into calls). ``k0`` is the loop's tick; member ``b`` lives
     in local time ``k0 - k_start[b]`` (vector env members restart at different ticks).
-    ``noise`` holds each member's normals; member ``b`` reads its rows from ``noise_at[b]``
-    on and advances it by ``n`` (:class:`contour_gym.loop._NoiseSource` refills the buffer).
     """
     # borrowed: the views made here and in the callees carry no owner to count
     fb, ib, noise, rec = borrow(fb), borrow(ib), borrow(noise), borrow(rec)
@@ -427,4 +423,3 @@ def run_ticks(n, k0, cf, fb, fl, ib, il, pk, pb, pl, noise, rec):
         if A.status[b] != STATUS_OK:
             continue
         A.status[b] = member_run(b, n, k0 - A.k_start[b], cfg, A, P, noise, rec)
-        A.noise_at[b] += n  # the member consumed n rows of its stream, whenever it stopped

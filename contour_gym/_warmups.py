@@ -18,32 +18,6 @@ def _loop() -> Any:
     return scenario.loop(batch_size=1, ccc_gains=scenario.preset.ccc_gains.as_tuple())
 
 
-def _blobs(loop: Any) -> tuple[Any, ...]:
-    return (*loop.blobs(), loop._kind, loop._pblob.buffer, loop._pblob.layout)
-
-
-def _probes() -> tuple[Any, int]:
-    # the probes bound to every built-in estimator, and how many there are
-    from contour_gym import _compile
-    from contour_gym.contour.base import ESTIMATOR_FAMILY
-
-    members = ESTIMATOR_FAMILY.builtins()
-    slots, _ = _compile.bind({ESTIMATOR_FAMILY: members})
-    return _compile.specialise("contour_gym._probes", slots), len(members)
-
-
-def searches() -> None:
-    """The exact search the loop calls (shared with the path API's searches)."""
-    probes, _ = _probes()
-    probes.searches(False, *_blobs(_loop()), 2)
-
-
-def estimator_cores() -> None:
-    """Every built-in estimator's core, as the loop calls them."""
-    probes, _ = _probes()
-    probes.estimators(0, *_blobs(_loop()))  # compiled for all; run on no input
-
-
 def path_api() -> None:
     """The path API's nearest-point searches (plots, the estimator API's exact search)."""
     from contour_gym.paths import load

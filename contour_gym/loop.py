@@ -110,36 +110,39 @@ class _NoiseSource:
 
     A member's numbers are its own generator's normal stream consumed in order (numpy fills
     arrays sequentially, so chunk sizes do not matter): results never depend on B, on how a
-    run is cut into calls, or on other members' resets and pauses. The kernel reads member
-    ``b``'s rows in place from ``pos[b]`` (the loop's ``noise_at``) and advances it.
+    run is cut into calls, or on other members' resets and pauses.
     """
 
     def __init__(self, batch: int, width: int, active: bool) -> None:
         self.width, self.active = width, active
         self.gens: list[np.random.Generator | None] = [None] * batch
         self.buf = np.zeros((batch, NOISE_CHUNK if active else 0, width))
-        self.end = np.zeros(batch, dtype=np.int64)  # end of the valid rows per member
+        self.pos = np.zeros(batch, dtype=np.intp)  # next unread row per member
+        self.end = np.zeros(batch, dtype=np.intp)  # end of the valid rows per member
 
-    def reseed(
-        self, members: NDArray[np.intp], gens: list[np.random.Generator | None], pos: Any
-    ) -> None:
+    def reseed(self, members: NDArray[np.intp], gens: list[np.random.Generator | None]) -> None:
         for b, g in zip(members, gens, strict=True):
             self.gens[b] = g
-            pos[b] = self.end[b] = 0  # nothing left: the next take draws fresh
+            self.pos[b] = self.end[b] = 0  # nothing left: the next take draws fresh
 
-    def take(self, n: int, running: NDArray[np.bool_], pos: Any) -> Array:
-        """The buffer (B, rows, width): rows ``pos[b]`` on hold ``n`` for ``running`` members."""
+    def take(self, n: int, running: NDArray[np.bool_]) -> Array:
+        """(B, n, width) normals; only ``running`` members advance their streams."""
+        if not self.active:
+            return np.zeros((len(self.gens), 0, 0))
         if n > self.buf.shape[1]:
             grown = np.zeros((self.buf.shape[0], n, self.width))
             grown[:, : self.buf.shape[1]] = self.buf
             self.buf = grown
         cap = self.buf.shape[1]
-        for b in np.flatnonzero(running & (pos + n > self.end)):
-            rest = self.buf[b, pos[b] : self.end[b]].copy()
+        for b in np.flatnonzero(running & (self.pos + n > self.end)):
+            rest = self.buf[b, self.pos[b] : self.end[b]].copy()
             self.buf[b, : len(rest)] = rest
             self.buf[b, len(rest) :] = self.gens[b].standard_normal((cap - len(rest), self.width))  # type: ignore[union-attr]
-            pos[b], self.end[b] = 0, cap
-        return self.buf
+            self.pos[b], self.end[b] = 0, cap
+        rows = np.minimum(self.pos[:, None] + np.arange(n), cap - 1)
+        out = self.buf[np.arange(len(self.gens))[:, None], rows]
+        self.pos[running] += n
+        return out
 
 
 @dataclass(frozen=True)
@@ -229,7 +232,6 @@ class ServoLoop:
     c_axes: NDArray[np.int64]
     status: NDArray[np.int64]
     k_start: NDArray[np.int64]
-    noise_at: NDArray[np.int64]
 
     def __init__(
         self,
@@ -336,7 +338,7 @@ class ServoLoop:
         c_axes = np.full((c, 3), -1, dtype=np.int64)
         for i, con in enumerate(stage.contours):
             c_axes[i, : con.dim] = con.axes
-        int_shapes = {"c_axes": c_axes.shape, "status": (b,), "k_start": (b,), "noise_at": (b,)}
+        int_shapes = {"c_axes": c_axes.shape, "status": (b,), "k_start": (b,)}
         self._iblob = Blob([(name, int_shapes[name]) for name in INT_NAMES], np.int64)
         self._attach_views()
         for name, value in params.items():
@@ -475,7 +477,7 @@ class ServoLoop:
         self.k_start[idx] = self.tick
         self.sums.contour[idx] = 0.0
         self.sums.axis[idx] = 0.0
-        self._noise.reseed(idx, self._generators(seed, len(idx)), self.noise_at)
+        self._noise.reseed(idx, self._generators(seed, len(idx)))
 
     def _generators(
         self, seed: int | Sequence[int] | None, count: int
@@ -699,7 +701,7 @@ class ServoLoop:
         rec = np.zeros((self.batch_size, n_ticks, self._rec_width)) if self.record else (
             self._no_record)  # fmt: skip
         if self._noise.active:
-            noise = self._noise.take(n_ticks, self.status == STATUS_OK, self.noise_at)
+            noise = self._noise.take(n_ticks, self.status == STATUS_OK)
         else:
             noise = self._no_noise
         return n_ticks, paused, noise, rec
