@@ -2,10 +2,10 @@
 
 A *warm-up* is a small run that makes numba compile (and cache) one group of kernels: the
 servo loop of the built-in components, the env step on it, and whatever a plugin package
-registers. :func:`compile_builtins` runs the warm-ups
-not yet done in worker processes, as many at a time as there are workers and their order
-allows, while the terminal shows what compiles, how many are left and the time so far; the
-calling process then loads everything from numba's cache. A warm-up done is remembered by a
+registers. :func:`compile_builtins` runs the warm-ups not yet done in worker processes, as
+many at a time as there are workers and their order allows, while the terminal shows what
+compiles, how many are left and the time so far; the calling process then loads everything
+from numba's cache. A warm-up done is remembered by a
 marker file in the cache folder, keyed by the package's kernel digest and the plugins, so the
 next run starts at once. Workers are fresh interpreters calling :func:`main` (never forked:
 the caller may hold threads and numba's locks; never multiprocessing's spawn: it re-runs the
@@ -20,10 +20,12 @@ import importlib
 import os
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import IO
 
 import numba
 
@@ -67,7 +69,7 @@ def register_warmup(warmup: Warmup, *, replace: bool = False) -> Warmup:
 
 def _marker(name: str) -> Path:
     key = hashlib.sha1(
-        "|".join((_compile.package_digest(), *_compile.builtin_packages(), name)).encode()
+        "|".join((_compile._package_digest_once(), *_compile.builtin_packages(), name)).encode()
     ).hexdigest()[:16]
     return _compile.generated_dir() / f"warm_{name}_{key}.done"
 
@@ -99,8 +101,9 @@ def run_warmup(name: str, target: str | None = None) -> float:
     return time.perf_counter() - start
 
 
-def _spawn(name: str) -> subprocess.Popen[str]:
-    # a fresh interpreter (never multiprocessing: its spawn re-runs the user's __main__)
+def _spawn(name: str, errors: IO[str]) -> subprocess.Popen[str]:
+    # a fresh interpreter (never multiprocessing: its spawn re-runs the user's __main__); its
+    # error output to a file (a pipe read only at the end could fill and stall the worker)
     env = dict(os.environ, **{IN_WORKER: "1"})
     cache = str(getattr(numba.config, "CACHE_DIR", "") or "")
     if cache:
@@ -108,8 +111,7 @@ def _spawn(name: str) -> subprocess.Popen[str]:
     code = "import sys; from contour_gym._precompile import main; main(*sys.argv[1:])"
     return subprocess.Popen(
         [sys.executable, "-c", code, name, WARMUPS.get(name).target], env=env,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE, text=True,
+        stdout=subprocess.DEVNULL, stderr=errors, text=True,
     )  # fmt: skip
 
 
@@ -153,6 +155,7 @@ def _run_all(todo: list[str], workers: int, progress: bool) -> None:
     bar = _Bar(todo, expected_seconds(todo, workers)) if progress else None
     running: dict[str, subprocess.Popen[str]] = {}
     started: dict[str, float] = {}
+    errors: dict[str, IO[str]] = {}
     waiting = _by_priority(todo)
     try:
         while waiting or running:
@@ -160,7 +163,9 @@ def _run_all(todo: list[str], workers: int, progress: bool) -> None:
                 if len(running) >= workers:
                     break
                 waiting.remove(name)
-                running[name] = _spawn(name)
+                # closed when read, or in the finally clause below
+                errors[name] = tempfile.TemporaryFile("w+", encoding="utf-8")  # noqa: SIM115
+                running[name] = _spawn(name, errors[name])
                 started[name] = time.perf_counter()
                 if bar:
                     bar.start(name)
@@ -170,7 +175,9 @@ def _run_all(todo: list[str], workers: int, progress: bool) -> None:
                     continue
                 del running[name]
                 LAST_SECONDS[name] = time.perf_counter() - started[name]
-                err = proc.stderr.read() if proc.stderr else ""
+                with errors.pop(name) as handle:
+                    handle.seek(0)
+                    err = handle.read()
                 if proc.returncode != 0 or not _marker(name).exists():
                     raise RuntimeError(f"compiling the {name!r} kernels failed "
                                        f"(exit code {proc.returncode}):\n{err}")  # fmt: skip
@@ -181,6 +188,8 @@ def _run_all(todo: list[str], workers: int, progress: bool) -> None:
     finally:
         for proc in running.values():
             proc.kill()
+        for handle in errors.values():
+            handle.close()
         if bar:
             bar.close()
 

@@ -6,16 +6,7 @@ any combination compiles it for all.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
-
-
-def _loop() -> Any:
-    from contour_gym.api import make_scenario
-
-    scenario = make_scenario("xy_dc_servo")
-    return scenario.loop(batch_size=1, ccc_gains=scenario.preset.ccc_gains.as_tuple())
 
 
 def path_api() -> None:
@@ -31,7 +22,10 @@ def path_api() -> None:
 
 def servo_loop() -> None:
     """The servo loop of the built-in components (and the shared searches it calls)."""
-    _loop().step(3)
+    from contour_gym.api import make_scenario
+
+    scenario = make_scenario("xy_dc_servo")
+    scenario.loop(batch_size=1, ccc_gains=scenario.preset.ccc_gains.as_tuple()).step(3)
 
 
 def env_step() -> None:

@@ -311,11 +311,8 @@ class ContourTask:
             self.config.decision_ticks, None if skip is None else np.flatnonzero(skip)
         )
         eb, el = self._blob.buffer, self._blob.layout
-        if self._stepped:
+        with contextlib.nullcontext() if self._stepped else self._compiling():
             ran = self.kernel.env_step(eb, el, self._econfig, *loop.kernel_args(call))
-        else:
-            with self._compiling():
-                ran = self.kernel.env_step(eb, el, self._econfig, *loop.kernel_args(call))
         if not ran:
             raise ValueError(f"actions must be finite, got {actions}")  # nothing was run
         loop.complete(call)
