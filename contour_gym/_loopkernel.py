@@ -297,6 +297,7 @@ def _record(A, b, j, s, v, rec, n_axes):
 @numba.njit(cache=True, inline="always")
 def _plant(A, cfg, b, k, noise, j, n_axes, has_noise):
     # advance every axis with the applied command; False if the state left the physical range
+    # (j: the member's row in the noise buffer)
     ok = True
     for a in range(n_axes):
         i = b * n_axes + a
@@ -367,6 +368,7 @@ def member_run(b, n, k0, cfg, A, P, noise, rec):
     """Run ``n`` servo ticks of member ``b`` from its local tick ``k0``; returns its status."""
     n_axes = A.work.shape[1]
     has_noise = noise.shape[1] > 0
+    row = A.noise_at[b]  # the member's noise row of tick k0
     prog = (P.feed, P.flags, P.vcap, P.vj, P.wait, P.dwell)
     law = (P.law_s, P.law_v)
     for j in range(n):
@@ -375,7 +377,7 @@ def member_run(b, n, k0, cfg, A, P, noise, rec):
         interp_tick(A.ip_p, A.ip_s, b, k, cfg.ts, P.s0, prog, law, cfg.law_dt, in_pos)
         s = A.ip_s[b, IS.s]
         _reference(A, P, s, A.ip_s[b, IS.v], A.ip_s[b, IS.a], A.hist[b])
-        _sense(A, cfg, b, noise, j, n_axes, has_noise)
+        _sense(A, cfg, b, noise, row + j, n_axes, has_noise)
         _contours(A, P, cfg, b, s, n_axes)
         _axes(A, cfg, b, n_axes)
         _accumulate(A, P, cfg, b, k, n_axes)
@@ -384,7 +386,7 @@ def member_run(b, n, k0, cfg, A, P, noise, rec):
             return STATUS_FAILED
         if cfg.record:
             _record(A, b, j, s, A.ip_s[b, IS.v], rec, n_axes)
-        if not _plant(A, cfg, b, k, noise, j, n_axes, has_noise):
+        if not _plant(A, cfg, b, k, noise, row + j, n_axes, has_noise):
             A.mem[b, M.reason], A.mem[b, M.end] = REASON_DIVERGED, k + 1
             return STATUS_FAILED
         inpos = _in_position(A, cfg, b, n_axes)
@@ -407,19 +409,30 @@ def run_ticks(n, k0, cf, fb, fl, ib, il, pk, pb, pl, noise, rec):
 
     ``cf`` is the run's :data:`~contour_gym._loopstate.CONFIG` row; ``fb``/``fl`` and
     ``ib``/``il`` the float and int blobs and their layouts; ``pk``, ``pb``/``pl`` the path's
-    segment kinds and float blob (:mod:`contour_gym._loopstate`). ``acc_*`` receive the sums of
-    just these ticks, ``ep_*`` the episode's running sums (kept in the kernel so they do not
-    depend on how an episode is cut into calls). ``k0`` is the loop's tick; member ``b`` lives
-    in local time ``k0 - k_start[b]`` (vector env members restart at different ticks).
+    segment kinds and float blob (:mod:`contour_gym._loopstate`). The blobs' views are made
+    here and handed to :func:`run_members`.
     """
     # borrowed: the views made here and in the callees carry no owner to count
-    fb, ib, noise, rec = borrow(fb), borrow(ib), borrow(noise), borrow(rec)
     P = path_arrays(borrow(pk), borrow(pb), pl)
-    A = loop_arrays(fb, fl, ib, il)
-    cfg = config(cf)
+    A = loop_arrays(borrow(fb), fl, borrow(ib), il)
+    run_members(n, k0, config(cf), A, P, borrow(noise), borrow(rec))
+
+
+@numba.njit(cache=True, nogil=True)
+def run_members(n, k0, cfg, A, P, noise, rec):
+    """:func:`run_ticks` on the blobs' views (the env kernel calls this with its own).
+
+    ``acc_*`` receive the sums of just these ticks, ``ep_*`` the episode's running sums (kept
+    in the kernel so they do not depend on how an episode is cut into calls). ``k0`` is the
+    loop's tick; member ``b`` lives in local time ``k0 - k_start[b]`` (vector env members
+    restart at different ticks). ``noise`` holds each member's normals; member ``b`` reads its
+    rows from ``noise_at[b]`` on and advances it by ``n`` (:class:`contour_gym.loop._NoiseSource`
+    refills the buffer).
+    """
     A.acc_c[:] = 0.0  # the window sums start at zero
     A.acc_a[:] = 0.0
     for b in range(A.ip_s.shape[0]):
         if A.status[b] != STATUS_OK:
             continue
         A.status[b] = member_run(b, n, k0 - A.k_start[b], cfg, A, P, noise, rec)
+        A.noise_at[b] += n  # the member consumed n rows of its stream, whenever it stopped

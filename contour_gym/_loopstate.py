@@ -34,7 +34,8 @@ FLOATS = (
     ("ep_a", "rows2"), ("u_cmd", "view2"), ("y_last", "view2"), ("mem", "view2"),
     ("work", "view2"), ("c_off", "view2"),
 )  # fmt: skip
-INTS = (("c_axes", "view2"), ("status", "view1"), ("k_start", "view1"))
+# noise_at: each member's row in the noise buffer of its next tick (the kernel advances it)
+INTS = (("c_axes", "view2"), ("status", "view1"), ("k_start", "view1"), ("noise_at", "view1"))
 FLOAT_NAMES = tuple(n for n, _ in FLOATS)
 INT_NAMES = tuple(n for n, _ in INTS)
 F = namedtuple("F", FLOAT_NAMES)(*range(len(FLOATS)))
@@ -97,6 +98,7 @@ def loop_arrays(fb, fl, ib, il):
         rows2(fb, fl, F.ep_a), view2(fb, fl, F.u_cmd), view2(fb, fl, F.y_last),
         view2(fb, fl, F.mem), view2(fb, fl, F.work), view2(fb, fl, F.c_off),
         view2(ib, il, I.c_axes), view1(ib, il, I.status), view1(ib, il, I.k_start),
+        view1(ib, il, I.noise_at),
     )  # fmt: skip
 
 

@@ -87,8 +87,8 @@ def CCC_COMMIT(code, p, s, data, q, row, e, ts, out, saturated):
 
 
 @numba.njit(cache=True)
-def RUN_TICKS(n, k0, cf, fb, fl, ib, il, pk, pb, pl, noise, rec):
-    """The loop's run (:mod:`contour_gym._loopkernel`), bound to the loop's own kernel."""
+def RUN_MEMBERS(n, k0, cfg, A, P, noise, rec):
+    """The loop's run on its views, bound to the loop's own ``run_members``."""
 
 
 @numba.njit(cache=True, inline="always")

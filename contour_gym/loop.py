@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -110,39 +110,48 @@ class _NoiseSource:
 
     A member's numbers are its own generator's normal stream consumed in order (numpy fills
     arrays sequentially, so chunk sizes do not matter): results never depend on B, on how a
-    run is cut into calls, or on other members' resets and pauses.
+    run is cut into calls, or on other members' resets and pauses. The kernel reads member
+    ``b``'s rows in place from ``pos[b]`` (the loop's ``noise_at``) and advances it.
     """
 
     def __init__(self, batch: int, width: int, active: bool) -> None:
         self.width, self.active = width, active
         self.gens: list[np.random.Generator | None] = [None] * batch
         self.buf = np.zeros((batch, NOISE_CHUNK if active else 0, width))
-        self.pos = np.zeros(batch, dtype=np.intp)  # next unread row per member
-        self.end = np.zeros(batch, dtype=np.intp)  # end of the valid rows per member
+        self.end = np.zeros(batch, dtype=np.int64)  # end of the valid rows per member
+        self.ahead = 0  # rows every member has left at least (a call takes n from each)
 
-    def reseed(self, members: NDArray[np.intp], gens: list[np.random.Generator | None]) -> None:
+    def reseed(
+        self, members: NDArray[np.intp], gens: list[np.random.Generator | None], pos: Any
+    ) -> None:
         for b, g in zip(members, gens, strict=True):
             self.gens[b] = g
-            self.pos[b] = self.end[b] = 0  # nothing left: the next take draws fresh
+            pos[b] = self.end[b] = 0  # nothing left: the next take draws fresh
+        self.ahead = 0
 
-    def take(self, n: int, running: NDArray[np.bool_]) -> Array:
-        """(B, n, width) normals; only ``running`` members advance their streams."""
+    def take(self, n: int, status: NDArray[np.int64], pos: Any) -> Array:
+        """The buffer (B, rows, width): rows ``pos[b]`` on hold ``n`` for running members.
+
+        Without noise, an empty buffer (B, 0, width).
+        """
         if not self.active:
-            return np.zeros((len(self.gens), 0, 0))
+            return self.buf
+        if n <= self.ahead:  # every member has its n rows: no array work on a short call
+            self.ahead -= n
+            return self.buf
+        running = status == STATUS_OK
         if n > self.buf.shape[1]:
             grown = np.zeros((self.buf.shape[0], n, self.width))
             grown[:, : self.buf.shape[1]] = self.buf
             self.buf = grown
         cap = self.buf.shape[1]
-        for b in np.flatnonzero(running & (self.pos + n > self.end)):
-            rest = self.buf[b, self.pos[b] : self.end[b]].copy()
+        for b in np.flatnonzero(running & (pos + n > self.end)):
+            rest = self.buf[b, pos[b] : self.end[b]].copy()
             self.buf[b, : len(rest)] = rest
             self.buf[b, len(rest) :] = self.gens[b].standard_normal((cap - len(rest), self.width))  # type: ignore[union-attr]
-            self.pos[b], self.end[b] = 0, cap
-        rows = np.minimum(self.pos[:, None] + np.arange(n), cap - 1)
-        out = self.buf[np.arange(len(self.gens))[:, None], rows]
-        self.pos[running] += n
-        return out
+            pos[b], self.end[b] = 0, cap
+        self.ahead = int((self.end - pos).min()) - n
+        return self.buf
 
 
 @dataclass(frozen=True)
@@ -232,6 +241,7 @@ class ServoLoop:
     c_axes: NDArray[np.int64]
     status: NDArray[np.int64]
     k_start: NDArray[np.int64]
+    noise_at: NDArray[np.int64]
 
     def __init__(
         self,
@@ -278,9 +288,8 @@ class ServoLoop:
         self._config = self._config_row()
         self.kernel = self._specialise()
         self._rec_width = 2 + 3 * stage.n_axes + 2 * len(stage.contours)
-        self._marked = False  # mark_compiled done (complete)
+        self._marked = False  # mark_compiled done (advance)
         self._no_record = np.zeros((b, 0, self._rec_width))
-        self._no_noise = np.zeros((b, 0, 0))
         self._nominal = (self.ax_p.copy(), self.fr_p.copy(), self.dist.copy())
         self.reset(0)
 
@@ -338,7 +347,7 @@ class ServoLoop:
         c_axes = np.full((c, 3), -1, dtype=np.int64)
         for i, con in enumerate(stage.contours):
             c_axes[i, : con.dim] = con.axes
-        int_shapes = {"c_axes": c_axes.shape, "status": (b,), "k_start": (b,)}
+        int_shapes = {"c_axes": c_axes.shape, "status": (b,), "k_start": (b,), "noise_at": (b,)}
         self._iblob = Blob([(name, int_shapes[name]) for name in INT_NAMES], np.int64)
         self._attach_views()
         for name, value in params.items():
@@ -477,7 +486,7 @@ class ServoLoop:
         self.k_start[idx] = self.tick
         self.sums.contour[idx] = 0.0
         self.sums.axis[idx] = 0.0
-        self._noise.reseed(idx, self._generators(seed, len(idx)))
+        self._noise.reseed(idx, self._generators(seed, len(idx)), self.noise_at)
 
     def _generators(
         self, seed: int | Sequence[int] | None, count: int
@@ -666,6 +675,10 @@ class ServoLoop:
         """The float and int blobs and their layouts (what compiled callers take)."""
         return self._fblob.buffer, self._fblob.layout, self._iblob.buffer, self._iblob.layout
 
+    def path_blobs(self) -> tuple[NDArray[np.int64], NDArray[Any], NDArray[np.int64]]:
+        """The path's segment kinds, float blob and its layout (what compiled callers take)."""
+        return self._kind, self._pblob.buffer, self._pblob.layout
+
     # ------------------------------------------------------------------- run
     def step(self, n_ticks: int, skip: ArrayLike | None = None) -> ErrorSums:
         """Run ``n_ticks`` ticks; return the error sums of just these ticks.
@@ -677,10 +690,8 @@ class ServoLoop:
 
         Members that failed or arrived stay frozen.
         """
-        call = self.prepare(n_ticks, skip)
         with self.compiling():
-            self.kernel.run_ticks(*self.kernel_args(call))
-        self.complete(call)
+            self.advance(n_ticks, skip)
         return ErrorSums(self.acc_c.copy(), self.acc_a.copy())
 
     def compiling(self) -> contextlib.AbstractContextManager[None]:
@@ -688,54 +699,71 @@ class ServoLoop:
         show = not self._marked and _compile.needs_compile(self.kernel)
         return _compile.compiling(f"the servo loop for {self.describe()}", show)
 
-    def prepare(self, n_ticks: int, skip: ArrayLike | None = None) -> tuple[int, Any, Array, Array]:
-        """Bookkeeping before a kernel call; returns what :meth:`kernel_args` needs."""
+    def advance(
+        self, n_ticks: int, skip: ArrayLike | None = None,
+        via: Callable[..., Any] | None = None, leading: tuple[Any, ...] = (),
+    ) -> Any:  # fmt: skip
+        """Run ``n_ticks`` ticks, by the loop's kernel or by a compiled caller of its run.
+
+        Args:
+            n_ticks: Ticks to run.
+            skip: As in :meth:`step`.
+            via: None for the loop's own ``run_ticks``; else a compiled function called as
+                ``via(*leading, n, k0, cf, fb, fl, ib, il, pk, pb, pl, noise, rec)`` that makes
+                the views of these blobs and calls the kernel's ``run_members`` on them once
+                (the env kernel: actions, the ticks and rewards in one call). If it returns
+                False it ran nothing: the clock stays where it was.
+            leading: ``via``'s own arguments.
+
+        Returns:
+            ``via``'s result (None without ``via``).
+        """
         if not isinstance(n_ticks, (int, np.integer)) or n_ticks < 0:
             raise ValueError(f"n_ticks must be a non-negative int, got {n_ticks!r}")
-        paused = None
-        if skip is not None:
-            paused = np.zeros(self.batch_size, dtype=bool)
-            paused[np.asarray(skip)] = True
-            paused &= self.status == STATUS_OK
-            self.status[paused] = STATUS_PAUSED
+        paused = None if skip is None else self._pause(skip)
+        # reading noise ahead leaves no trace: each member's stream is consumed in order
+        noise = self._noise.take(n_ticks, self.status, self.noise_at)
         rec = np.zeros((self.batch_size, n_ticks, self._rec_width)) if self.record else (
             self._no_record)  # fmt: skip
-        if self._noise.active:
-            noise = self._noise.take(n_ticks, self.status == STATUS_OK)
-        else:
-            noise = self._no_noise
-        return n_ticks, paused, noise, rec
-
-    @property
-    def noise_active(self) -> bool:
-        """Whether the loop draws random numbers (then actions are checked before a call)."""
-        return self._noise.active
-
-    def kernel_args(self, call: tuple[int, Any, Array, Array]) -> tuple[Any, ...]:
-        """Arguments of the kernel's ``run_ticks`` for a prepared call."""
-        n_ticks, _, noise, rec = call
-        fb, fl, ib, il = self.blobs()
-        return (n_ticks, self.tick, self._config, fb, fl, ib, il, self._kind, self._pblob.buffer,
+        args = (n_ticks, self.tick, self._config, self._fblob.buffer, self._fblob.layout,
+                self._iblob.buffer, self._iblob.layout, self._kind, self._pblob.buffer,
                 self._pblob.layout, noise, rec)  # fmt: skip
-
-    def complete(self, call: tuple[int, Any, Array, Array]) -> None:
-        """Bookkeeping after a kernel call (clock, paused members, recording)."""
-        n_ticks, paused, _, rec = call
+        result = self.kernel.run_ticks(*args) if via is None else via(*leading, *args)
+        if result is False:
+            if paused is not None:
+                self._resume(paused, 0)
+            return result
         if self.record:
-            # rows after a member's end were never written: NaN, not data
-            local = self.tick - self.k_start
-            ended = (self.status == STATUS_ARRIVED) | (self.status == STATUS_FAILED)
-            for b in np.flatnonzero(ended):
-                first = int(self.mem[b, M.end]) - local[b]
-                rec[b, max(first, 0) :] = np.nan
-            self._records.append(rec)
+            self._keep_record(rec)
         self.tick += n_ticks
         if paused is not None:
-            self.status[paused] = STATUS_OK
-            self.k_start[paused] += n_ticks
+            self._resume(paused, n_ticks)
         if not self._marked:  # once per loop: the marker is a file (a stat per call cost 7 us)
             _compile.mark_compiled(self.kernel)
             self._marked = True
+        return result
+
+    def _pause(self, skip: ArrayLike) -> NDArray[np.bool_]:
+        # members in skip that are running sit this call out (status PAUSED)
+        paused = np.zeros(self.batch_size, dtype=bool)
+        paused[np.asarray(skip)] = True
+        paused &= self.status == STATUS_OK
+        self.status[paused] = STATUS_PAUSED
+        return paused
+
+    def _resume(self, paused: NDArray[np.bool_], n_ticks: int) -> None:
+        # paused members run again, their local clocks n_ticks behind the loop's
+        self.status[paused] = STATUS_OK
+        self.k_start[paused] += n_ticks
+
+    def _keep_record(self, rec: Array) -> None:
+        # keep a recorded call; rows after a member's end were never written: NaN, not data
+        local = self.tick - self.k_start
+        ended = (self.status == STATUS_ARRIVED) | (self.status == STATUS_FAILED)
+        for b in np.flatnonzero(ended):
+            first = int(self.mem[b, M.end]) - local[b]
+            rec[b, max(first, 0) :] = np.nan
+        self._records.append(rec)
 
     def planned_time(self, override: float | None = None) -> float:
         """A generous estimate of one contour's duration, s.

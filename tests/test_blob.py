@@ -3,7 +3,7 @@ import pickle
 import numba
 import numpy as np
 
-from contour_gym._blob import Blob, borrow, rows2, rows3, view3
+from contour_gym._blob import Blob, borrow, flat, rows2, rows3, view1, view2, view3
 
 
 @numba.njit
@@ -38,3 +38,21 @@ def test_pickled_blob_views_alias_the_new_buffer():
     copy.buffer[:] = 1.0
     assert np.all(copy.views["a"] == 1.0) and np.all(copy.views["b"] == 1.0)
     assert np.all(blob.views["b"] == 7.0)
+
+
+@numba.njit
+def _all_views(buf, lay):  # type: ignore[no-untyped-def]
+    return (view1(buf, lay, 0).copy(), view2(buf, lay, 1).copy(), view3(buf, lay, 2).copy(),
+            rows2(buf, lay, 3).copy(), rows3(buf, lay, 3).copy(), flat(buf, lay, 2).copy(),
+            view2(buf, lay, 4).copy())  # fmt: skip
+
+
+def test_carved_views_equal_numpy_views_of_every_shape():
+    blob = Blob([("a", (3,)), ("b", (2, 5)), ("c", (2, 3, 4)), ("d", (2, 2, 3, 2)), ("e", (0, 4))])
+    blob.buffer[:] = np.arange(blob.buffer.size)
+    v = blob.views
+    got = _all_views(blob.buffer, blob.layout)
+    want = (v["a"], v["b"], v["c"], v["d"].reshape(-1, 2), v["d"].reshape(-1, 3, 2),
+            v["c"].ravel(), v["e"])  # fmt: skip
+    for g, w in zip(got, want, strict=True):
+        assert g.shape == w.shape and np.array_equal(g, w)

@@ -241,3 +241,29 @@ def test_vector_env_survives_every_member_resetting_at_once():
         ended = te | tr
     else:
         pytest.fail("episodes never ended")
+
+
+def _run_rejecting(make, action, reject: bool, steps: int = 15):
+    # rewards and observations of `steps` decisions; with reject, a NaN action before each
+    env = make()
+    env.reset(seed=5)
+    bad = np.full_like(action, np.nan)
+    out = []
+    for _ in range(steps):
+        if reject:
+            with pytest.raises(ValueError, match="finite"):
+                env.step(bad)
+        obs, r, *_ = env.step(action)
+        out.append((np.asarray(r).tolist(), {k: v.tolist() for k, v in obs.items()}))
+    return out
+
+
+@pytest.mark.parametrize("vector", [False, True])
+def test_a_rejected_action_leaves_no_trace(vector: bool):
+    # the noise a rejected call read ahead (a buffer refill) is the stream's next numbers all
+    # the same: the run equals one that never saw the bad action, bit for bit
+    if vector:
+        make, action = (lambda: CCCVectorEnv(num_envs=2, decision_ticks=100)), np.full((2, 3), 0.2)
+    else:
+        make, action = (lambda: CCCEnv(decision_ticks=100)), np.full(3, 0.2)
+    assert _run_rejecting(make, action, True) == _run_rejecting(make, action, False)

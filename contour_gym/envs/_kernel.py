@@ -1,7 +1,7 @@
 """Kernel template: one env decision for every member in one compiled call.
 
 apply the actions (CCC gains or feed override) -> run the ticks (the loop's own specialised
-``run_ticks``, slot ``RUN_TICKS``) -> reward components, reward (slot ``REWARD``), the failure
+``run_members``, slot ``RUN_MEMBERS``) -> reward components, reward (slot ``REWARD``), the failure
 rule, termination and truncation -> observations. A Python reward replaces the middle step:
 :func:`env_step` then stops after the components and :func:`apply_rewards` finishes once Python
 has filled ``raw``.
@@ -22,20 +22,21 @@ from contour_gym._loopstate import (
     LS,
     STATUS_ARRIVED,
     STATUS_FAILED,
+    config,
     loop_arrays,
     path_arrays,
 )
 from contour_gym._schema import Schema
-from contour_gym._slots import REWARD, RUN_TICKS
+from contour_gym._slots import REWARD, RUN_MEMBERS
 from contour_gym.motion import IP, IS
 from contour_gym.paths._geom import eval_path
-from contour_gym.plant._kernel import AX
+from contour_gym.plant._kernel import AX, ST
 from contour_gym.rewards import COMPONENTS, RC
 
 ENV_FLOATS = (
     "action", "skip", "g_max", "g_log", "lookahead", "eps_prev", "s_before", "obs", "ref",
     "vel", "raw", "reward", "terminated", "truncated", "failure", "comp", "weights", "steps",
-    "ret",
+    "ret", "track", "feedrate",
 )  # fmt: skip
 E = namedtuple("E", ENV_FLOATS)(*range(len(ENV_FLOATS)))
 EnvArrays = namedtuple("EnvArrays", ENV_FLOATS)  # type: ignore[misc]
@@ -62,7 +63,7 @@ def env_arrays(eb, el):
         view2(eb, el, E.vel), view1(eb, el, E.raw), view1(eb, el, E.reward),
         view1(eb, el, E.terminated), view1(eb, el, E.truncated), view1(eb, el, E.failure),
         view2(eb, el, E.comp), view1(eb, el, E.weights), view1(eb, el, E.steps),
-        view1(eb, el, E.ret),
+        view1(eb, el, E.ret), view2(eb, el, E.track), view1(eb, el, E.feedrate),
     )  # fmt: skip
 
 
@@ -129,7 +130,12 @@ def apply_rewards(eb, el, fb, fl, ib, il, ec):
     earns at least ``r_lo <= 0``).
     """
     # borrowed (contour_gym._blob.borrow): the caller keeps the blobs alive
-    A, V = loop_arrays(borrow(fb), fl, borrow(ib), il), env_arrays(borrow(eb), el)
+    _rewards(loop_arrays(borrow(fb), fl, borrow(ib), il), env_arrays(borrow(eb), el), ec)
+
+
+@numba.njit(cache=True, inline="always")
+def _rewards(A, V, ec):
+    # apply_rewards on the views
     r_lo, r_hi = ec[EC.r_lo], ec[EC.r_hi]
     for b in range(V.reward.shape[0]):
         if V.skip[b] != 0.0:
@@ -179,10 +185,14 @@ def _references(A, P, V, b, dim):
 
 @numba.njit(cache=True, inline="always")
 def _observe(A, P, V, ec, b):
-    # member b's observation row (the env docstrings' table, in key order)
+    # member b's observation row (the env docstrings' table, in key order); the info's
+    # tracking errors and feedrate
     dim, length = int(ec[EC.dim]), ec[EC.length]
     _references(A, P, V, b, dim)
     n_c, n_a = A.c_axes.shape[0], A.work.shape[1]
+    for a in range(n_a):
+        V.track[b, a] = V.ref[b, a] - A.ax_s[b * n_a + a, ST.x]
+    V.feedrate[b] = A.ip_p[b, IP.ovr] * P.feed[int(A.ip_s[b, IS.seg])]
     tol, f_nom, obs = ec[EC.tol], ec[EC.f_nom], V.obs
     s = A.ip_s[b, IS.s]
     col = 0
@@ -224,10 +234,9 @@ def observe(eb, el, fb, fl, ib, il, pk, pb, pl, ec, members):
         _observe(A, P, V, ec, b)
 
 
-@numba.njit(cache=True)
-def finish(eb, el, fb, fl, ib, il, pk, pb, pl, ec):
-    """Components, failure flags and (compiled reward) raw rewards; observations."""
-    A, P, V = _views(eb, el, fb, fl, ib, il, pk, pb, pl)
+@numba.njit(cache=True, inline="always")
+def _finish(A, P, V, ec):
+    # components, failure flags and (compiled reward) raw rewards; observations
     for b in range(V.reward.shape[0]):
         if V.skip[b] == 0.0:
             failed = _components(A, V, ec, b)
@@ -243,21 +252,20 @@ def finish(eb, el, fb, fl, ib, il, pk, pb, pl, ec):
 def env_step(eb, el, ec, n, k0, cf, fb, fl, ib, il, pk, pb, pl, noise, rec):
     """One env decision in one compiled call: apply actions, run the ticks, finish.
 
-    The arguments from ``n`` on are :meth:`contour_gym.loop.ServoLoop.kernel_args` (passed
+    The arguments from ``n`` on are the loop's (:meth:`contour_gym.loop.ServoLoop.advance`; passed
     flat: a tuple argument would send numba's dispatcher down its slow typing path).
     Returns False, having changed nothing, when an action is NaN or infinite.
     """
-    eb_, fb_, ib_ = borrow(eb), borrow(fb), borrow(ib)
-    V = env_arrays(eb_, el)
+    A, P, V = _views(eb, el, fb, fl, ib, il, pk, pb, pl)  # made once for the whole decision
     for b in range(V.action.shape[0]):
         for j in range(V.action.shape[1]):
             if not math.isfinite(V.action[b, j]):
                 return False
-    _apply(loop_arrays(fb_, fl, ib_, il), V, ec)
-    RUN_TICKS(n, k0, cf, fb, fl, ib, il, pk, pb, pl, noise, rec)
-    finish(eb, el, fb, fl, ib, il, pk, pb, pl, ec)
+    _apply(A, V, ec)
+    RUN_MEMBERS(n, k0, config(cf), A, P, borrow(noise), borrow(rec))
+    _finish(A, P, V, ec)
     if ec[EC.python_reward] == 0.0:
-        apply_rewards(eb, el, fb, fl, ib, il, ec)
+        _rewards(A, V, ec)
     return True
 
 

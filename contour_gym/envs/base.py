@@ -17,8 +17,12 @@ from contour_gym.envs.core import ContourTask, member_rngs
 RENDER_MODES = ["human", "rgb_array"]
 
 
-def check_actions(action: Any, shape: tuple[int, ...]) -> NDArray[np.float64]:
+def check_actions(action: Any, shape: tuple[int, ...]) -> NDArray[np.floating[Any]]:
     """Validate an action's shape (ValueError); finiteness is checked in the compiled step."""
+    if type(action) is np.ndarray and action.dtype.kind == "f":  # the usual case: no copy
+        if action.shape != shape:
+            raise ValueError(f"action must have shape {shape}, got {action.shape}")
+        return action
     try:
         a = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError) as exc:

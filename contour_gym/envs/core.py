@@ -27,7 +27,6 @@ from contour_gym.envs import _kernel as EK
 from contour_gym.envs.config import HARD_LIMIT_TOLERANCES, EnvConfig
 from contour_gym.metrics import member_metrics
 from contour_gym.motion import IP, IS
-from contour_gym.plant._kernel import ST
 from contour_gym.rewards import (
     COMPONENTS,
     REWARD_FAMILY,
@@ -73,6 +72,9 @@ class ContourTask:
         self.g_max, self.g_log = self._gain_map()
         self.rngs: list[np.random.Generator] = [np.random.default_rng(0)] * batch
         self._sizes = self._observation_sizes()
+        ends = np.cumsum(list(self._sizes.values()))
+        self._obs_cols = [(key, slice(end - n, end))
+                          for (key, n), end in zip(self._sizes.items(), ends, strict=True)]
         self._reward, weights = self._resolve_reward()
         self.max_episode_steps = config.step_limit or self._step_limit()
         self._build_blob(weights)
@@ -127,7 +129,7 @@ class ContourTask:
         if _compile.is_generic(slots) and _compile.is_generic(self.loop.slots()):
             _precompile.ensure("env")  # once per installation, in worker processes
         self.kernel = _compile.specialise(
-            "contour_gym.envs._kernel", {"RUN_TICKS": self.loop.kernel.run_ticks, **slots}
+            "contour_gym.envs._kernel", {"RUN_MEMBERS": self.loop.kernel.run_members, **slots}
         )
         self._stepped = False
 
@@ -152,7 +154,7 @@ class ContourTask:
             "s_before": (b,), "obs": (b, n_obs), "ref": (b, self.n_axes), "vel": (b, self.n_axes),
             "raw": (b,), "reward": (b,), "terminated": (b,), "truncated": (b,), "failure": (b,),
             "comp": (b, COMPONENTS.size), "weights": (max(weights.size, 1),), "steps": (b,),
-            "ret": (b,),
+            "ret": (b,), "track": (b, self.n_axes), "feedrate": (b,),
         }  # fmt: skip
         self._blob = Blob([(name, shapes[name]) for name in EK.ENV_FLOATS])
         self._attach_views()
@@ -182,6 +184,8 @@ class ContourTask:
     def _attach_views(self) -> None:
         v = self._v = self._blob.views
         self._action, self._skip, self._reward_out = v["action"], v["skip"], v["reward"]
+        self._info_views: dict[int, tuple[Any, ...]] = {}  # _member_views, made on first use
+        self._skipping = bool(self._skip.any())  # skip holds a mask of the last step's
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
@@ -274,8 +278,8 @@ class ContourTask:
     def _kernel_blobs(self) -> tuple[Any, ...]:
         loop = self.loop
         fb, fl, ib, il = loop.blobs()
-        return (self._blob.buffer, self._blob.layout, fb, fl, ib, il, loop._kind,
-                loop._pblob.buffer, loop._pblob.layout, self._econfig)  # fmt: skip
+        return (self._blob.buffer, self._blob.layout, fb, fl, ib, il, *loop.path_blobs(),
+                self._econfig)  # fmt: skip
 
     def _randomize(self, b: int, rng: np.random.Generator) -> None:
         ranges = self.config.randomization()
@@ -291,7 +295,9 @@ class ContourTask:
         self.loop.set_plant_scaling([b], **factors)
 
     # ------------------------------------------------------------------ step
-    def step(self, actions: Array, skip: NDArray[np.bool_] | None = None) -> None:
+    def step(
+        self, actions: NDArray[np.floating[Any]], skip: NDArray[np.bool_] | None = None
+    ) -> None:
         """One decision: apply actions (B, n) (clipped), run ``decision_ticks`` ticks.
 
         Members in ``skip`` neither act nor advance (vector env auto-reset). Read the
@@ -299,23 +305,20 @@ class ContourTask:
         """
         if skip is None:
             self._action[...] = actions
-            self._skip[...] = 0.0
+            if self._skipping:
+                self._skip[...] = 0.0
+                self._skipping = False
         else:
             self._action[~skip] = actions[~skip]
             self._skip[...] = skip
-        loop = self.loop
-        if loop.noise_active and not np.isfinite(self._action).all():
-            # checked before prepare(), which draws noise: a rejected action leaves no trace
-            raise ValueError(f"actions must be finite, got {actions}")
-        call = loop.prepare(
-            self.config.decision_ticks, None if skip is None else np.flatnonzero(skip)
-        )
+            self._skipping = True
         eb, el = self._blob.buffer, self._blob.layout
+        skipped = None if skip is None else np.flatnonzero(skip)
         with contextlib.nullcontext() if self._stepped else self._compiling():
-            ran = self.kernel.env_step(eb, el, self._econfig, *loop.kernel_args(call))
+            ran = self.loop.advance(self.config.decision_ticks, skipped, via=self.kernel.env_step,
+                                leading=(eb, el, self._econfig))  # fmt: skip
         if not ran:
             raise ValueError(f"actions must be finite, got {actions}")  # nothing was run
-        loop.complete(call)
         if not self._stepped:  # the env kernel is in numba's cache now
             _compile.mark_compiled(self.kernel)
             self._stepped = True
@@ -353,24 +356,22 @@ class ContourTask:
             member: None for every member (arrays (B, n)), or one member's (arrays (n,)).
         """
         obs = self._v["obs"]
-        flat = (obs if member is None else obs[member]).astype(np.float32)
-        out, col = {}, 0
-        for key, n in self._sizes.items():
-            out[key] = flat[..., col : col + n]
-            col += n
-        return out
+        if member is None:
+            flat = obs.astype(np.float32)
+            return {key: flat[:, cols] for key, cols in self._obs_cols}
+        flat = obs[member].astype(np.float32)
+        return {key: flat[cols] for key, cols in self._obs_cols}
 
     # ------------------------------------------------------------------ info
     def _step_info(self) -> dict[str, Any]:
         """The per-step info of every member, batched arrays (B, ...)."""
         loop, v = self.loop, self._v
-        seg = loop.ip_s[:, IS.seg].astype(np.int64)
         comp = v["comp"]
         return {
             "contour_error": loop.contour_error.copy(),
             "contour_error_estimate": loop.contour_error_estimate.copy(),
-            "tracking_error": v["ref"] - loop.ax_s[:, :, ST.x],
-            "feedrate": loop.ip_p[:, IP.ovr] * loop.program.feed[seg],
+            "tracking_error": v["track"].copy(),
+            "feedrate": v["feedrate"].copy(),
             "s": loop.s.copy(),
             "failure": v["failure"] != 0.0,
             "reward_components": {name: comp[:, j].copy()
@@ -379,18 +380,24 @@ class ContourTask:
 
     def _member_info(self, b: int) -> dict[str, Any]:
         """Member ``b``'s per-step info: its arrays, Python floats and bools (as batched)."""
-        loop, v = self.loop, self._v
-        last, ip_s = loop.last[b], loop.ip_s[b]
+        views = self._info_views.get(b) or self._member_views(b)
+        true, est, track, ip_s, v = views
         return {
-            "contour_error": last[:, LS.true].copy(),
-            "contour_error_estimate": last[:, LS.est].copy(),
-            "tracking_error": v["ref"][b] - loop.ax_s[b, :, ST.x],
-            "feedrate": float(loop.ip_p[b, IP.ovr] * loop.program.feed[int(ip_s[IS.seg])]),
+            "contour_error": true.copy(),
+            "contour_error_estimate": est.copy(),
+            "tracking_error": track.copy(),
+            "feedrate": float(v["feedrate"][b]),
             "s": float(ip_s[IS.s]),
             "failure": bool(v["failure"][b] != 0.0),
-            "reward_components": dict(zip(COMPONENTS.names, v["comp"][b].tolist(),
-                                          strict=True)),
+            "reward_components": dict(zip(COMPONENTS.names, v["comp"][b].tolist(), strict=True)),
         }  # fmt: skip
+
+    def _member_views(self, b: int) -> tuple[Any, ...]:
+        # the arrays member b's info reads, made once (the blobs never move)
+        loop, v = self.loop, self._v
+        views = (loop.last[b][:, LS.true], loop.last[b][:, LS.est], v["track"][b], loop.ip_s[b], v)
+        self._info_views[b] = views
+        return views
 
     def _end_metrics(self) -> dict[str, Any]:
         loop = self.loop
