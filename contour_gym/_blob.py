@@ -1,7 +1,8 @@
 """Many arrays in one contiguous buffer, so a compiled call takes a few arguments, not dozens.
 
-The view functions are inlined: a kernel builds tens of views per call, and a call each cost
-~3 us per env step (numba calls a compiled function it loaded from the cache, never inlines it).
+The view functions are inlined and carve their views in a few instructions (:func:`carve`): a
+kernel builds tens of views per call, and a call or a reshape each cost ~3 us per env step
+(numba calls a compiled function it loaded from the cache, never inlines it).
 
 Unboxing each array argument of a numba call costs ~0.2 us; the servo loop has ~30 arrays and
 is called once per env step. The Python side keeps ordinary numpy views into the buffer (so

@@ -33,6 +33,7 @@ from contour_gym.paths._geom import eval_path
 from contour_gym.plant._kernel import AX, ST
 from contour_gym.rewards import COMPONENTS, RC
 
+# reward, terminated, truncated, failure: consecutive (ContourTask.member_result reads them so)
 ENV_FLOATS = (
     "action", "skip", "g_max", "g_log", "lookahead", "eps_prev", "s_before", "obs", "ref",
     "vel", "raw", "reward", "terminated", "truncated", "failure", "comp", "weights", "steps",

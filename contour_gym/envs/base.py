@@ -84,6 +84,7 @@ class ContourEnv(GainsMap, gym.Env):
         self.render_mode = render_mode
         self.task = ContourTask(self.config, 1, self.kind, record=render_mode is not None)
         self.action_space = self.task.action_space()
+        self._action_shape = (self.task.n_actions,)
         self.observation_space = self.task.observation_space()
         self.max_episode_steps = self.task.max_episode_steps
         self._needs_reset = True
@@ -103,7 +104,7 @@ class ContourEnv(GainsMap, gym.Env):
         """Hold the action for ``decision_ticks`` servo ticks (see the class docstring)."""
         if self._needs_reset:
             raise ResetNeeded("call reset() before step(), also after an episode has ended")
-        self.task.step(check_actions(action, (self.task.n_actions,))[None])
+        self.task.step(check_actions(action, self._action_shape)[None])
         reward, terminated, truncated, _ = self.task.member_result(0)
         self._needs_reset = terminated or truncated
         info = self.task.info(0, ended=self._needs_reset)

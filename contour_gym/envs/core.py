@@ -38,6 +38,7 @@ from contour_gym.rewards import (
 )
 
 Array = NDArray[np.float64]
+OUTCOME = ("reward", "terminated", "truncated", "failure")  # a decision's outcome, in order
 CCC, FEEDRATE = "ccc", "feedrate"
 EPISODE_MARGIN = 2.0  # the step limit is this times the planned decisions (+ 10)
 
@@ -344,9 +345,9 @@ class ContourTask:
 
     def member_result(self, b: int) -> tuple[float, bool, bool, bool]:
         """Reward, terminated, truncated and failure of member ``b`` after the last decision."""
-        v = self._v
-        return (float(v["reward"][b]), bool(v["terminated"][b] != 0.0),
-                bool(v["truncated"][b] != 0.0), bool(v["failure"][b] != 0.0))  # fmt: skip
+        views = self._info_views.get(b) or self._member_views(b)
+        reward, terminated, truncated, failure = views[-1].tolist()
+        return reward, terminated != 0.0, truncated != 0.0, failure != 0.0
 
     # ----------------------------------------------------------- observation
     def observe(self, member: int | None = None) -> dict[str, NDArray[np.float32]]:
@@ -381,7 +382,7 @@ class ContourTask:
     def _member_info(self, b: int) -> dict[str, Any]:
         """Member ``b``'s per-step info: its arrays, Python floats and bools (as batched)."""
         views = self._info_views.get(b) or self._member_views(b)
-        true, est, track, ip_s, v = views
+        true, est, track, ip_s, v, _ = views
         return {
             "contour_error": true.copy(),
             "contour_error_estimate": est.copy(),
@@ -395,7 +396,13 @@ class ContourTask:
     def _member_views(self, b: int) -> tuple[Any, ...]:
         # the arrays member b's info reads, made once (the blobs never move)
         loop, v = self.loop, self._v
-        views = (loop.last[b][:, LS.true], loop.last[b][:, LS.est], v["track"][b], loop.ip_s[b], v)
+        # reward, terminated, truncated and failure are consecutive (B,) arrays of the blob
+        start = EK.ENV_FLOATS.index("reward")
+        assert EK.ENV_FLOATS[start : start + len(OUTCOME)] == OUTCOME
+        first, n = self._blob.layout[self._blob.index["reward"], 0], self.batch
+        outcome = self._blob.buffer[first + b : first + 4 * n : n]
+        views = (loop.last[b][:, LS.true], loop.last[b][:, LS.est], v["track"][b], loop.ip_s[b], v,
+                 outcome)  # fmt: skip
         self._info_views[b] = views
         return views
 
