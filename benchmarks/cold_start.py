@@ -89,8 +89,24 @@ WARM = {
 }
 
 
+def settle(cache: str) -> None:
+    """Wait until the background compiles a run started on ``cache`` are done.
+
+    A run of built-in components may leave a detached, niced process compiling (its own kernel,
+    or the built-ins' one: ``contour_gym._tiers``); the next row must not share the cores.
+    """
+    from contour_gym._tiers import _busy
+
+    for lock in Path(cache, "generated").glob("background_*.lock"):
+        while _busy(lock):
+            time.sleep(0.5)
+
+
 def run(args: list[str], root: Path, cache: str, timeout: float = 3600.0) -> tuple[float, str]:
-    """Run ``args`` from ``root``'s sources on numba cache ``cache``; wall seconds, stdout."""
+    """Run ``args`` from ``root``'s sources on numba cache ``cache``; wall seconds, stdout.
+
+    The wall time is the run's own; its background compiles are then waited for (:func:`settle`).
+    """
     env = dict(os.environ, NUMBA_CACHE_DIR=cache,
                PYTHONPATH=os.pathsep.join([str(root), str(root / "benchmarks")]))  # fmt: skip
     start = time.perf_counter()
@@ -99,6 +115,7 @@ def run(args: list[str], root: Path, cache: str, timeout: float = 3600.0) -> tup
     wall = time.perf_counter() - start
     if out.returncode != 0:
         raise RuntimeError(f"{args} failed ({out.returncode}):\n{out.stderr[-3000:]}")
+    settle(cache)
     return wall, out.stdout
 
 

@@ -62,6 +62,7 @@ LOG = logging.getLogger("contour_gym")
 _PACKAGE = Path(__file__).resolve().parent
 _MODULES: dict[str, ModuleType] = {}
 _LOCK = threading.Lock()
+_PARSE_LOCK = threading.Lock()  # Python 3.11's parser fails when two threads run it at once
 
 
 @functools.lru_cache(maxsize=1024)
@@ -72,7 +73,8 @@ def code_digest(source: str) -> str:
     >>> code_digest(documented) == code_digest("def f():  # a comment\n    return 1")
     True
     """
-    tree = ast.parse(source)
+    with _PARSE_LOCK:
+        tree = ast.parse(source)
     for node in ast.walk(tree):
         body = getattr(node, "body", None)
         if isinstance(body, list) and body and _is_docstring(body[0]):
@@ -217,7 +219,7 @@ def builtin_packages() -> tuple[str, ...]:
 def is_generic(slots: Mapping[str, Any]) -> bool:
     """Whether slots made by :func:`bind` are the built-ins' kernel (no component of a user's)."""
     fns = [f for v in slots.values() for f in (v if isinstance(v, tuple) else (v,))]
-    return all(is_builtin(f.fn if isinstance(f, Called) else f) for f in fns)
+    return all(is_builtin(f.fn if isinstance(f, Called) else f) for f in fns if f is not None)
 
 
 def is_builtin(fn: Any) -> bool:
@@ -253,13 +255,20 @@ class Family:
         return [m for m in self.members() if all(map(is_builtin, self.functions(m)))]
 
 
-def bind(uses: Mapping[Family, Sequence[Any]]) -> tuple[dict[str, Any], dict[str, list[int]]]:
+def bind(
+    uses: Mapping[Family, Sequence[Any]], own: bool = False
+) -> tuple[dict[str, Any], dict[str, list[int]]]:
     """Slots and component codes for a kernel whose families run the components ``uses``.
 
     When every component used is built-in, each family is bound to all its built-ins: one
     kernel, compiled once per installation, serves every combination of them. Otherwise each
     family is bound to just the components used (a kernel specialised to the run, compiled
     for it: a user's component costs one compile of its own).
+
+    Args:
+        uses: Per family, the components the run uses.
+        own: The run's own kernel of built-ins (:mod:`contour_gym._tiers`): the same codes,
+            but each family's tuple holds just the components used (None elsewhere).
 
     Returns:
         ``(slots, codes)``: the tuples to pass to :func:`specialise`, and per family name the
@@ -272,8 +281,12 @@ def bind(uses: Mapping[Family, Sequence[Any]]) -> tuple[dict[str, Any], dict[str
     for fam, used in uses.items():
         members = fam.builtins() if generic else list(dict.fromkeys(used))
         codes[fam.name] = [_index(members, c) for c in used]
+        keep = set(codes[fam.name]) if own else set(range(len(members)))
         for slot, get in fam.slots.items():
-            slots[slot] = tuple(get(m) if fam.inlined(m) else Called(get(m)) for m in members)
+            slots[slot] = tuple(
+                None if k not in keep else (get(m) if fam.inlined(m) else Called(get(m)))
+                for k, m in enumerate(members)
+            )  # fmt: skip
     return slots, codes
 
 
@@ -286,15 +299,24 @@ def _index(members: Sequence[Any], component: Any) -> int:
 
 def _template_body(template: str, insert: str = "") -> str:
     """The template's source, ``insert`` in place of its ``from contour_gym._slots import ...``."""
+    head, tail = _template_parts(template)
+    return "\n".join([*head, insert, *tail]) + "\n"
+
+
+@functools.cache
+def _template_parts(template: str) -> tuple[list[str], list[str]]:
+    # the template's lines before and after its slots import (parsed once per process)
     spec = importlib.util.find_spec(template)
     if spec is None or spec.origin is None:
         raise ImportError(f"kernel template {template!r} not found")
     text = Path(spec.origin).read_text(encoding="utf-8")
     lines = text.splitlines()
-    for node in ast.parse(text).body:
+    with _PARSE_LOCK:
+        tree = ast.parse(text)
+    for node in tree.body:
         if isinstance(node, ast.ImportFrom) and node.module == SLOTS_MODULE:
             first, last = node.lineno - 1, node.end_lineno or node.lineno
-            return "\n".join([*lines[:first], insert, *lines[last:]]) + "\n"
+            return lines[:first], lines[last:]
     raise ImportError(f"kernel template {template!r} imports no slots from {SLOTS_MODULE}")
 
 
@@ -305,8 +327,8 @@ class Called:
     fn: Any
 
 
-def dispatcher_source(slot: str, n: int, called: frozenset[int] = frozenset()) -> str:
-    """Source of the dispatcher of ``slot`` over ``n`` components bound as ``SLOT__0`` ...
+def dispatcher_source(slot: str, codes: Sequence[int], called: frozenset[int] = frozenset()) -> str:
+    """Source of the dispatcher of ``slot`` over its components ``SLOT__k``, ``k`` in ``codes``.
 
     The dispatcher takes the component's code first, then the stub's arguments
     (:data:`contour_gym._slots.DISPATCHED`), and runs component ``code`` (the last one for
@@ -326,9 +348,10 @@ def dispatcher_source(slot: str, n: int, called: frozenset[int] = frozenset()) -
         lines += ["@numba.njit(cache=True)", f"def {slot}__{k}__call({args}):",
                   f"    {ret}{slot}__{k}({args})", "", ""]  # fmt: skip
     lines += ["@numba.njit(cache=True, inline='always')", f"def {slot}(code, {args}):"]
-    for k in range(n):
+    ordered = sorted(codes)
+    for k in ordered:
         call = f"{ret}{slot}__{k}{'__call' if k in called else ''}({args})"
-        if k == n - 1:
+        if k == ordered[-1]:
             lines.append(f"    {call}")
             break
         lines += [f"    if code == {k}:", f"        {call}"]
@@ -345,7 +368,8 @@ def specialise(template: str, slots: Mapping[str, Any]) -> ModuleType:
             statement is dropped).
         slots: Slot name -> component (an njit function or a constant), or a tuple of
             components for a dispatched slot (:data:`contour_gym._slots.DISPATCHED`): the
-            template then calls component ``code`` (:func:`dispatcher_source`).
+            template then calls component ``code`` (:func:`dispatcher_source`); None in the
+            tuple for a code the kernel never runs.
 
     Returns:
         The generated module; the same object for the same template and slots.
@@ -357,11 +381,12 @@ def specialise(template: str, slots: Mapping[str, Any]) -> ModuleType:
     for k, v in sorted(slots.items()):
         if isinstance(v, tuple):
             called = frozenset(i for i, f in enumerate(v) if isinstance(f, Called))
-            fns = [f.fn if isinstance(f, Called) else f for f in v]
+            fns = {i: f.fn if isinstance(f, Called) else f
+                   for i, f in enumerate(v) if f is not None}  # fmt: skip
             header += [f"# slot {k}[{i}] = {'called ' * (i in called)}{identity(f)}"
-                       for i, f in enumerate(fns)]  # fmt: skip
-            bound.update({f"{k}__{i}": f for i, f in enumerate(fns)})
-            dispatch.append(dispatcher_source(k, len(v), called))
+                       for i, f in fns.items()]  # fmt: skip
+            bound.update({f"{k}__{i}": f for i, f in fns.items()})
+            dispatch.append(dispatcher_source(k, list(fns), called))
         else:
             header.append(f"# slot {k} = {identity(v)}")
             bound[k] = v

@@ -74,6 +74,11 @@ def _marker(name: str) -> Path:
     return _compile.generated_dir() / f"warm_{name}_{key}.done"
 
 
+def is_done(name: str) -> bool:
+    """Whether warm-up ``name`` and its prerequisites are done (their kernels cached)."""
+    return name in _ENSURED or not pending([name])
+
+
 def pending(names: Sequence[str] | None = None) -> list[str]:
     """The warm-ups among ``names`` (default: all) and their prerequisites not yet done."""
     _compile.builtin_packages()  # plugins register their warm-ups on import

@@ -19,12 +19,13 @@ import contextlib
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from types import ModuleType
 from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from contour_gym import _compile, _precompile, motion
+from contour_gym import _compile, _precompile, _tiers, motion
 from contour_gym._blob import Blob
 from contour_gym._loopstate import ACC_A as ACC_A_SCHEMA
 from contour_gym._loopstate import ACC_C as ACC_C_SCHEMA
@@ -77,6 +78,7 @@ Array = NDArray[np.float64]
 _CODED = {"ctrl": CONTROLLER_FAMILY, "est": ESTIMATOR_FAMILY, "ccc": CCC_FAMILY,
           "comp": COMPENSATION_FAMILY}  # fmt: skip
 NOISE_CHUNK = 256  # ticks of normals drawn per member at a time
+LOOP_TEMPLATE = "contour_gym._loopkernel"  # the servo loop's kernel template (_compile)
 DEFAULT_SETTLE = 1.0  # s the machine may take to get in position after the reference ends
 
 
@@ -286,7 +288,7 @@ class ServoLoop:
         self._build_blobs(params)
         self._build_path_blob()
         self._config = self._config_row()
-        self.kernel = self._specialise()
+        self._kernel: ModuleType | None = None  # chosen on first use (kernel)
         self._rec_width = 2 + 3 * stage.n_axes + 2 * len(stage.contours)
         self._marked = False  # mark_compiled done (advance)
         self._no_record = np.zeros((b, 0, self._rec_width))
@@ -385,15 +387,14 @@ class ServoLoop:
     def _bind(self, compensates: bool) -> None:
         # the kernel's slots and this loop's component codes (contour_gym._compile.bind)
         self._compensates = compensates
-        self._slots, self.codes = _compile.bind({
+        uses: dict[_compile.Family, list[Any]] = {
             CONTROLLER_FAMILY: [self.controller], ESTIMATOR_FAMILY: [self.estimator.kind],
             CCC_FAMILY: [self.ccc_law], COMPENSATION_FAMILY: [compensates],
             FRICTION_FAMILY: [FRICTION_LAWS.get(n) for n in self.law_names],
-        })  # fmt: skip
-
-    def slots(self) -> dict[str, Any]:
-        """The kernel slots of this loop (tuples of components: :func:`_compile.bind`)."""
-        return dict(self._slots)
+        }  # fmt: skip
+        self._slots, self.codes = _compile.bind(uses)
+        generic = _compile.is_generic(self._slots)
+        self._own_slots = _compile.bind(uses, own=True)[0] if generic else self._slots
 
     def describe(self) -> str:
         """The components of this loop, in one line."""
@@ -402,10 +403,39 @@ class ServoLoop:
             f"{self.ccc_law.name} CCC, friction {'+'.join(self.law_names)}"
         )
 
-    def _specialise(self) -> Any:
-        if _compile.is_generic(self._slots):
-            _precompile.ensure("loop")  # once per installation, in worker processes
-        return _compile.specialise("contour_gym._loopkernel", self.slots())
+    @property
+    def kernel(self) -> ModuleType:
+        """The compiled kernel module this loop runs on (chosen on first use: :meth:`kernels`)."""
+        if self._kernel is None:
+            own, builtins = self.kernels()
+            self._kernel = own if builtins is None else _tiers.choose(own, builtins, "loop", self)
+        return self._kernel
+
+    def kernels(self) -> tuple[ModuleType, Callable[[], ModuleType] | None]:
+        """This loop's own kernel module, and a maker of the built-ins' kernel module.
+
+        The maker is None when the loop uses a component of the user's (its own kernel is
+        then the only one). :mod:`contour_gym._tiers` says which one runs.
+        """
+        own = _compile.specialise(LOOP_TEMPLATE, self._own_slots)
+        if self._own_slots is self._slots:
+            return own, None
+        return own, self._builtins_kernel
+
+    def _builtins_kernel(self) -> ModuleType:
+        _precompile.ensure("loop")  # once per installation, in worker processes
+        return _compile.specialise(LOOP_TEMPLATE, self._slots)
+
+    def use_kernel(self, kernel: ModuleType) -> None:
+        """Run on ``kernel``, one of :meth:`kernels` (an env task chooses with its own kernel)."""
+        self._kernel = kernel
+        self._marked = False
+
+    def compile_own(self) -> None:
+        """Run one tick on this loop's own kernel (a background worker: :mod:`_tiers`)."""
+        self.use_kernel(self.kernels()[0])
+        self.reset(0)
+        self.step(1)
 
     def _attach_views(self) -> None:
         for name, view in {**self._fblob.views, **self._iblob.views}.items():
@@ -415,7 +445,7 @@ class ServoLoop:
     def __getstate__(self) -> dict[str, object]:
         # components are pickled by name (and the estimator with its option row) and looked
         # up in their registries again on load
-        names = set(self._fblob.views) | set(self._iblob.views) | {"sums", "kernel"}
+        names = set(self._fblob.views) | set(self._iblob.views) | {"sums", "_kernel"}
         state = {k: v for k, v in self.__dict__.items() if k not in names}
         state["controller"] = self.controller.name
         state["ccc_law"] = self.ccc_law.name
@@ -435,7 +465,7 @@ class ServoLoop:
         if codes != self.codes:
             raise ValueError(f"the components' codes changed since pickling: {codes} -> "
                              f"{self.codes}")
-        self.kernel = self._specialise()
+        self._kernel = None
         self._marked = False
 
     # ----------------------------------------------------------------- state

@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import math
 from collections.abc import Callable
+from types import ModuleType
 from typing import Any, cast
 
 import numpy as np
@@ -19,7 +20,7 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from numpy.typing import NDArray
 
-from contour_gym import _compile, _precompile
+from contour_gym import _compile, _precompile, _tiers
 from contour_gym._blob import Blob
 from contour_gym._loopstate import LS, STATUS_ARRIVED
 from contour_gym.api import make_scenario
@@ -124,15 +125,30 @@ class ContourTask:
         return _compile.compiling(f"the env step for {self.loop.describe()}", show)
 
     def _specialise(self) -> None:
-        # the env kernel on the loop's run, with this task's reward among the family's
-        slots, codes = _compile.bind({REWARD_FAMILY: [self._compiled_reward()]})
+        # the env kernel on the loop's run, with this task's reward among the family's; the
+        # loop's kernel and this one are chosen together (contour_gym._tiers)
+        uses = {REWARD_FAMILY: [self._compiled_reward()]}
+        slots, codes = _compile.bind(uses)
         self._econfig[EK.EC.reward] = codes[REWARD_FAMILY.name][0]
-        if _compile.is_generic(slots) and _compile.is_generic(self.loop.slots()):
-            _precompile.ensure("env")  # once per installation, in worker processes
-        self.kernel = _compile.specialise(
-            "contour_gym.envs._kernel", {"RUN_MEMBERS": self.loop.kernel.run_members, **slots}
-        )
+        own_loop, builtins_loop = self.loop.kernels()
+        if builtins_loop is None or not _compile.is_generic(slots):
+            self.kernel = _env_kernel(self.loop.kernel, slots)  # a user's component
+        else:
+            own = _env_kernel(own_loop, _compile.bind(uses, own=True)[0])
+
+            def builtins() -> ModuleType:
+                kernel = _env_kernel(builtins_loop(), slots)
+                _precompile.ensure("env")  # once per installation, in worker processes
+                return kernel
+
+            self.kernel = _tiers.choose(own, builtins, "env", self)
+            self.loop.use_kernel(own_loop if self.kernel is own else builtins_loop())
         self._stepped = False
+
+    def compile_own(self) -> None:
+        """Step once on this task's own kernels (a background worker: :mod:`contour_gym._tiers`)."""
+        self.reset_members(np.array([0]), [np.random.default_rng(0)])
+        self.step(np.zeros((self.batch, self.n_actions)))
 
     def _step_limit(self) -> int:
         slowest = float(self.ovr_bounds[0]) if self.kind == FEEDRATE else 1.0
@@ -469,6 +485,13 @@ def _scenario(config: EnvConfig) -> Any:
         config.plant, config.path, config.feedrate, feedrate_override=config.feedrate_override,
         laps=config.laps, **options,
     )  # fmt: skip
+
+
+def _env_kernel(loop_kernel: ModuleType, slots: dict[str, Any]) -> ModuleType:
+    """The env kernel module on ``loop_kernel``'s run with the reward ``slots``."""
+    return _compile.specialise(
+        "contour_gym.envs._kernel", {"RUN_MEMBERS": loop_kernel.run_members, **slots}
+    )
 
 
 def member_rngs(seed: int | None, count: int) -> list[np.random.Generator]:

@@ -1,0 +1,162 @@
+"""Which compiled kernel a run of built-in components uses: its own, or the built-ins' one.
+
+Two kernels can run any combination of built-in components (:func:`contour_gym._compile.bind`):
+
+* the **built-ins' kernel** dispatches every built-in component by a code. It compiles once
+  per installation (:mod:`contour_gym._precompile`, ~50 s on 2 cores) and then runs every new
+  combination at once;
+* the run's **own kernel** is bound to just the components the run uses. It runs ~10 % faster
+  (the built-ins' kernel carries every component's code inline: twice the machine code of the
+  loop's tick) and compiles in half the time, but there is one per combination.
+
+Both compute the same numbers, bit for bit (``tests/test_compile_once.py``). :func:`choose`
+picks, per run:
+
+1. the run's own kernel once it is compiled (and cached);
+2. else the built-ins' kernel if that is compiled, while the run's own kernel compiles in a
+   background process for the next run of the same combination;
+3. else (a fresh installation) the run's own kernel, compiled here (the first result comes
+   sooner than the built-ins' kernel could), while the built-ins' kernel compiles in the
+   background for the combinations that follow.
+
+Background compiles are detached, low-priority processes (``nice`` 10). At most one per
+warm-up and one of runs' own kernels run at a time (a request while one runs is dropped; the
+next run asks again). Set ``CONTOUR_GYM_BACKGROUND=0`` to turn them off.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import pickle
+import subprocess
+import sys
+import tempfile
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from types import ModuleType
+from typing import Protocol
+
+import numba
+
+from contour_gym import _compile, _precompile
+
+BACKGROUND = "CONTOUR_GYM_BACKGROUND"  # "0": no background compiles
+OWN_WORKER = "own"  # IN_WORKER's value in a process compiling a run's own kernel
+
+
+class CompilesOwn(Protocol):
+    """An object whose kernels can be compiled by running it once (a loop, an env task)."""
+
+    def compile_own(self) -> None:
+        """Run once on the run's own kernels (in a background worker, after unpickling)."""
+
+
+def choose(
+    own: ModuleType, builtins: Callable[[], ModuleType], warmup: str, owner: CompilesOwn
+) -> ModuleType:
+    """The kernel module a run uses (module docstring).
+
+    Args:
+        own: The run's own kernel module (:func:`_compile.specialise` of its components).
+        builtins: Makes the built-ins' kernel module (called only if that one is chosen).
+        warmup: The warm-up that compiles the built-ins' kernel (:mod:`_precompile`).
+        owner: What to compile in the background when the run's own kernel is not compiled:
+            pickled and run once by a worker (:meth:`CompilesOwn.compile_own`).
+    """
+    worker = os.environ.get(_precompile.IN_WORKER)
+    if worker == OWN_WORKER or not _compile.needs_compile(own):
+        return own
+    if worker:  # a warm-up worker: it compiles the built-ins' kernel
+        return builtins()
+    if _precompile.is_done(warmup):
+        _compile_own_later(owner)
+        return builtins()
+    _compile_builtins_later(warmup)
+    return own
+
+
+def _enabled() -> bool:
+    return os.environ.get(BACKGROUND, "1") != "0"
+
+
+def _compile_builtins_later(warmup: str) -> None:
+    if _enabled():
+        _detach("_builtins_main", warmup, f"builtins_{warmup}")
+
+
+def _compile_own_later(owner: CompilesOwn) -> None:
+    if not _enabled():
+        return
+    try:
+        data = pickle.dumps(owner)
+    except Exception:  # noqa: BLE001 - e.g. a Python reward defined in a script: no own kernel
+        return
+    fd, path = tempfile.mkstemp(suffix=".pkl", dir=_compile.generated_dir())
+    with os.fdopen(fd, "wb") as handle:
+        handle.write(data)
+    if not _detach("_own_main", path, "own", env={_precompile.IN_WORKER: OWN_WORKER}):
+        os.unlink(path)
+
+
+def _detach(func: str, arg: str, slot: str, env: dict[str, str] | None = None) -> bool:
+    """Start ``_tiers.func(arg)`` in a detached, niced interpreter unless ``slot`` is busy."""
+    lock = _compile.generated_dir() / f"background_{slot}.lock"
+    if _busy(lock):
+        return False
+    full = dict(os.environ, **(env or {}))
+    cache = str(getattr(numba.config, "CACHE_DIR", "") or "")
+    if cache:
+        full["NUMBA_CACHE_DIR"] = cache
+    script = "\n".join([
+        "import os", "os.nice(10)", "from contour_gym import _tiers",
+        f"with _tiers._holding({str(lock)!r}):", f"    _tiers.{func}({arg!r})",
+    ])  # fmt: skip
+    subprocess.Popen(
+        [sys.executable, "-c", script], env=full, stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
+    )  # fmt: skip
+    return True
+
+
+def _busy(lock: Path) -> bool:
+    # whether a background process holds this slot's lock (a non-blocking probe)
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows: no background compiles
+        return True
+    with open(lock, "a") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            return True
+        fcntl.flock(handle, fcntl.LOCK_UN)
+    return False
+
+
+@contextlib.contextmanager
+def _holding(lock: str) -> Iterator[None]:
+    """Hold the slot's lock for a background process's lifetime (exit if another holds it)."""
+    import fcntl
+
+    with open(lock, "a") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            sys.exit(0)
+        yield
+
+
+def _builtins_main(warmup: str) -> None:
+    """A background process: compile the built-ins' kernels of ``warmup`` (no progress bar)."""
+    _precompile.compile_builtins([warmup], progress=False)
+
+
+def _own_main(path: str) -> None:
+    """A background process: unpickle a loop or env task and run it once on its own kernels."""
+    try:
+        with open(path, "rb") as handle:
+            owner = pickle.load(handle)
+    finally:
+        os.unlink(path)
+    owner.compile_own()

@@ -1,0 +1,94 @@
+"""The run's own kernel and the built-ins' kernel (contour_gym._tiers)."""
+
+import pickle
+import time
+import types
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from contour_gym import _compile, _precompile, _tiers
+from contour_gym.api import make_scenario
+
+
+def _run(loop, kernel):  # type: ignore[no-untyped-def]
+    loop.use_kernel(kernel)
+    loop.reset(7)
+    loop.step(800)
+    return loop.ax_s.copy(), loop.contour_error.copy(), loop.sums.contour.copy()
+
+
+def _pickled(obj: object, folder: Path) -> Path:
+    path = folder / "request.pkl"
+    path.write_bytes(pickle.dumps(obj))
+    return path
+
+
+def test_a_workers_own_kernel_is_chosen_next_and_agrees_with_the_builtins_kernel(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    scenario = make_scenario("xy_dc_servo", estimator="tangent")
+    loop = scenario.loop(batch_size=2, ccc_gains=scenario.preset.ccc_gains.as_tuple())
+    own, builtins = loop.kernels()
+    assert builtins is not None and builtins() is not own
+    # what a background worker does with a request: unpickle, run once on the own kernel
+    request = _pickled(loop, tmp_path)
+    monkeypatch.setenv(_precompile.IN_WORKER, _tiers.OWN_WORKER)
+    _tiers._own_main(str(request))
+    monkeypatch.delenv(_precompile.IN_WORKER)
+    assert not request.exists() and not _compile.needs_compile(own)
+    fresh = scenario.loop(batch_size=2, ccc_gains=scenario.preset.ccc_gains.as_tuple())
+    assert fresh.kernel is own  # compiled: chosen from now on
+    for a, b in zip(_run(fresh, own), _run(fresh, builtins()), strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_a_detached_worker_takes_a_request(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # the own kernel of the default loop is compiled by the test above or here, in-process
+    scenario = make_scenario("xy_dc_servo", estimator="tangent")
+    loop = scenario.loop(batch_size=1)
+    loop.compile_own()
+    monkeypatch.setenv(_tiers.BACKGROUND, "1")
+    request = _pickled(loop, _compile.generated_dir())
+    assert _tiers._detach("_own_main", str(request), "own_test",
+                          env={_precompile.IN_WORKER: _tiers.OWN_WORKER})  # fmt: skip
+    deadline = time.monotonic() + 120.0
+    while request.exists() and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert not request.exists()  # the worker unpickled it and ran it
+
+
+def _module(folder: Path, name: str, compiled: bool) -> types.ModuleType:
+    module = types.ModuleType(name)
+    module.__file__ = str(folder / f"{name}.py")
+    if compiled:
+        (folder / f"{name}.compiled").touch()
+    return module
+
+
+@pytest.mark.parametrize(
+    ("own_compiled", "builtins_done", "worker", "picked", "later"),
+    [
+        (True, False, None, "own", []),
+        (False, True, None, "builtins", ["own"]),
+        (False, False, None, "own", ["builtins loop"]),
+        (False, True, _tiers.OWN_WORKER, "own", []),
+        (False, False, "1", "builtins", []),
+    ],
+)
+def test_choose_policy(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, own_compiled: bool,
+                       builtins_done: bool, worker: str | None, picked: str,
+                       later: list[str]) -> None:  # fmt: skip
+    asked: list[str] = []
+    monkeypatch.setattr(_tiers, "_compile_own_later", lambda owner: asked.append("own"))
+    monkeypatch.setattr(_tiers, "_compile_builtins_later", lambda w: asked.append(f"builtins {w}"))
+    monkeypatch.setattr(_precompile, "is_done", lambda name: builtins_done)
+    if worker is None:
+        monkeypatch.delenv(_precompile.IN_WORKER, raising=False)
+    else:
+        monkeypatch.setenv(_precompile.IN_WORKER, worker)
+    own, builtins = _module(tmp_path, "own", own_compiled), _module(tmp_path, "builtins", True)
+    chosen = _tiers.choose(own, lambda: builtins, "loop", object())  # type: ignore[arg-type]
+    assert chosen is {"own": own, "builtins": builtins}[picked]
+    assert asked == later
