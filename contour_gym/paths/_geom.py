@@ -591,19 +591,22 @@ def eval_many(kind, s0, data, s, out):
 
 
 @numba.njit(cache=True)
-def nearest_many(kind, s0, data, bound, pts, hint, mode, out_s, out_d2):
-    """Nearest point for every row of ``pts`` (N, 3).
+def nearest_many(kind, s0, data, bound, pts, out_s, out_d2):
+    """Nearest point (:func:`nearest_global`) for every row of ``pts`` (N, 3)."""
+    for k in range(pts.shape[0]):
+        out_s[k], out_d2[k] = nearest_global(kind, s0, data, bound, pts[k, 0], pts[k, 1], pts[k, 2])
 
-    ``mode`` 0: global; 1: :func:`nearest_hint` with ``hint[k]``.
+
+@numba.njit(cache=True)
+def nearest_many_hinted(kind, s0, data, bound, pts, hint, out_s, out_d2):
+    """Nearest point (:func:`nearest_hint` with ``hint[k]``) for every row of ``pts`` (N, 3).
+
+    Apart from :func:`nearest_many`: a plot of a run searches near its references only, and
+    the global search is a third of a first run's compile.
     """
     for k in range(pts.shape[0]):
-        if mode == 0:
-            s, d2 = nearest_global(kind, s0, data, bound, pts[k, 0], pts[k, 1], pts[k, 2])
-        else:
-            s, d2 = nearest_hint(kind, s0, data, bound, pts[k, 0], pts[k, 1], pts[k, 2],
-                                 hint[k])
-        out_s[k] = s
-        out_d2[k] = d2
+        out_s[k], out_d2[k] = nearest_hint(kind, s0, data, bound, pts[k, 0], pts[k, 1],
+                                           pts[k, 2], hint[k])  # fmt: skip
 
 
 @numba.njit(cache=True)

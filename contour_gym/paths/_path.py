@@ -247,14 +247,12 @@ class Path:
         out_s = np.empty(n)
         out_d2 = np.empty(n)
         if s_hint is None:
-            hint = np.zeros(n)
-            mode = 0
+            _geom.nearest_many(t.kind, t.s0, t.data, t.bound, pts, out_s, out_d2)
         else:
             hint = np.ascontiguousarray(as_finite_array(s_hint, "s_hint").reshape(-1))
             if hint.shape != (n,):
                 raise ValueError(f"s_hint must have one value per point ({n}), got {hint.shape}")
-            mode = 1
-        _geom.nearest_many(t.kind, t.s0, t.data, t.bound, pts, hint, mode, out_s, out_d2)
+            _geom.nearest_many_hinted(t.kind, t.s0, t.data, t.bound, pts, hint, out_s, out_d2)
         dist = np.sqrt(out_d2)
         if self.dim == 2:
             sign = np.empty(n)
