@@ -16,10 +16,10 @@ picks, per run:
 2. else the built-ins' kernel if that is compiled, while the run's own kernel compiles in a
    background process for the next run of the same combination;
 3. else (a fresh installation) the run's own kernel, compiled here (the first result comes
-   sooner than the built-ins' kernel could), while the built-ins' kernel compiles in the
-   background for the combinations that follow.
+   sooner than the built-ins' kernel could); once it is compiled (:func:`start_pending`), the
+   built-ins' kernel compiles in the background for the combinations that follow.
 
-Background compiles are detached, low-priority processes (``nice`` 10). At most one per
+Background compiles are detached, low-priority processes (``nice`` 19). At most one per
 warm-up and one of runs' own kernels run at a time (a request while one runs is dropped; the
 next run asks again). Set ``CONTOUR_GYM_BACKGROUND=0`` to turn them off.
 """
@@ -72,8 +72,20 @@ def choose(
     if _precompile.is_done(warmup):
         _compile_own_later(owner)
         return builtins()
-    _compile_builtins_later(warmup)
+    _PENDING.add(warmup)  # started once this run's own kernel has compiled (start_pending)
     return own
+
+
+_PENDING: set[str] = set()  # warm-ups to compile in the background after this run's compile
+
+
+def start_pending() -> None:
+    """Start the background compiles :func:`choose` deferred (after a first call compiled).
+
+    Deferred so that they do not share the cores with the compile a user is waiting for.
+    """
+    while _PENDING:
+        _compile_builtins_later(_PENDING.pop())
 
 
 def _enabled() -> bool:
@@ -109,7 +121,7 @@ def _detach(func: str, arg: str, slot: str, env: dict[str, str] | None = None) -
     if cache:
         full["NUMBA_CACHE_DIR"] = cache
     script = "\n".join([
-        "import os", "os.nice(10)", "from contour_gym import _tiers",
+        "import os", "os.nice(19)", "from contour_gym import _tiers",
         f"with _tiers._holding({str(lock)!r}):", f"    _tiers.{func}({arg!r})",
     ])  # fmt: skip
     subprocess.Popen(

@@ -771,6 +771,7 @@ class ServoLoop:
         if not self._marked:  # once per loop: the marker is a file (a stat per call cost 7 us)
             _compile.mark_compiled(self.kernel)
             self._marked = True
+            _tiers.start_pending()
         return result
 
     def _pause(self, skip: ArrayLike) -> NDArray[np.bool_]:

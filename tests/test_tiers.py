@@ -91,4 +91,5 @@ def test_choose_policy(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, own_comp
     own, builtins = _module(tmp_path, "own", own_compiled), _module(tmp_path, "builtins", True)
     chosen = _tiers.choose(own, lambda: builtins, "loop", object())  # type: ignore[arg-type]
     assert chosen is {"own": own, "builtins": builtins}[picked]
+    _tiers.start_pending()  # what a first call does once it compiled
     assert asked == later

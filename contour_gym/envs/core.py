@@ -339,6 +339,7 @@ class ContourTask:
         if not self._stepped:  # the env kernel is in numba's cache now
             _compile.mark_compiled(self.kernel)
             self._stepped = True
+            _tiers.start_pending()
         if not isinstance(self._reward, CompiledReward):
             self._python_rewards()
 
