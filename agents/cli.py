@@ -158,6 +158,8 @@ def _parser() -> argparse.ArgumentParser:
     tune.add_argument("--workers", type=int, default=None, metavar="N",
                       help="threads running the population (default: every CPU; same result)")
     tune.add_argument("--quiet", action="store_true", help="no progress bar")
+    tune.add_argument("--overwrite", action="store_true",
+                      help="replace a finished result in the run folder")  # fmt: skip
     _add_bench_parser(sub)
     return parser
 
@@ -342,7 +344,7 @@ def tune_command(args: argparse.Namespace) -> int:
     result = tune(protocol, optimizer, seed=args.seed, population=args.population,
                   iterations=args.iterations, ideal=args.ideal, out=out,
                   progress=not args.quiet, command=shlex.join(argv),
-                  workers=args.workers)  # fmt: skip
+                  workers=args.workers, overwrite=args.overwrite)  # fmt: skip
     print(f"protocol {result.protocol}, {result.optimizer}, seed {result.seed}: best fitness "
           f"{result.fitness * 1e6:.6g} um ({result.settings['fitness']}) after "
           f"{result.nfev} candidates in {result.wall_time:.1f} s")  # fmt: skip

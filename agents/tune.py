@@ -117,6 +117,7 @@ import contour_gym  # noqa: F401  (registers the env ids)
 from agents._files import write_atomically
 from agents.ccc_laws import K_DE_000, K_E_000
 from agents.optim import OPTIMIZERS, OptimResult, minimize, options_of
+from agents.optim._base import make_rng, positive_int
 from agents.optim.pso import schedules
 from contour_gym._registry import Registry
 from contour_gym._validate import choice
@@ -892,6 +893,7 @@ def tune(
     options: Mapping[str, Any] | None = None,
     command: str | None = None,
     workers: int | None = None,
+    overwrite: bool = False,
 ) -> TuneResult:
     """Run a tuning protocol with an optimiser.
 
@@ -911,6 +913,7 @@ def tune(
             ``contour-gym tune`` command).
         workers: Threads running the population (:class:`PopulationObjective`; None: every
             CPU). The result does not depend on it.
+        overwrite: Replace a finished result in ``out`` (else refused: :func:`check_run_folder`).
 
     Returns:
         The :class:`TuneResult`.
@@ -929,6 +932,10 @@ def tune(
                          f"{', '.join(options_of(name))}")  # fmt: skip
     m = proto.population if population is None else population
     t = proto.iterations if iterations is None else iterations
+    _check_budget(m, t, seed)
+    folder = None if out is None else Path(out)
+    if folder is not None:
+        check_run_folder(folder, overwrite)
     settings: dict[str, Any] = {
         "population": m, "iterations": t, "ideal": bool(ideal), "scenarios": list(proto.scenarios),
         "fitness": proto.fitness, "ccc_law": proto.ccc_law, "episode_seed": proto.episode_seed,
@@ -939,7 +946,6 @@ def tune(
         "optimizer_options": dict(options),
         "command": command or _command(proto.name, name, seed, m, t, ideal, out),
     }  # fmt: skip
-    folder = None if out is None else Path(out)
     if name in PSO_FAMILY:  # checks the budget too, before any simulation
         settings["schedules"] = schedules(name, t, **options).tolist()
     objective = PopulationObjective(proto, ideal=ideal, workers=workers)
@@ -1018,6 +1024,37 @@ def _command(
     if out is not None:
         args += ["--out", os.fspath(out)]
     return shlex.join(args)
+
+
+def _check_budget(population: Any, iterations: Any, seed: Any) -> None:
+    # before anything runs or is written: a bad budget must not touch a run folder
+    positive_int(population, "population")
+    positive_int(iterations, "iterations")
+    make_rng(seed)
+
+
+def check_run_folder(folder: Path, overwrite: bool) -> None:
+    """Refuse a run folder that is a file or holds a finished result (unless ``overwrite``).
+
+    An unfinished result (``"status"`` running, interrupted or failed) is replaced: a tuning
+    run restarts from its first generation (the optimisers keep no state to resume from).
+
+    Raises:
+        ValueError: naming the folder or file, and how to go on.
+    """
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"--out {folder} is a file, not a folder")
+    target = folder / "result.json"
+    if overwrite or not target.exists():
+        return
+    try:
+        status = json.loads(target.read_text(encoding="utf-8")).get("status")
+    except (OSError, ValueError, AttributeError) as exc:
+        raise ValueError(f"{target} cannot be read ({exc}); pass --overwrite to replace it, "
+                         "or choose another --out") from None  # fmt: skip
+    if status == "complete":
+        raise ValueError(f"{target} holds a finished tuning result; pass --overwrite to "
+                         "replace it, or choose another --out")  # fmt: skip
 
 
 def _write_json(target: Path, data: Mapping[str, Any]) -> None:

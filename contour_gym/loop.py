@@ -107,6 +107,11 @@ class Trace:
     eps_est: Array
 
 
+def _is_seed(value: object) -> bool:
+    """Whether ``value`` is a seed: a non-negative int (a bool is not)."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= 0
+
+
 class _NoiseSource:
     """Per-member standard normals, drawn in chunks, each member with its own read position.
 
@@ -526,11 +531,15 @@ class ServoLoop:
         None each when the loop draws no noise: a tuner's reset of 16 members spent 0.2 ms
         making generators it never used.
         """
-        if seed is None or isinstance(seed, (int, np.integer)):
-            root = np.random.SeedSequence(seed)  # checks the seed
+        if seed is None or _is_seed(seed):
+            root = np.random.SeedSequence(seed)
             children = root.spawn(count) if self._noise.active else []
         else:
-            roots = [np.random.SeedSequence(int(s)) for s in seed]  # checks each seed
+            listed = isinstance(seed, (Sequence, np.ndarray)) and not isinstance(seed, (str, bytes))
+            if not listed or not all(map(_is_seed, seed)):
+                raise ValueError("seed must be a non-negative int, a sequence of them or None, "
+                                 f"got {seed!r}")  # fmt: skip
+            roots = [np.random.SeedSequence(int(s)) for s in seed]
             if len(roots) != count:
                 raise ValueError(f"need {count} seeds, got {len(roots)}")
             children = [r.spawn(1)[0] for r in roots] if self._noise.active else []

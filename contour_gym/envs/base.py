@@ -18,15 +18,18 @@ RENDER_MODES = ["human", "rgb_array"]
 
 
 def check_actions(action: Any, shape: tuple[int, ...]) -> NDArray[np.floating[Any]]:
-    """Validate an action's shape (ValueError); finiteness is checked in the compiled step."""
+    """An action checked: real numbers of ``shape`` (ValueError; finiteness: the kernel)."""
     if type(action) is np.ndarray and action.dtype.kind == "f":  # the usual case: no copy
         if action.shape != shape:
             raise ValueError(f"action must have shape {shape}, got {action.shape}")
         return action
     try:
-        a = np.asarray(action, dtype=np.float64)
+        raw = np.asarray(action)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"action must be numeric, got {action!r}") from exc
+        raise ValueError(f"action must be real numbers, got {action!r}") from exc
+    if raw.dtype.kind not in "iuf":  # complex (never cast to its real part), text, objects
+        raise ValueError(f"action must be real numbers, got {action!r}")
+    a = raw.astype(np.float64)
     if a.shape != shape:
         raise ValueError(f"action must have shape {shape}, got {a.shape}")
     return a

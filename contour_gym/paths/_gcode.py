@@ -79,9 +79,9 @@ from contour_gym.paths._table import PathTable, helix_row, line_row, make_table,
 
 FloatArray = NDArray[np.float64]
 
-_WORD = re.compile(r"\s*([A-Za-z])\s*([+-]?(?:\d+\.?\d*|\.\d+))")
-_O_WORD = re.compile(r"O\s*(\d+|<[^>]*>)\s*(.*)$", re.IGNORECASE)
-_MACRO = re.compile(r"[A-Za-z]?\s*#\s*(?:<[^>]*>|\d+)?")
+_WORD = re.compile(r"\s*([A-Za-z])\s*([+-]?(?:\d+\.?\d*|\.\d+))", re.ASCII)  # ASCII digits only
+_O_WORD = re.compile(r"O\s*(\d+|<[^>]*>)\s*(.*)$", re.IGNORECASE | re.ASCII)
+_MACRO = re.compile(r"[A-Za-z]?\s*#\s*(?:<[^>]*>|\d+)?", re.ASCII)
 _EXPR = re.compile(r"[A-Za-z]*\s*\[[^\]]*\]?")
 _UNIT = {20: 0.0254, 21: 0.001}
 _PLANES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}

@@ -1,0 +1,83 @@
+"""Bad input and faults: clear errors, flagged failures, nothing a user made is lost."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import contour_gym
+from agents.cli import main
+from agents.tune import tune
+from contour_gym.envs import CCCEnv
+from contour_gym.paths import from_gcode
+
+CIRCLE = "000_circle"
+FINISHED = {"status": "complete", "protocol": CIRCLE, "fitness": 1e-6, "params": {"k_e": 1.0}}
+
+
+def _finished(folder: Path) -> bytes:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "result.json").write_text(json.dumps(FINISHED))
+    return (folder / "result.json").read_bytes()
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [[], ["--population", "0"], ["--iterations", "0"], ["--population", "3", "--seed", "2"],
+     ["--optimizer", "no_such_optimizer"]],
+)  # fmt: skip
+def test_tune_never_replaces_a_finished_result(tmp_path: Path, capsys, extra: list[str]) -> None:
+    before = _finished(tmp_path / "run")
+    code = main(["tune", CIRCLE, "--out", str(tmp_path / "run"), "--quiet", *extra])
+    assert code == 2
+    assert (tmp_path / "run" / "result.json").read_bytes() == before
+    err = capsys.readouterr().err
+    assert "finished" in err or "must be" in err or "no_such_optimizer" in err
+
+
+def test_tune_names_a_bad_run_folder(tmp_path: Path) -> None:
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ValueError, match="is a file"):
+        tune(CIRCLE, population=2, iterations=1, out=tmp_path / "file", progress=False)
+    (tmp_path / "corrupt").mkdir()
+    (tmp_path / "corrupt" / "result.json").write_text('{"status": "compl')
+    with pytest.raises(ValueError, match=r"corrupt.result\.json cannot be read"):
+        tune(CIRCLE, population=2, iterations=1, out=tmp_path / "corrupt", progress=False)
+    for bad in (0, 1.5, True, "3"):
+        with pytest.raises(ValueError, match="population must be an int"):
+            tune(CIRCLE, population=bad, iterations=0, out=tmp_path / "new", progress=False)
+    assert not (tmp_path / "new").exists()
+
+
+def test_tune_replaces_an_unfinished_result_and_overwrites_when_told(tmp_path: Path) -> None:
+    folder = tmp_path / "run"
+    folder.mkdir()
+    (folder / "result.json").write_text(json.dumps({"status": "interrupted"}))
+    tune(CIRCLE, population=2, iterations=1, out=folder, progress=False)
+    first = json.loads((folder / "result.json").read_text())
+    assert first["status"] == "complete"
+    with pytest.raises(ValueError, match="finished"):
+        tune(CIRCLE, population=2, iterations=1, out=folder, progress=False, seed=1)
+    tune(CIRCLE, population=2, iterations=1, out=folder, progress=False, seed=1, overwrite=True)
+    assert json.loads((folder / "result.json").read_text())["seed"] == 1
+
+
+@pytest.mark.parametrize("action", [np.array([1j, 0, 0]), np.array([0.1 + 0j, 0, 0])])
+def test_actions_must_be_real(action: np.ndarray) -> None:
+    env = CCCEnv()
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="real"):
+        env.step(action)
+
+
+@pytest.mark.parametrize("seed", [1.5, "1", [1, 2], -1])
+def test_simulate_names_a_bad_seed(seed: object) -> None:
+    with pytest.raises(ValueError, match="seed"):
+        contour_gym.simulate(plant="xy_dc_servo", seed=seed)
+
+
+@pytest.mark.parametrize("digit", ["\u0661", "\u00b2", "\uff11", "\u0967"])
+def test_gcode_numbers_are_ascii(digit: str) -> None:
+    with pytest.raises(ValueError, match="line 2"):
+        from_gcode(f"G1 X0 Y0 F600\nG1 X{digit}0 Y0\n")
