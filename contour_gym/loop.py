@@ -109,7 +109,18 @@ class Trace:
 
 def _is_seed(value: object) -> bool:
     """Whether ``value`` is a seed: a non-negative int (a bool is not)."""
-    return isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= 0
+    return bool(isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+                and value >= 0)  # fmt: skip
+
+
+def _seed_list(seed: object) -> list[int]:
+    """``seed`` as a list of seeds, or ValueError naming it."""
+    listed = isinstance(seed, (Sequence, np.ndarray)) and not isinstance(seed, (str, bytes))
+    if not listed or not all(map(_is_seed, cast(Sequence[object], seed))):
+        raise ValueError(
+            f"seed must be a non-negative int, a sequence of them or None, got {seed!r}"
+        )
+    return [int(s) for s in cast(Sequence[int], seed)]
 
 
 class _NoiseSource:
@@ -532,14 +543,11 @@ class ServoLoop:
         making generators it never used.
         """
         if seed is None or _is_seed(seed):
-            root = np.random.SeedSequence(seed)
+            root = np.random.SeedSequence(cast(int | None, seed))
             children = root.spawn(count) if self._noise.active else []
         else:
-            listed = isinstance(seed, (Sequence, np.ndarray)) and not isinstance(seed, (str, bytes))
-            if not listed or not all(map(_is_seed, seed)):
-                raise ValueError("seed must be a non-negative int, a sequence of them or None, "
-                                 f"got {seed!r}")  # fmt: skip
-            roots = [np.random.SeedSequence(int(s)) for s in seed]
+            seeds = _seed_list(seed)
+            roots = [np.random.SeedSequence(s) for s in seeds]
             if len(roots) != count:
                 raise ValueError(f"need {count} seeds, got {len(roots)}")
             children = [r.spawn(1)[0] for r in roots] if self._noise.active else []
