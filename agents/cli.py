@@ -298,7 +298,17 @@ def simulate_command(args: argparse.Namespace) -> int:
                           title=FilePath(args.gcode).name)  # fmt: skip
     _save_atomically(fig, FilePath(args.out), args.dpi)
     print(f"plot written to {args.out}")
-    return 0
+    return _report_failures(columns)
+
+
+def _report_failures(columns: dict[str, dict[str, float]]) -> int:
+    # a failed run is said on stderr, with its reason, and exits 1 (its metrics are not a result)
+    from contour_gym.loop import REASON_NAMES
+
+    failed = {k: REASON_NAMES[m["failure_reason"]] for k, m in columns.items() if m["failed"]}
+    for label, reason in failed.items():
+        print(f"contour-gym: the {label} run failed: {reason}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 def train_command(args: argparse.Namespace) -> int:

@@ -212,15 +212,21 @@ def simulate(
     Returns:
         ``max_contour_error``, ``mean_contour_error``, ``rms_contour_error`` (m),
         ``cycle_time`` (s, until in position at the end), ``cea``, ``p_e``, ``p_eps`` (m),
-        ``chattering``, ``failed`` (1.0 if the loop diverged or never got in position, when
-        the error metrics are inf) and ``finished`` (1.0 when in position at the end).
+        ``chattering``, ``failed`` (1.0 if the loop diverged, never got in position or ran out
+        of time; the error metrics are inf when it diverged), ``failure_reason`` (its code:
+        :attr:`ServoLoop.failure_reason`) and ``finished`` (1.0 when in position at the end).
 
     >>> m = simulate("xy_dc_servo", ideal=True)  # 000's servo on its 10 mm circle, no CCC
     >>> round(m["max_contour_error"] * 1e6, 1), m["finished"]  # 000 reports 49 um
     (50.6, 1.0)
     """
     loop = run_scenario(_scenario(plant, path, feedrate, options), ccc_gains, seed, **options)
-    return {**member_metrics(loop.metrics(), 0), "failed": float(loop.failed[0]),
+    return {**member_metrics(loop.metrics(), 0), **_outcome(loop)}
+
+
+def _outcome(loop: ServoLoop) -> dict[str, float]:
+    # failed, its reason's code (ServoLoop.failure_reason) and finished, of member 0
+    return {"failed": float(loop.failed[0]), "failure_reason": float(loop.failure_reason[0]),
             "finished": float(loop.done[0])}  # fmt: skip
 
 
@@ -229,21 +235,25 @@ def run_trace(
 ) -> tuple[dict[str, float], Trace]:
     """Run a scenario recording every tick; returns (metrics, trace)."""
     loop = run_scenario(scenario, ccc_gains, seed, record=True, **options)
-    return member_metrics(loop.metrics(), 0), loop.trace()
+    return {**member_metrics(loop.metrics(), 0), **_outcome(loop)}, loop.trace()
 
 
 def run_scenario(
     scenario: Scenario, ccc_gains: object = None, seed: int = 0, *, record: bool = False,
-    **options: Any,
+    max_time: float | None = None, **options: Any,
 ) -> ServoLoop:  # fmt: skip
     """Run one member of ``scenario`` from ``seed`` to its end; returns the finished loop.
 
     ``options`` override the scenario's loop options; ``loop.metrics()`` holds the run's
     metrics (per-contour arrays included) and, with ``record``, ``loop.trace()`` every tick.
+    ``max_time`` caps the simulated time (:meth:`ServoLoop.run`; a member still running then
+    has failed, reason 4).
     """
+    if max_time is not None:
+        positive(max_time, "max_time")
     loop = scenario.loop(ccc_gains=ccc_gains, record=record, **options)
     loop.reset(seed)
-    loop.run()
+    loop.run(max_time=max_time)
     return loop
 
 

@@ -40,6 +40,8 @@ from contour_gym._loopstate import (
     MEM,
     PATH_FLOATS,
     REASON_DIVERGED,
+    REASON_NAMES,
+    REASON_TIME_CAP,
     STATUS_ARRIVED,
     STATUS_FAILED,
     STATUS_OK,
@@ -680,10 +682,10 @@ class ServoLoop:
 
     @property
     def failure_reason(self) -> NDArray[np.float64]:
-        """(B,) why a member failed: 0 none, 1 diverged, 2 not in position, 3 over stop_above.
+        """(B,) why a member failed: 0 none, 1 diverged, 2 not in position, 3 over, 4 time cap.
 
-        2: not in position within the settle time after the path end; 3: stopped by
-        :meth:`run`'s ``stop_above``.
+        In words: :data:`REASON_NAMES`. 2: not in position within the settle time after the path end; 3: stopped by
+        :meth:`run`'s ``stop_above``; 4: still running when :meth:`run`'s ``max_time`` ran out.
         """
         return self.mem[:, M.reason].copy()
 
@@ -872,7 +874,14 @@ class ServoLoop:
                 self.step(min(chunk, limit - self.tick), skip)
         finally:
             self._config[CF.stop_above] = math.inf
+        self._fail(self.running & active, REASON_TIME_CAP)  # cut off: a failure, not a result
         return self.metrics()
+
+    def _fail(self, members: NDArray[np.bool_], reason: float) -> None:
+        # end these members now as failed, for this reason
+        self.status[members] = STATUS_FAILED
+        self.mem[members, M.reason] = reason
+        self.mem[members, M.end] = (self.tick - self.k_start)[members]
 
     def metrics(self) -> dict[str, Array]:
         """Metrics of everything run since the last reset.
@@ -978,4 +987,4 @@ def _options(options: dict[str, Any]) -> LoopOptions:
     return opts
 
 
-__all__ = ["LoopOptions", "ServoLoop", "Trace", "simulate_axis"]
+__all__ = ["REASON_NAMES", "LoopOptions", "ServoLoop", "Trace", "simulate_axis"]

@@ -9,6 +9,7 @@ import pytest
 import contour_gym
 from agents.cli import main
 from agents.tune import tune
+from contour_gym.contour import ESTIMATORS
 from contour_gym.envs import CCCEnv
 from contour_gym.paths import from_gcode
 
@@ -81,3 +82,20 @@ def test_simulate_names_a_bad_seed(seed: object) -> None:
 def test_gcode_numbers_are_ascii(digit: str) -> None:
     with pytest.raises(ValueError, match="line 2"):
         from_gcode(f"G1 X0 Y0 F600\nG1 X{digit}0 Y0\n")
+
+
+@pytest.mark.parametrize("name", sorted(ESTIMATORS.names()))
+def test_every_estimator_rejects_a_misspelt_option(name: str) -> None:
+    with pytest.raises(ValueError, match="half_widht"):
+        contour_gym.simulate(plant="xy_dc_servo", estimator=name,
+                             estimator_options={"half_widht": 2})  # fmt: skip
+
+
+def test_a_run_cut_off_by_its_time_cap_is_a_failure_with_its_reason(tmp_path: Path, capsys) -> None:
+    m = contour_gym.simulate(plant="xy_dc_servo", max_time=0.05)
+    assert m["failed"] == 1.0 and m["finished"] == 0.0 and m["failure_reason"] == 4.0
+    from contour_gym.loop import REASON_NAMES
+
+    assert "time cap" in REASON_NAMES[m["failure_reason"]]
+    ok = contour_gym.simulate(plant="xy_dc_servo")
+    assert ok["failed"] == 0.0 and ok["failure_reason"] == 0.0 and ok["finished"] == 1.0

@@ -155,8 +155,8 @@ def get_estimator(name: str, **options: Any) -> Estimator:
         ValueError: for an unknown name (the message lists the accepted ones) or bad options.
     """
     kind = ESTIMATORS.get(name)
-    return Estimator(kind, np.ascontiguousarray(kind.params.row(**options)).reshape(-1)
-                     if kind.params.size else np.zeros(1))
+    row = np.ascontiguousarray(kind.params.row(**options)).reshape(-1)  # checks every name
+    return Estimator(kind, row if kind.params.size else np.zeros(1))
 
 
 def build_estimator(name: str, **options: Any) -> Estimator:
