@@ -684,8 +684,9 @@ class ServoLoop:
     def failure_reason(self) -> NDArray[np.float64]:
         """(B,) why a member failed: 0 none, 1 diverged, 2 not in position, 3 over, 4 time cap.
 
-        In words: :data:`REASON_NAMES`. 2: not in position within the settle time after the path end; 3: stopped by
-        :meth:`run`'s ``stop_above``; 4: still running when :meth:`run`'s ``max_time`` ran out.
+        In words: :data:`REASON_NAMES`. 2: not in position within the settle time after the
+        path end; 3: stopped by :meth:`run`'s ``stop_above``; 4: still running when
+        :meth:`run`'s ``max_time`` ran out.
         """
         return self.mem[:, M.reason].copy()
 
