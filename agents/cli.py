@@ -122,6 +122,9 @@ def _parser() -> argparse.ArgumentParser:
                       metavar="H=LENGTH", help="tool length of H number H (repeat)")
     part.add_argument("--cut-z", type=_finite, default=0.0, metavar="Z",
                       help="program Z at or below which a feed move cuts (default 0)")
+    part.add_argument("--default-feed", type=_positive, default=None, metavar="MM_PER_MIN",
+                      help="feed of the moves before the program's first F word (default: "
+                      "such a move is an error)")  # fmt: skip
     sim.add_argument("--seed", type=int, default=0)
     sim.add_argument("--out", default="contour_gym_simulate.png", help="plot file")
     sim.add_argument("--dpi", type=_positive, default=120.0, help="plot resolution")
@@ -198,7 +201,7 @@ def read_part(args: argparse.Namespace) -> GcodePath:
 
     Args:
         args: The parsed ``simulate`` arguments (``gcode``, ``work_offset``, ``tool_length``,
-            ``cut_z``; lengths in mm).
+            ``cut_z``, ``default_feed``; lengths in mm, feeds in mm/min).
 
     Returns:
         The part in machine coordinates, before it is mapped onto a machine's axes.
@@ -213,8 +216,9 @@ def read_part(args: argparse.Namespace) -> GcodePath:
         raise InputFileError(f"{name}: {exc.strerror or exc}") from None
     with _naming(name):
         return from_gcode(text, work_offsets=dict(args.work_offset) or None,
-                          tool_lengths=dict(args.tool_length) or None,
-                          cut_z=args.cut_z * 1e-3)  # fmt: skip
+                          tool_lengths=dict(args.tool_length) or None, cut_z=args.cut_z * 1e-3,
+                          default_feed=None if args.default_feed is None else
+                          args.default_feed * 1e-3 / 60.0)  # fmt: skip
 
 
 @contextmanager

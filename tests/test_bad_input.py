@@ -99,3 +99,12 @@ def test_a_run_cut_off_by_its_time_cap_is_a_failure_with_its_reason(tmp_path: Pa
     assert "time cap" in REASON_NAMES[m["failure_reason"]]
     ok = contour_gym.simulate(plant="xy_dc_servo")
     assert ok["failed"] == 0.0 and ok["failure_reason"] == 0.0 and ok["finished"] == 1.0
+
+
+def test_a_program_without_f_words_is_refused_or_given_a_default_feed(tmp_path: Path, capsys):
+    part = tmp_path / "part.nc"
+    part.write_text("G0 X0 Y0\nG1 X10 Y0\nG1 X10 Y10\n")
+    out = str(tmp_path / "p.png")
+    assert main(["simulate", "--gcode", str(part), "--out", out]) == 2
+    assert "line 2: a feed move before any F word" in capsys.readouterr().err
+    assert main(["simulate", "--gcode", str(part), "--out", out, "--default-feed", "600"]) == 0

@@ -86,9 +86,11 @@ def test_feedrates_per_segment():
     np.testing.assert_allclose(feed[lines == _line(120)], 10 * 0.0254 / 60.0)
     assert _line(20) not in lines  # the zero-length move was skipped
     assert not path.rapid.any()
-    first = cgp.from_gcode("G0 X5\nG1 X10\nG1 X20 F120")
+    with pytest.raises(cgp.GcodeError, match="line 2: a feed move before any F word"):
+        cgp.from_gcode("G0 X5\nG1 X10\nG1 X20 F120")  # a controller would not guess a feed
+    first = cgp.from_gcode("G0 X5\nG1 X10\nG1 X20 F120", default_feed=0.001)
     assert first.rapid.tolist() == [True, False, False]
-    assert np.isnan(first.segment_feedrates[:2]).all()
+    assert np.isnan(first.segment_feedrates[0]) and first.segment_feedrates[1] == 0.001
     assert first.segment_feedrates[2] == pytest.approx(0.002)
 
 
@@ -119,7 +121,7 @@ def test_small_radius_mismatch_is_absorbed():
     [
         ("G1 X10 F100\nG1 X20 A5", 2, "unsupported word A"),
         ("G1 X10 F100\n\nG68 X20", 3, "unsupported code G68"),  # G54 is now accepted
-        ("G1 X10\nM98 P100", 2, "unsupported code M98"),
+        ("G1 X10 F100\nM98 P100", 2, "unsupported code M98"),
         ("G1 X10 F100\nG3 X20 Y0 I3 J0", 2, "radius"),
         ("G1 X10 F100\nG2 X20 Y5", 2, "centre"),
         ("G17 G1 X10 F100\nG2 X20 I5 K1", 2, "K word is not used by arcs in the G17"),
@@ -128,14 +130,14 @@ def test_small_radius_mismatch_is_absorbed():
         ("G1 X10 X20", 1, "twice"),
         ("G0 G1 X10", 1, "two motion codes"),
         ("G1 X10 F100\nG1 X20 I5", 2, "need G2 or G3"),
-        ("G1 X10\nG2 X20 R2", 2, "smaller than half"),
-        ("G1 X10\nG2 X10 Y0 R2", 2, "full circle"),
-        ("G1 X10\nG3 X20 R5 I5", 2, "either I/J or R"),
+        ("G1 X10 F100\nG2 X20 R2", 2, "smaller than half"),
+        ("G1 X10 F100\nG2 X10 Y0 R2", 2, "full circle"),
+        ("G1 X10 F100\nG3 X20 R5 I5", 2, "either I/J or R"),
         ("G1 X10 (comment", 1, "unclosed comment"),
         ("G1 X10 F-5", 1, "feedrate"),
         ("G1 X1.2.3", 1, "cannot read"),
         ("N5 G1 X$", 1, "cannot read"),
-        ("G1 X10\nG3 X10 Y0 I0 J0", 2, "radius is zero"),
+        ("G1 X10 F100\nG3 X10 Y0 I0 J0", 2, "radius is zero"),
     ],
 )
 def test_errors_name_the_line(text, line, what):
@@ -539,7 +541,8 @@ def test_arc_centre_modes_and_planes():
     np.testing.assert_allclose(xz.point(xz.length / 2), [0.01, 0.0, 0.01], atol=1e-15)
     for code in ("G2", "G3"):
         r_form = cgp.from_gcode(f"G18 {code} X10 Z10 R10 F100")
-        ik_form = cgp.from_gcode(f"G18 {code} X10 Z10 " + ("K10" if code == "G2" else "I10 K0"))
+        ik_form = cgp.from_gcode(f"G18 {code} X10 Z10 F100 "
+                                 + ("K10" if code == "G2" else "I10 K0"))  # fmt: skip
         np.testing.assert_allclose(r_form.table.data, ik_form.table.data, atol=1e-15)
     yz = cgp.from_gcode("G19 G2 Y20 Z0 J10 K0 F100")
     np.testing.assert_allclose(yz.point(yz.length / 2), [0.0, 0.01, 0.01], atol=1e-15)
@@ -578,7 +581,7 @@ def test_for_machine_arguments_and_empty_results():
         path.for_machine(2, rapid_rate=1.0, z=math.nan)
     with pytest.raises(ValueError, match="no X-Y motion"):
         cgp.from_gcode("G0 Z5\nG1 Z-1 F100").for_machine(2, rapid_rate=1.0)
-    with pytest.raises(cgp.GcodeError, match=r"line 1:.*without a feedrate") as info:
+    with pytest.raises(cgp.GcodeError, match=r"line 1: a feed move before any F word") as info:
         cgp.from_gcode("G1 Z-1\nG1 X1 F100").for_machine(2, rapid_rate=1.0)
     assert info.value.word == "F"
     # trailing Z moves become dwell_after_end

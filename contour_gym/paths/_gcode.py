@@ -577,6 +577,9 @@ class _State:
             out.kinds.append(kind)
             out.lengths.append(length)
             out.rows.append(row)
+            if not rapid and self.feed != self.feed:  # NaN: no F word yet
+                raise GcodeError(lineno, "F", "a feed move before any F word (program an F, "
+                                 "or pass default_feed)")  # fmt: skip
             out.feeds.append(math.nan if rapid else self.feed)
             out.lines.append(lineno)
             out.rapid.append(rapid)
@@ -1040,7 +1043,7 @@ def _tool_lengths(value: Mapping[int, float] | None) -> dict[int, float] | None:
 def from_gcode(text: str, *, start: ArrayLike = (0.0, 0.0, 0.0),
                work_offsets: Mapping[str, ArrayLike] | None = None,
                tool_lengths: Mapping[int, float] | None = None,
-               cut_z: float = 0.0) -> GcodePath:
+               cut_z: float = 0.0, default_feed: float | None = None) -> GcodePath:
     """Read a G-code program into a path (see the module documentation for the dialect).
 
     Args:
@@ -1054,6 +1057,9 @@ def from_gcode(text: str, *, start: ArrayLike = (0.0, 0.0, 0.0),
         cut_z: Programmed (work-coordinate) Z, m, at or below which a feed move of a 3-D
             program cuts (default 0: the work surface). Not used for 2-D programs, where every
             feed move cuts.
+        default_feed: Feedrate, m/s, of the feed moves before the program's first F word.
+            None (default): such a move is an error naming its line (a controller would not
+            guess a feed either).
 
     Returns:
         A :class:`GcodePath` in machine coordinates, 3-D if a Z word appears, an arc lies in
@@ -1070,6 +1076,8 @@ def from_gcode(text: str, *, start: ArrayLike = (0.0, 0.0, 0.0),
         raise ValueError(f"start must be a 2-D or 3-D point, got shape {p0.shape}")
     st = _State(pos=np.pad(p0, (0, 3 - p0.shape[0])), offsets=_work_offsets(work_offsets),
                 tools=_tool_lengths(tool_lengths), cut_z=finite(cut_z, "cut_z"))
+    if default_feed is not None:
+        st.feed = positive(default_feed, "default_feed")
     for lineno, raw in enumerate(text.splitlines(), start=1):
         if _read_line(st, raw, lineno):
             break
