@@ -108,3 +108,18 @@ def test_a_program_without_f_words_is_refused_or_given_a_default_feed(tmp_path: 
     assert main(["simulate", "--gcode", str(part), "--out", out]) == 2
     assert "line 2: a feed move before any F word" in capsys.readouterr().err
     assert main(["simulate", "--gcode", str(part), "--out", out, "--default-feed", "600"]) == 0
+
+
+def test_a_vector_env_takes_a_list_of_seeds() -> None:
+    from contour_gym.envs import CCCVectorEnv
+
+    venv = CCCVectorEnv(num_envs=2, decision_ticks=50)
+    listed, _ = venv.reset(seed=[3, 4])
+    ranged, _ = venv.reset(seed=3)  # member i gets 3 + i: the same seeds
+    for key in listed:
+        np.testing.assert_array_equal(listed[key], ranged[key])
+    venv.reset(seed=[5, None])
+    for bad, match in (([1, 2, 3], "2 seeds"), ([1, -2], "non-negative"), (1.5, "non-negative"),
+                       (["a", 1], "non-negative")):  # fmt: skip
+        with pytest.raises(ValueError, match=match):
+            venv.reset(seed=bad)

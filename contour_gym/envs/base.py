@@ -191,10 +191,11 @@ class ContourVectorEnv(GainsMap, VectorEnv):
         self._started = False
 
     def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, NDArray[np.float32]], dict[str, Any]]:
-        """Reset every member (or ``options["reset_mask"]``'s); member ``i`` is seeded ``seed + i``.
+        """Reset every member (or ``options["reset_mask"]``'s), member ``i`` seeded ``seed + i``.
 
+        A list of seeds gives member ``i`` the seed ``seed[i]`` (None: an unpredictable one).
         A partial reset (Gymnasium's ``reset_mask``: a bool array (num_envs,), as a caller that
         starts ended members in the step they end uses it) leaves the other members as they
         are, and without a seed continues each reset member's generator, as the auto-reset and

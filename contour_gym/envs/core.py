@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from types import ModuleType
 from typing import Any, cast
 
@@ -495,6 +495,29 @@ def _env_kernel(loop_kernel: ModuleType, slots: dict[str, Any]) -> ModuleType:
     )
 
 
-def member_rngs(seed: int | None, count: int) -> list[np.random.Generator]:
-    """Generators for ``count`` members as ``gymnasium`` seeds envs: member i gets ``seed + i``."""
-    return [seeding.np_random(None if seed is None else seed + i)[0] for i in range(count)]
+def member_rngs(
+    seed: int | Sequence[int | None] | None, count: int
+) -> list[np.random.Generator]:
+    """Generators for ``count`` members as ``gymnasium`` seeds vector envs.
+
+    An int seeds member i with ``seed + i``; a list gives each member its own seed (None: an
+    unpredictable one), as Gymnasium's ``VectorEnv.reset(seed=[...])`` allows.
+
+    Raises:
+        ValueError: naming a seed that is not a non-negative int (or None in a list), or a
+            list of another length than ``count``.
+    """
+    if seed is None or not isinstance(seed, (Sequence, np.ndarray)) or isinstance(seed, str):
+        seeds: list[Any] = [None if seed is None else _seed(seed) + i for i in range(count)]
+    else:
+        if len(seed) != count:
+            raise ValueError(f"seed must be one int or {count} seeds (one per member), "
+                             f"got {len(seed)}: {seed!r}")  # fmt: skip
+        seeds = [None if s is None else _seed(s) for s in seed]
+    return [seeding.np_random(s)[0] for s in seeds]
+
+
+def _seed(value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+        raise ValueError(f"seed must be a non-negative int, got {value!r}")
+    return int(value)
