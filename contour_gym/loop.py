@@ -74,6 +74,7 @@ from contour_gym.servo import CONTROLLERS, PIDGains, build_controller, compensat
 from contour_gym.servo.base import CONTROLLER_FAMILY
 from contour_gym.servo.compensation import COMPENSATION_FAMILY
 from contour_gym.servo.compensation import STATE as COMP_STATE
+from contour_gym.servo.gains import as_pid_gains
 
 Array = NDArray[np.float64]
 # config columns holding the code of the loop's one component of each family
@@ -287,7 +288,10 @@ class ServoLoop:
             raise ValueError(f"need {stage.n_axes} axis gains, got {len(axis_gains)}")
         self.opts = _options(options)
         self.stage, self.path, self.batch_size, self.record = stage, path, int(batch_size), record
-        self.axis_gains, self.interpolator = tuple(axis_gains), interpolator
+        self.axis_gains = tuple(
+            as_pid_gains(g, f"axis_gains[{i}]") for i, g in enumerate(axis_gains)
+        )
+        self.interpolator = interpolator
         b = self.batch_size
         self.controller, ctrl_p, comp_p = build_controller(
             self.opts.axis_controller, stage, self.axis_gains, b,

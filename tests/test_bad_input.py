@@ -123,3 +123,17 @@ def test_a_vector_env_takes_a_list_of_seeds() -> None:
                        (["a", 1], "non-negative")):  # fmt: skip
         with pytest.raises(ValueError, match=match):
             venv.reset(seed=bad)
+
+
+def test_axis_gains_as_mappings_or_a_named_error() -> None:
+    gains = [{"kp": 2.0e3, "ki": 2.0e4, "kd": 15.0}] * 2
+    as_dicts = contour_gym.simulate(plant={"preset": "xy_dc_servo", "axis_gains": gains})
+    from contour_gym.servo import PIDGains
+
+    typed = contour_gym.simulate(plant={"preset": "xy_dc_servo",
+                                        "axis_gains": [PIDGains(**g) for g in gains]})  # fmt: skip
+    assert as_dicts == typed
+    for bad, match in (([{"kp": 1.0, "kq": 2.0}] * 2, r"axis_gains\[0\] needs kp"),
+                       ([{"ki": 1.0}] * 2, "needs kp"), ([1.0, 2.0], "must be a PIDGains")):
+        with pytest.raises(ValueError, match=match):
+            contour_gym.simulate(plant={"preset": "xy_dc_servo", "axis_gains": bad})

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
 
@@ -29,3 +31,21 @@ class PIDGains:
         vals = as_finite_array([self.kp, self.ki, self.kd, self.kff], "PID gains")
         if vals[0] <= 0 or np.any(vals[1:3] < 0):
             raise ValueError(f"PID gains need kp > 0 and ki, kd >= 0, got {self!r}")
+
+
+def as_pid_gains(value: Any, name: str) -> PIDGains:
+    """``value`` as :class:`PIDGains`: itself, or a mapping of its fields (``{"kp": ...}``).
+
+    Raises:
+        ValueError: naming ``name`` and the accepted fields.
+    """
+    if isinstance(value, PIDGains):
+        return value
+    accepted = [f.name for f in fields(PIDGains)]
+    if isinstance(value, Mapping):
+        unknown = sorted(set(value) - set(accepted))
+        if not unknown and "kp" in value:
+            return PIDGains(**value)
+        raise ValueError(f"{name} needs kp and takes {', '.join(accepted)}; got {dict(value)!r}")
+    raise ValueError(f"{name} must be a PIDGains or a mapping of {', '.join(accepted)}, "
+                     f"got {value!r}")  # fmt: skip
