@@ -397,6 +397,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as exc:
         print(f"contour-gym: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # --out on a file, a read-only or full disk: the file and the cause
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"contour-gym: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 1
 
 
 def _show_warning(message: Warning | str, *_: object, **__: object) -> None:

@@ -137,3 +137,24 @@ def test_axis_gains_as_mappings_or_a_named_error() -> None:
                        ([{"ki": 1.0}] * 2, "needs kp"), ([1.0, 2.0], "must be a PIDGains")):
         with pytest.raises(ValueError, match=match):
             contour_gym.simulate(plant={"preset": "xy_dc_servo", "axis_gains": bad})
+
+
+def test_an_unknown_policy_kwargs_key_is_named_before_any_run_folder() -> None:
+    from agents.rl.config import check_block
+
+    block = {"n_timesteps": 1000, "policy": "MultiInputPolicy",
+             "policy_kwargs": {"net_arch": [8], "net_archh": [8]}}  # fmt: skip
+    with pytest.raises(ValueError, match="policy_kwargs: unknown argument.*'net_archh'"):
+        check_block("ppo", "contour_gym/CCC-v0", block, "ppo.yml")
+    check_block("ppo", "contour_gym/CCC-v0", {**block, "policy_kwargs": {"net_arch": [8]}},
+                "ppo.yml")  # fmt: skip
+
+
+@pytest.mark.parametrize("command", [["bench", "--suite", "tiny", "--quiet"],
+                                     ["tune", CIRCLE, "--population", "2", "--quiet"]])
+def test_out_on_a_file_is_an_error_naming_it(tmp_path: Path, capsys, command: list[str]) -> None:
+    target = tmp_path / "taken"
+    target.write_text("mine")
+    assert main([*command, "--out", str(target)]) in (1, 2)
+    assert str(target) in capsys.readouterr().err
+    assert target.read_text() == "mine"

@@ -213,6 +213,11 @@ def check_block(
                              f"{', '.join(accepted)}")  # fmt: skip
         if problem:
             raise ValueError(f"{where}: {key}: {problem}, got {value!r}")
+    policy = getattr(cls, "policy_aliases", {}).get(block.get("policy"))
+    if policy is not None and isinstance(block.get("policy_kwargs"), Mapping):
+        problem = _check_policy_kwargs(policy, block["policy_kwargs"])
+        if problem:
+            raise ValueError(f"{where}: policy_kwargs: {problem}")
     missing = [k for k in ("n_timesteps", "policy") if k not in block]
     if missing and not partial:
         raise ValueError(f"{where}: missing key(s) {', '.join(missing)}")
@@ -241,6 +246,21 @@ def _zoo_checks(algo: str, cls: Any) -> dict[str, Check]:
             else f"must be one of {', '.join(NOISE_TYPES)}"  # fmt: skip
         checks["noise_std"] = lambda v: "" if _is_float(v) and v >= 0 else "must be a number >= 0"
     return checks
+
+
+def _check_policy_kwargs(policy: type, kwargs: Mapping[str, Any]) -> str:
+    # the policy class' own arguments (SB3 passes the spaces and the schedule itself); checked
+    # before a run folder is made, so a typo never leaves one behind
+    params = inspect.signature(policy.__init__).parameters  # type: ignore[misc]
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        return ""
+    own = [k for k in params if k not in ("self", "observation_space", "action_space",
+                                          "lr_schedule")]  # fmt: skip
+    unknown = sorted(set(kwargs) - set(own))
+    if unknown:
+        return (f"unknown argument(s) {', '.join(map(repr, unknown))} of {policy.__name__} "
+                f"(accepted: {', '.join(own)})")
+    return ""
 
 
 def _check_normalize(value: Any) -> str:
