@@ -81,12 +81,14 @@ W = WORK.col
 STATUS_OK, STATUS_FAILED, STATUS_PAUSED, STATUS_ARRIVED = 0, 1, 2, 3
 REASON_NONE, REASON_DIVERGED, REASON_NOT_IN_POSITION, REASON_OVER_LIMIT = 0.0, 1.0, 2.0, 3.0
 REASON_TIME_CAP = 4.0
+REASON_HARD_LIMIT = 5.0  # an env's failure rule (the loop itself never ends a member for it)
 # why a member failed (ServoLoop.failure_reason), in words
 REASON_NAMES = {
     REASON_NONE: "", REASON_DIVERGED: "the axes diverged",
     REASON_NOT_IN_POSITION: "not in position within the settle time after the path end",
     REASON_OVER_LIMIT: "contour error above the run's stop_above",
     REASON_TIME_CAP: "the run's time cap was reached before the path end",
+    REASON_HARD_LIMIT: "contour error above the env's hard limit",
 }  # fmt: skip
 STATE_LIMIT = 1e3  # |x| in m or |v| in m/s beyond this is a diverged member
 

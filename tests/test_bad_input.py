@@ -158,3 +158,16 @@ def test_out_on_a_file_is_an_error_naming_it(tmp_path: Path, capsys, command: li
     assert main([*command, "--out", str(target)]) in (1, 2)
     assert str(target) in capsys.readouterr().err
     assert target.read_text() == "mine"
+
+
+def test_an_env_episode_that_fails_says_why() -> None:
+    from contour_gym.loop import REASON_NAMES
+
+    env = CCCEnv(tolerance=1e-7, hard_limit=2e-7, decision_ticks=50)
+    env.reset(seed=0)
+    term = False
+    while not term:
+        _, _, term, trunc, info = env.step(np.zeros(3))
+        assert not trunc
+    assert info["failure"] and info["metrics"]["failure_reason"] == 5.0
+    assert "hard limit" in REASON_NAMES[info["metrics"]["failure_reason"]]

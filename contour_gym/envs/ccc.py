@@ -75,7 +75,8 @@ _SPEC = """
     Every step: ``contour_error`` (true, m, signed in 2-D), ``contour_error_estimate``,
     ``tracking_error`` (true, m), ``feedrate`` (m/s), ``s`` (m), ``failure``,
     ``reward_components``. At every episode end (terminated or truncated) also ``metrics``: the
-    episode's ``contour_gym.metrics`` (the keys of ``contour_gym.simulate``) and ``finished``
+    episode's ``contour_gym.metrics`` (the keys of ``contour_gym.simulate``, ``failure_reason``
+    5 for the hard limit: ``contour_gym.loop.REASON_NAMES``) and ``finished``
     (whether the machine got in position at the end). The vector env batches each key with a
     ``_key`` mask.
 

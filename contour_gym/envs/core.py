@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from contour_gym import _compile, _precompile, _tiers
 from contour_gym._blob import Blob
-from contour_gym._loopstate import LS, STATUS_ARRIVED
+from contour_gym._loopstate import LS, REASON_HARD_LIMIT, STATUS_ARRIVED
 from contour_gym.api import make_scenario
 from contour_gym.envs import _kernel as EK
 from contour_gym.envs.config import HARD_LIMIT_TOLERANCES, EnvConfig
@@ -428,6 +428,9 @@ class ContourTask:
         m = loop.metrics()
         out: dict[str, Any] = {k: m[k].copy() for k in member_metrics(m, 0)}
         out["finished"] = loop.status == STATUS_ARRIVED
+        # why an episode failed: the loop's reason, else the env's hard limit
+        hard = (self._v["failure"] != 0.0) & ~loop.failed
+        out["failure_reason"] = np.where(hard, REASON_HARD_LIMIT, loop.failure_reason)
         return out
 
     def info(self, b: int, ended: bool) -> dict[str, Any]:
