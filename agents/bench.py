@@ -45,6 +45,8 @@ import math
 import os
 import sys
 import time
+import warnings
+import zipfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -200,8 +202,35 @@ class RunFolder:
         return self.root / "cells" / scenario / f"{policy}{suffix}"
 
     def done(self, scenario: str, policy: str) -> bool:
-        """Whether the cell's record exists (written last: the cell is complete)."""
-        return self.cell_file(scenario, policy).is_file()
+        """Whether the cell is complete: its record exists (written last) and it loads.
+
+        A cell whose record or trace cannot be read (a truncated or foreign file) is not
+        done: a warning names the file, the cell's files are removed and it is recomputed.
+        """
+        if not self.cell_file(scenario, policy).is_file():
+            return False
+        for suffix in (".json", ".npz"):
+            target = self.cell_file(scenario, policy, suffix)
+            try:
+                self._read(target, suffix)
+            except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as exc:
+                warnings.warn(f"{target} cannot be read ({exc}); the cell is computed again",
+                              stacklevel=2)  # fmt: skip
+                for stale in (".json", ".npz"):
+                    self.cell_file(scenario, policy, stale).unlink(missing_ok=True)
+                return False
+        return True
+
+    @staticmethod
+    def _read(target: Path, suffix: str) -> None:
+        # raises if a cell file is unreadable (a missing trace is fine: not every cell has one)
+        if suffix == ".json":
+            record = json.loads(target.read_text(encoding="utf-8"))
+            record["episodes"], record["wall_time"]  # noqa: B018 - their presence is checked
+        elif target.is_file():
+            with np.load(target) as data:
+                for k in TRACE_FIELDS:
+                    data[k]  # noqa: B018 - each array is read (a truncated zip fails here)
 
     def save(self, cell: Cell) -> None:
         """Write the cell's trace, then its record (each atomically)."""

@@ -99,6 +99,20 @@ def test_a_deleted_cell_is_the_only_one_recomputed(tiny_run, tmp_path, counted):
     assert _rows(copy) == _rows(out)  # same seed, same numbers
 
 
+@pytest.mark.parametrize("suffix", [".json", ".npz"])
+def test_a_corrupt_cell_file_is_named_and_the_cell_recomputed(tiny_run, tmp_path, counted, suffix):
+    out, _ = tiny_run
+    copy = tmp_path / "run"
+    shutil.copytree(out, copy)
+    cells = sorted((copy / "cells").rglob(f"*{suffix}"))
+    victim = cells[0]
+    victim.write_bytes(victim.read_bytes()[: len(victim.read_bytes()) // 2])  # truncated
+    with pytest.warns(UserWarning, match=f"{victim.name} cannot be read"):
+        result = run_suite("tiny", copy, progress=False)
+    assert counted == [(victim.parent.name, victim.stem)] == result.computed
+    assert _rows(copy) == _rows(out)
+
+
 def test_an_interrupted_run_resumes_without_recomputing_finished_cells(
     tiny_run, tmp_path, monkeypatch, counted
 ):
