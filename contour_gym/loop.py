@@ -81,6 +81,8 @@ Array = NDArray[np.float64]
 _CODED = {"ctrl": CONTROLLER_FAMILY, "est": ESTIMATOR_FAMILY, "ccc": CCC_FAMILY,
           "comp": COMPENSATION_FAMILY}  # fmt: skip
 NOISE_CHUNK = 256  # ticks of normals drawn per member at a time
+MAX_RUN_TICKS = 200_000_000  # ticks one run() may take (55 h of machine time at 1 kHz)
+MAX_RECORD_BYTES = 2 * 1024**3  # memory a recorded run() may fill with its trace
 LOOP_TEMPLATE = "contour_gym._loopkernel"  # the servo loop's kernel template (_compile)
 DEFAULT_SETTLE = 1.0  # s the machine may take to get in position after the reference ends
 
@@ -865,7 +867,7 @@ class ServoLoop:
         """
         if max_time is None:
             max_time = 5.0 * self.planned_time() + 1.0
-        limit = int(math.ceil(max_time / self.stage.ts))
+        limit = self._bounded_ticks(max_time)
         if stop_above is not None and not stop_above >= 0.0:
             raise ValueError(f"stop_above must be a non-negative number, got {stop_above!r}")
         active = np.ones(self.batch_size, dtype=bool)
@@ -881,6 +883,22 @@ class ServoLoop:
             self._config[CF.stop_above] = math.inf
         self._fail(self.running & active, REASON_TIME_CAP)  # cut off: a failure, not a result
         return self.metrics()
+
+    def _bounded_ticks(self, max_time: float) -> int:
+        # the run's tick cap, checked before anything runs: time and memory are bounded
+        ticks = math.ceil(positive(max_time, "max_time") / self.stage.ts)
+        what = (f"{max_time:.4g} s of machine time at a {self.stage.ts:.3g} s servo period is "
+                f"{ticks:.3g} ticks")  # fmt: skip
+        if ticks > MAX_RUN_TICKS:
+            raise ValueError(f"{what}, more than a run may take ({MAX_RUN_TICKS:.3g}): check "
+                             "the path's length, its feeds and the stage's ts, or pass "
+                             "max_time")  # fmt: skip
+        need = ticks * self.batch_size * self._rec_width * 8
+        if self.record and need > MAX_RECORD_BYTES:
+            raise ValueError(f"{what}: recording it needs {need / 2**30:.3g} GiB, more than "
+                             f"{MAX_RECORD_BYTES / 2**30:.3g} GiB; run without record=True, or "
+                             "a shorter max_time")  # fmt: skip
+        return ticks
 
     def _fail(self, members: NDArray[np.bool_], reason: float) -> None:
         # end these members now as failed, for this reason
@@ -992,4 +1010,7 @@ def _options(options: dict[str, Any]) -> LoopOptions:
     return opts
 
 
-__all__ = ["REASON_NAMES", "LoopOptions", "ServoLoop", "Trace", "simulate_axis"]
+__all__ = [
+    "MAX_RECORD_BYTES", "MAX_RUN_TICKS", "REASON_NAMES", "LoopOptions", "ServoLoop", "Trace",
+    "simulate_axis",
+]  # fmt: skip

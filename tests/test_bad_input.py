@@ -171,3 +171,15 @@ def test_an_env_episode_that_fails_says_why() -> None:
         assert not trunc
     assert info["failure"] and info["metrics"]["failure_reason"] == 5.0
     assert "hard limit" in REASON_NAMES[info["metrics"]["failure_reason"]]
+
+
+def test_a_run_too_long_for_time_or_memory_is_refused_before_it_starts() -> None:
+    from contour_gym.api import make_scenario, run_trace
+    from contour_gym.paths import circle
+
+    with pytest.raises(ValueError, match=r"ticks, more than a run may take"):
+        contour_gym.simulate(plant="xy_dc_servo", path=from_gcode("G1 X99999999999 F600"))
+    with pytest.raises(ValueError, match="ticks, more than a run may take"):
+        contour_gym.simulate(plant="xy_dc_servo", max_time=1e9)
+    with pytest.raises(ValueError, match=r"recording it needs .* GiB"):
+        run_trace(make_scenario("xy_dc_servo", path=circle(160.0)), None)
