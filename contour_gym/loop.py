@@ -288,6 +288,7 @@ class ServoLoop:
             )
         if len(axis_gains) != stage.n_axes:
             raise ValueError(f"need {stage.n_axes} axis gains, got {len(axis_gains)}")
+        stage.check_travel(path)  # before any array is sized
         self.opts = _options(options)
         self.stage, self.path, self.batch_size, self.record = stage, path, int(batch_size), record
         self.axis_gains = tuple(

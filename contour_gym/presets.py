@@ -21,7 +21,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from contour_gym._registry import Registry
@@ -134,6 +134,15 @@ def pd_pole_placement(
     return PIDGains(kp=kp, ki=ki_ratio * kp * omega, kd=kd)
 
 
+def _with_travel(
+    axes: tuple[AxisParams, ...], *mm: tuple[float, float]
+) -> tuple[AxisParams, ...]:
+    """``axes`` with their travel, given as ``(low, high)`` in mm per axis."""
+    return tuple(
+        replace(a, travel=(lo * 1e-3, hi * 1e-3)) for a, (lo, hi) in zip(axes, mm, strict=True)
+    )
+
+
 def _xy_dc_servo() -> Preset:
     lead = 0.04  # chosen ball-screw lead, m/rev
     axes = tuple(
@@ -146,9 +155,12 @@ def _xy_dc_servo() -> Preset:
     # 000's position loops are P-type with velocity constant Kv = kp K / b; Kv = 21 /s (chosen)
     # reproduces 000's simulated uncompensated error (0.049 mm on the 10 mm circle, ideal=True).
     gains = tuple(PIDGains(kp=21.0 * a.damping / a.force_constant) for a in axes)
+    axes = _with_travel(axes, (-150.0, 150.0), (-150.0, 150.0))
     stage = Stage(
         "xy_dc_servo", axes, (Contour((0, 1)),), ts=1e-3, in_position=1e-5,
-        notes="000: C_T = 0.57 N m/A, B = 1.2 N m s, J = 0.015 kg m^2 per axis (published); "
+        notes="Travel +-150 mm per axis (chosen: typical of a ball-screw laboratory X-Y table; "
+        "000 publishes none). "
+        "000: C_T = 0.57 N m/A, B = 1.2 N m s, J = 0.015 kg m^2 per axis (published); "
         "lead 40 mm, u_max 20 A, Ts 1 ms, P-type loops with Kv = 21/s (chosen: it gives 000's "
         "simulated 0.049 mm circle error). Rig: 1 um grating encoder (000's platform has one; "
         "resolution not published: chosen), one-tick computation delay, no measurement noise "
@@ -177,10 +189,13 @@ def _xyz_pmlsm() -> Preset:
     gains = tuple(
         pd_pole_placement(a, w, 0.8, 0.1) for a, w in zip(axes, (150.0, 130.0, 110.0), strict=True)
     )
+    axes = _with_travel(axes, (-150.0, 150.0), (-150.0, 150.0), (-100.0, 100.0))
     stage = Stage(
         "xyz_pmlsm", axes, (Contour((0, 1, 2)),), ts=1e-3, in_position=5e-5,
         in_position_speed=5e-3,
-        notes="001 three-axis PMLSM: table 2 lost in extraction; masses 4/3/2 kg, damping "
+        notes="Travel +-150 mm in X and Y, +-100 mm in Z (chosen: typical of a three-axis "
+        "linear-motor stage; 001 publishes none). "
+        "001 three-axis PMLSM: table 2 lost in extraction; masses 4/3/2 kg, damping "
         "8/6/4 N s/m, K = 30 N/A, u_max 10 A, random + 1 Hz sinusoidal disturbance of 2 N "
         "(chosen). Loop bandwidths 150/130/110 rad/s (chosen mismatch). Rig: 1 um linear "
         "encoders (chosen), one-tick computation delay.",
@@ -209,9 +224,12 @@ def _lugre_linear_motor() -> Preset:
     gains = tuple(
         pd_pole_placement(a, w, 0.8, 0.1) for a, w in zip(axes, (80.0, 60.0), strict=True)
     )
+    axes = _with_travel(axes, (-300.0, 300.0), (-300.0, 300.0))
     stage = Stage(
         "lugre_linear_motor", axes, (Contour((0, 1)),), ts=1e-3, substeps=4, in_position=5e-6,
-        notes="002: LuGre F_s = 30 N, v_s = 0.5 m/s, sigma0 = 560, sigma1 = 300 (table 1, "
+        notes="Travel +-300 mm per axis (chosen: typical of a linear-motor X-Y table, room for "
+        "002's 214 mm B-spline; 002 publishes none). "
+        "002: LuGre F_s = 30 N, v_s = 0.5 m/s, sigma0 = 560, sigma1 = 300 (table 1, "
         "published); F_c = 20 N, sigma2 = 4 N s/m, masses 8/6 kg, K = 50 N/A, u_max 10 A, "
         "bandwidths 80/60 rad/s (chosen; the mismatch is 002 section 4.2's subject). Rig: "
         "0.1 um linear encoders (chosen for 002's um-level precision platform), one-tick "
@@ -275,10 +293,13 @@ def _xyy_gantry() -> Preset:
         for (kp, ti, td, _, _), enc in zip(GANTRY_2PID, encoders, strict=True)
     )
     contours = (Contour((0, 1), (0.0, 0.07)), Contour((0, 2), (0.0, 0.21)))
+    travelled = _with_travel(axes, (-400.0, 400.0), (-300.0, 300.0), (-300.0, 300.0))
     stage = Stage(
-        "xyy_gantry", axes, contours, ts=5e-4, substeps=2, in_position=1e-4,
+        "xyy_gantry", travelled, contours, ts=5e-4, substeps=2, in_position=1e-4,
         in_position_speed=5e-3,
-        notes="003: K/M, b/M, H/M per axis (published, case 1 identification; u in volts, "
+        notes="Travel +-400 mm in X (003: a 'long-travel' LM stage, length not published), "
+        "+-300 mm in Y1 and Y2 (chosen: typical of a dual linear-motor gantry). "
+        "003: K/M, b/M, H/M per axis (published, case 1 identification; u in volts, "
         "so the drive's published 0.85 A/V is inside K/M), Ts = 0.5 ms and the 50/10/10 um "
         "linear encoders (published), two contours sharing x with y offsets 70/210 mm "
         "(published). Masses 4/2/2 kg, the split of H into Stribeck friction and six ripple "
@@ -324,9 +345,12 @@ def _xy_servo_coulomb() -> Preset:
     )  # fmt: skip
     per_m = counts / lead
     gains = tuple(PIDGains(kp=kp * per_m, kd=0.02 * per_m) for kp in (5.5, 4.95))
+    axes = _with_travel(axes, (-150.0, 150.0), (-150.0, 150.0))
     stage = Stage(
         "xy_servo_coulomb", axes, (Contour((0, 1)),), ts=1e-3, substeps=2, in_position=2e-6,
-        notes="004 tables 4.1/4.2: J, B, F_c, K_t per axis and the PD gains k_p 5.5/4.95, "
+        notes="Travel +-150 mm per axis (chosen: typical of a ball-screw X-Y table; 004 "
+        "publishes none). "
+        "004 tables 4.1/4.2: J, B, F_c, K_t per axis and the PD gains k_p 5.5/4.95, "
         "k_d 0.02 (published; Y's K_t blank, taken equal to X's). Gain unit read as A per "
         "count of a 500 count/rev position unit on a 10 mm lead (chosen: with it the paper's "
         "constant-feedrate peaks come out; measured on the circle, A/rad diverges, A/mm gives "

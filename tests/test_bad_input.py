@@ -175,11 +175,32 @@ def test_an_env_episode_that_fails_says_why() -> None:
 
 def test_a_run_too_long_for_time_or_memory_is_refused_before_it_starts() -> None:
     from contour_gym.api import make_scenario, run_trace
-    from contour_gym.paths import circle
 
-    with pytest.raises(ValueError, match=r"ticks, more than a run may take"):
-        contour_gym.simulate(plant="xy_dc_servo", path=from_gcode("G1 X99999999999 F600"))
     with pytest.raises(ValueError, match="ticks, more than a run may take"):
         contour_gym.simulate(plant="xy_dc_servo", max_time=1e9)
     with pytest.raises(ValueError, match=r"recording it needs .* GiB"):
-        run_trace(make_scenario("xy_dc_servo", path=circle(160.0)), None)
+        run_trace(make_scenario("xy_dc_servo", feedrate=1e-5), None)  # 3e7 ticks recorded
+
+
+@pytest.mark.parametrize("preset", ["xy_dc_servo", "xyz_pmlsm", "lugre_linear_motor",
+                                    "xyy_gantry", "xy_servo_coulomb"])  # fmt: skip
+def test_every_preset_has_travel_and_refuses_a_path_beyond_it(preset: str) -> None:
+    from contour_gym.presets import get_preset
+
+    stage = get_preset(preset).stage
+    assert all(a.travel is not None for a in stage.axes) and "Travel" in stage.notes
+    z = " Z0" if stage.dim == 3 else ""
+    with pytest.raises(ValueError, match=r"G-code line 2: the path reaches x = .* outside"):
+        contour_gym.simulate(plant=preset, path=from_gcode(f"G1 X0 Y0{z} F600\nG1 X900"))
+
+
+@pytest.mark.parametrize(
+    ("program", "line", "axis"),
+    [("G1 X10 Y0 F600\nG1 X99999999999\n", 2, "x"),
+     ("G1 X10 F600\nG1 Y10\nG2 X10 Y-170 R-90\n", 3, "y"),
+     ("G1 X0 Y0 F600\nG0 X-160\n", 2, "x")],
+)  # fmt: skip
+def test_a_program_beyond_the_travel_names_its_line_and_axis(program: str, line: int,
+                                                             axis: str) -> None:  # fmt: skip
+    with pytest.raises(ValueError, match=rf"G-code line {line}: the path reaches {axis} ="):
+        contour_gym.simulate(plant="xy_dc_servo", path=from_gcode(program))

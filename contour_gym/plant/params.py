@@ -128,6 +128,8 @@ class AxisParams:
         encoder_resolution: Position quantisation step of the encoder, m; 0 = none (the rig
             model; ``ideal=True`` drops it).
         noise_std: Measurement noise standard deviation, m (rig model; dropped by ``ideal``).
+        travel: ``(low, high)`` machine positions the axis can reach, m (its soft limits); a
+            path outside them is refused before a run starts. None: unlimited.
     """
 
     name: str
@@ -142,6 +144,7 @@ class AxisParams:
     disturbance: Disturbance | None = None
     encoder_resolution: float = 0.0
     noise_std: float = 0.0
+    travel: tuple[float, float] | None = None
     notes: str = field(default="", compare=False)
 
     def __post_init__(self) -> None:
@@ -153,6 +156,12 @@ class AxisParams:
         non_negative(self.current_tau, f"{self.name}.current_tau")
         non_negative(self.encoder_resolution, f"{self.name}.encoder_resolution")
         non_negative(self.noise_std, f"{self.name}.noise_std")
+        if self.travel is not None:
+            ends = as_finite_array(self.travel, f"{self.name}.travel", ndim=1)
+            if ends.shape != (2,) or not ends[0] < ends[1]:
+                raise ValueError(f"{self.name}.travel must be (low, high) with low < high, m; "
+                                 f"got {self.travel!r}")  # fmt: skip
+            object.__setattr__(self, "travel", (float(ends[0]), float(ends[1])))
 
     @property
     def is_random(self) -> bool:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy.linalg import expm
@@ -96,6 +97,45 @@ class Stage:
     def is_random(self) -> bool:
         """Whether any axis draws random numbers."""
         return any(a.is_random for a in self.axes)
+
+    def check_travel(self, path: Any) -> None:
+        """Refuse a path that takes an axis outside its travel (:attr:`AxisParams.travel`).
+
+        Every segment is checked at 9 points, plus its ends, with each contour's offset.
+
+        Raises:
+            ValueError: naming the axis, the position reached, the travel, and the G-code
+                line of the move (for a G-code path) or the arc length.
+        """
+        limited = [a.travel is not None for a in self.axes]
+        if not any(limited):
+            return
+        s0 = np.asarray(path.table.s0, dtype=float)
+        s = (s0[:-1, None] + np.diff(s0)[:, None] * np.linspace(0.0, 1.0, 9)).ravel()
+        points = np.asarray(path.point(s)).reshape(len(s), -1)
+        for c in self.contours:
+            offset = np.asarray(c.offset or (0.0,) * c.dim)
+            for j, a in enumerate(c.axes):
+                travel = self.axes[a].travel
+                if travel is None:
+                    continue
+                reach = points[:, j] + offset[j]
+                out = np.flatnonzero((reach < travel[0]) | (reach > travel[1]))
+                if out.size:
+                    self._beyond(path, a, float(reach[out[0]]), float(s[out[0]]))
+
+    def _beyond(self, path: Any, a: int, reach: float, s: float) -> None:
+        axis = self.axes[a]
+        low, high = axis.travel or (0.0, 0.0)
+        what = (f"the path reaches {axis.name} = {reach * 1e3:.6g} mm, outside the machine's "
+                f"{axis.name} travel [{low * 1e3:.6g}, {high * 1e3:.6g}] mm "
+                f"({self.name})")  # fmt: skip
+        lines = getattr(path, "segment_lines", None)
+        if lines is not None:
+            seg = min(int(np.searchsorted(path.table.s0, s, side="right")) - 1, len(lines) - 1)
+            raise ValueError(f"G-code line {int(lines[max(seg, 0)])}: {what}")
+        name = getattr(path, "name", "the path")
+        raise ValueError(f"{what}, at s = {s * 1e3:.6g} mm of {name!r}")
 
 
 def friction_laws(stage: Stage) -> tuple[str, ...]:
