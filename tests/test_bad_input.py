@@ -204,3 +204,15 @@ def test_a_program_beyond_the_travel_names_its_line_and_axis(program: str, line:
                                                              axis: str) -> None:  # fmt: skip
     with pytest.raises(ValueError, match=rf"G-code line {line}: the path reaches {axis} ="):
         contour_gym.simulate(plant="xy_dc_servo", path=from_gcode(program))
+
+
+def test_train_shipped_refuses_a_trained_agent_before_training(tmp_path: Path, monkeypatch):
+    from agents.rl import train_shipped as ts
+
+    name = next(iter(ts.load_shipped()))
+    (tmp_path / name).mkdir()
+    (tmp_path / name / ts.MODEL_FILE).write_bytes(b"mine")
+    monkeypatch.setattr(ts, "train", lambda *a, **k: pytest.fail("trained before refusing"))
+    with pytest.raises(ValueError, match="holds a trained agent; pass --overwrite"):
+        ts.train_shipped(name, tmp_path / "runs", tmp_path, progress=False)
+    assert (tmp_path / name / ts.MODEL_FILE).read_bytes() == b"mine"

@@ -27,6 +27,7 @@ from typing import Any
 
 import yaml
 
+from agents._files import write_atomically
 from agents.rl.config import ALGOS
 from agents.rl.saved import META_FILE, MODEL_FILE, STATS_FILE, TRAINED_DIR
 from agents.rl.train import read_curve, train
@@ -72,22 +73,28 @@ def train_shipped(
     runs: str | Path = "runs/shipped",
     dest_root: str | Path = TRAINED_DIR,
     progress: bool = True,
+    overwrite: bool = False,
 ) -> Path:
     """Train the shipped agent ``name`` and export it into ``dest_root/name``; returns that.
 
     Raises:
-        ValueError: for an unknown name (listing the shipped ones); see :func:`train`.
+        ValueError: for an unknown name (listing the shipped ones), or an agent folder that
+            holds a trained agent already (unless ``overwrite``), before any training; see
+            :func:`train`.
     """
     entries = load_shipped()
     if name not in entries:
         raise ValueError(f"unknown shipped agent {name!r}; accepted: {', '.join(entries)}")
+    dest = Path(dest_root) / name
+    if (dest / MODEL_FILE).exists() and not overwrite:
+        raise ValueError(f"{dest} holds a trained agent; pass --overwrite to replace it")
     entry = entries[name]
     overrides = {"env_kwargs": entry["env_kwargs"]} if "env_kwargs" in entry else {}
     command = f"python -m agents.rl.train_shipped {shlex.quote(name)}"
     run = train(entry["env_id"], entry["algo"], entry.get("timesteps"),
                 seed=entry.get("seed", 0), out_dir=Path(runs) / name, progress=progress,
                 command=command, **overrides)  # fmt: skip
-    return export_agent(run, Path(dest_root) / name, command)
+    return export_agent(run, dest, command)
 
 
 def export_agent(run: Path, dest: Path, command: str) -> Path:
@@ -107,16 +114,24 @@ def export_agent(run: Path, dest: Path, command: str) -> Path:
     args = yaml.safe_load((run / "args.yml").read_text(encoding="utf-8"))
     block = yaml.safe_load((run / "config.yml").read_text(encoding="utf-8"))[args["env_id"]]
     dest.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(model, dest / MODEL_FILE)
-    if (run / STATS_FILE).is_file():
-        shutil.copyfile(run / STATS_FILE, dest / STATS_FILE)
+    for file in (MODEL_FILE, STATS_FILE):  # each whole or not at all
+        if (run / file).is_file():
+            _copy_atomically(run / file, dest / file)
     curve = read_curve(run / "eval.csv")
     meta = {"algo": args["algo"], "env_id": args["env_id"],
             "env_kwargs": block.get("env_kwargs") or {}, "seed": args["seed"],
             "total_timesteps": args["total_timesteps"], "command": command,
             "last_evaluation": curve[-1] if curve else None}  # fmt: skip
-    (dest / META_FILE).write_text(yaml.safe_dump(meta, sort_keys=False), encoding="utf-8")
+    text = yaml.safe_dump(meta, sort_keys=False)
+    write_atomically(dest / META_FILE, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
     return dest
+
+
+def _copy_atomically(src: Path, target: Path) -> None:
+    def copy(tmp: str) -> None:
+        shutil.copyfile(src, tmp)
+
+    write_atomically(target, copy)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -127,13 +142,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--list", action="store_true", help="list the shipped agents")
     parser.add_argument("--runs", default="runs/shipped", help="parent of the run folders")
     parser.add_argument("--dest", default=str(TRAINED_DIR), help="parent of the agent folders")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace agents already trained in --dest")  # fmt: skip
     args = parser.parse_args(argv)
     if args.list or not args.names:
         for name, entry in load_shipped().items():
             print(f"{name}: {entry['algo']} on {entry['env_id']}")
         return 0
     for name in args.names:
-        print(f"{name}: exported to {train_shipped(name, args.runs, args.dest)}")
+        dest = train_shipped(name, args.runs, args.dest, overwrite=args.overwrite)
+        print(f"{name}: exported to {dest}")
     return 0
 
 
