@@ -216,3 +216,15 @@ def test_train_shipped_refuses_a_trained_agent_before_training(tmp_path: Path, m
     with pytest.raises(ValueError, match="holds a trained agent; pass --overwrite"):
         ts.train_shipped(name, tmp_path / "runs", tmp_path, progress=False)
     assert (tmp_path / name / ts.MODEL_FILE).read_bytes() == b"mine"
+
+
+def test_a_tune_run_killed_mid_way_restarts_to_the_same_result(tmp_path: Path) -> None:
+    # a killed tune leaves its last partial result.json ("running"): the rerun replaces it and
+    # gives what an uninterrupted run gives, bit for bit
+    clean = tune(CIRCLE, population=3, iterations=2, out=tmp_path / "clean", progress=False)
+    killed = tmp_path / "killed"
+    killed.mkdir()
+    (killed / "result.json").write_text(json.dumps({"status": "running", "history": [1.0]}))
+    again = tune(CIRCLE, population=3, iterations=2, out=killed, progress=False)
+    assert again.params == clean.params and again.fitness == clean.fitness
+    assert json.loads((killed / "result.json").read_text())["status"] == "complete"
