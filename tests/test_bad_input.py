@@ -228,3 +228,35 @@ def test_a_tune_run_killed_mid_way_restarts_to_the_same_result(tmp_path: Path) -
     again = tune(CIRCLE, population=3, iterations=2, out=killed, progress=False)
     assert again.params == clean.params and again.fitness == clean.fitness
     assert json.loads((killed / "result.json").read_text())["status"] == "complete"
+
+
+def test_train_with_a_misspelt_policy_kwargs_key_makes_no_run_folder(tmp_path: Path, capsys):
+    config = tmp_path / "ppo.yml"
+    config.write_text("contour_gym/CCC-v0:\n  n_timesteps: 64\n  policy: MultiInputPolicy\n"
+                      "  policy_kwargs: {net_archh: [8]}\n")  # fmt: skip
+    runs = tmp_path / "runs"
+    code = main(["train", "contour_gym/CCC-v0", "--config", str(config), "--out", str(runs),
+                 "--quiet"])  # fmt: skip
+    assert code == 2 and "net_archh" in capsys.readouterr().err
+    assert not runs.exists()
+
+
+def test_a_nanosecond_servo_period_is_refused_at_once() -> None:
+    with pytest.raises(ValueError, match="ticks, more than a run may take"):
+        contour_gym.simulate(plant={"preset": "xy_dc_servo", "stage": {"ts": 1e-9}})
+
+
+def test_a_full_disk_is_one_line_naming_the_file(tmp_path: Path, monkeypatch, capsys) -> None:
+    import errno
+
+    from agents import tune as tune_module
+
+    def full(target: Path, data: object) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device", str(target))
+
+    monkeypatch.setattr(tune_module, "_write_json", full)
+    out = tmp_path / "run"
+    assert main(["tune", CIRCLE, "--population", "2", "--iterations", "1", "--out", str(out),
+                 "--quiet"]) == 1  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1] == f"contour-gym: error: {out / 'result.json'}: No space left on device"
