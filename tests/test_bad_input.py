@@ -260,3 +260,52 @@ def test_a_full_disk_is_one_line_naming_the_file(tmp_path: Path, monkeypatch, ca
                  "--quiet"]) == 1  # fmt: skip
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1] == f"contour-gym: error: {out / 'result.json'}: No space left on device"
+
+
+def _killed_when(code: str, ready, timeout: float = 300.0) -> None:
+    # run `code` in a fresh interpreter and SIGKILL it once ready() holds (it must still run)
+    import subprocess
+    import sys
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)  # fmt: skip
+    deadline = time.monotonic() + timeout
+    try:
+        while not ready():
+            assert proc.poll() is None, "the run ended before it could be killed"
+            assert time.monotonic() < deadline, "the run never got ready"
+            time.sleep(0.02)
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+def test_bench_killed_by_sigkill_resumes_to_the_same_table(tmp_path: Path) -> None:
+    from agents.bench import run_suite
+
+    clean = run_suite("tiny", tmp_path / "clean", progress=False)
+    out = tmp_path / "killed"
+    cells = out / "cells"
+    code = f"from agents.bench import run_suite; run_suite('tiny', {str(out)!r}, progress=False)"
+    _killed_when(code, lambda: cells.exists() and any(cells.rglob("*.json")))
+    assert not (out / "results.csv").exists()  # killed mid-run
+    again = run_suite("tiny", out, progress=False)
+    assert 0 < len(again.computed) < len(clean.computed)  # finished cells were kept
+    assert (out / "results.csv").read_text() == (tmp_path / "clean" / "results.csv").read_text()
+
+
+def test_train_killed_by_sigkill_resumes_from_its_checkpoint(tmp_path: Path) -> None:
+    from agents.rl.saved import MODEL_FILE
+    from agents.rl.train import algo_class, latest_checkpoint, train
+
+    tiny = {"n_envs": 4, "env_kwargs": {"decision_ticks": 50}, "policy_kwargs": {"net_arch": [8]},
+            "n_steps": 32, "batch_size": 64, "n_epochs": 1}  # fmt: skip
+    code = (f"from agents.rl.train import train; train('contour_gym/CCC-Circle-v0', 'ppo', 4096, "
+            f"out_dir={str(tmp_path)!r}, progress=False, eval_episodes=1, eval_every=4096, "
+            f"checkpoint_every=128, **{tiny!r})")  # fmt: skip
+    _killed_when(code, lambda: any(tmp_path.rglob("model_256_steps.zip")))
+    run = next(p for p in tmp_path.iterdir() if p.is_dir())
+    assert not (run / MODEL_FILE).exists() and latest_checkpoint(run) is not None
+    train(resume=run, progress=False)
+    assert algo_class("ppo").load(run / MODEL_FILE).num_timesteps == 4096

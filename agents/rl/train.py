@@ -45,6 +45,7 @@ import yaml
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 
 import contour_gym  # noqa: F401  (registers the ids)
+from agents._files import write_atomically
 from agents.rl.config import OFF_POLICY, RunConfig, algo_class, dump_block, load_config
 
 EVAL_SEED = 1_000_000  # eval member i is seeded EVAL_SEED + seed + i (apart from training's)
@@ -232,26 +233,43 @@ def _learn(model: Any, run: Path, config: RunConfig, args: dict[str, Any], total
 
 
 def save_final(model: Any, run: Path) -> None:
-    """``model.zip`` and (normalised runs) ``vecnormalize.pkl`` in the run folder."""
-    model.save(run / "model.zip")
+    """``model.zip`` and (normalised runs) ``vecnormalize.pkl`` in the run folder.
+
+    Each file is written whole or not at all, the statistics first: a run killed while it
+    saves keeps its previous pair or no model (its checkpoints resume it).
+    """
     normalizer = model.get_vec_normalize_env()
     if normalizer is not None:
-        normalizer.save(str(run / "vecnormalize.pkl"))
+        write_atomically(run / "vecnormalize.pkl", normalizer.save)
+    _save_file(run / "model.zip", model.save)
 
 
 def save_checkpoint(model: Any, run: Path) -> Path:
-    """A checkpoint at the model's step count: model, VecNormalize stats, replay buffer."""
+    """A checkpoint at the model's step count: model, VecNormalize stats, replay buffer.
+
+    Each file is written whole or not at all, the model last: :func:`latest_checkpoint`
+    finds checkpoints by their model, so a checkpoint a kill cut short is never found.
+    """
     folder = run / "checkpoints"
     folder.mkdir(exist_ok=True)
     steps = model.num_timesteps
-    path = folder / f"model_{steps}_steps.zip"
-    model.save(path)
     normalizer = model.get_vec_normalize_env()
     if normalizer is not None:
-        normalizer.save(str(folder / f"vecnormalize_{steps}_steps.pkl"))
+        write_atomically(folder / f"vecnormalize_{steps}_steps.pkl", normalizer.save)
     if getattr(model, "replay_buffer", None) is not None:
-        model.save_replay_buffer(folder / f"replay_buffer_{steps}_steps.pkl")
+        _save_file(folder / f"replay_buffer_{steps}_steps.pkl", model.save_replay_buffer)
+    path = folder / f"model_{steps}_steps.zip"
+    _save_file(path, model.save)
     return path
+
+
+def _save_file(target: Path, save: Any) -> None:
+    # save(file object) into target atomically (SB3 would add a suffix to a temp file's name)
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as handle:
+            save(handle)
+
+    write_atomically(target, write)
 
 
 def latest_checkpoint(run: Path) -> Path | None:
