@@ -1,6 +1,7 @@
 """Bad input and faults: clear errors, flagged failures, nothing a user made is lost."""
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -309,3 +310,28 @@ def test_train_killed_by_sigkill_resumes_from_its_checkpoint(tmp_path: Path) -> 
     assert not (run / MODEL_FILE).exists() and latest_checkpoint(run) is not None
     train(resume=run, progress=False)
     assert algo_class("ppo").load(run / MODEL_FILE).num_timesteps == 4096
+
+
+@pytest.mark.parametrize(
+    ("args_yml", "config_yml", "checkpoint", "match"),
+    [("algo: ppo\nenv_id: [", "x", None, r"args\.yml cannot be read"),
+     ("algo: ppo\n", "x", None, r"args\.yml must map algo"),
+     ("algo: ppo\nenv_id: contour_gym/CCC-v0\nseed: 0\ntotal_timesteps: 64\n",
+      "contour_gym/CCC-v0: {n_timesteps: 64", None, r"config\.yml: cannot read the config"),
+     ("algo: ppo\nenv_id: contour_gym/CCC-v0\nseed: 0\ntotal_timesteps: 64\n",
+      "contour_gym/CCC-v0: {n_timesteps: 64, policy: MultiInputPolicy}\n", b"PK\x03\x04cut",
+      r"model_32_steps\.zip .* cannot be loaded")],
+)  # fmt: skip
+def test_resuming_a_damaged_run_names_the_file(tmp_path: Path, capsys, args_yml: str,
+                                               config_yml: str, checkpoint: bytes | None,
+                                               match: str) -> None:  # fmt: skip
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "args.yml").write_text(args_yml)
+    (run / "config.yml").write_text(config_yml)
+    if checkpoint is not None:
+        (run / "checkpoints").mkdir()
+        (run / "checkpoints" / "model_32_steps.zip").write_bytes(checkpoint)
+    assert main(["train", "--resume", str(run), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and re.search(match, err[0])

@@ -167,7 +167,7 @@ def load_config(
     try:
         data = yaml.safe_load(path.read_text(encoding="utf-8"))
     except (OSError, yaml.YAMLError) as exc:
-        raise ValueError(f"{path}: cannot read the config: {exc}") from None
+        raise ValueError(f"{path}: cannot read the config: {' '.join(str(exc).split())}") from None
     if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
         raise ValueError(f"{path}: must map env ids to mappings of hyperparameters")
     if env_id not in data:

@@ -33,9 +33,11 @@ from __future__ import annotations
 
 import csv
 import math
+import pickle
 import re
 import sys
 import time
+import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -143,7 +145,7 @@ def _resume(run: Path, total_timesteps: int | None, progress: bool, threads: int
     args_file = run / "args.yml"
     if not args_file.is_file():
         raise ValueError(f"cannot resume {run}: {args_file} is missing")
-    args = yaml.safe_load(args_file.read_text(encoding="utf-8"))
+    args = _run_args(args_file)
     config = load_config(args["algo"], args["env_id"], run / "config.yml")
     checkpoint = latest_checkpoint(run)
     if checkpoint is None:
@@ -153,9 +155,27 @@ def _resume(run: Path, total_timesteps: int | None, progress: bool, threads: int
         args["total_timesteps"] = _positive(total, "total_timesteps")
         args_file.write_text(yaml.safe_dump(args, sort_keys=False), encoding="utf-8")
     _set_threads(threads)
-    model = load_checkpoint(run, config, checkpoint, args["seed"])
+    try:
+        model = load_checkpoint(run, config, checkpoint, args["seed"])
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile,
+            pickle.UnpicklingError) as exc:  # fmt: skip
+        raise ValueError(f"cannot resume {run}: {checkpoint} (or its statistics or buffer) "
+                         f"cannot be loaded ({exc}); remove it to resume from the checkpoint "
+                         "before") from None  # fmt: skip
     _learn(model, run, config, args, _positive(total, "total_timesteps"), progress)
     return run
+
+
+def _run_args(args_file: Path) -> dict[str, Any]:
+    # a run's args.yml, read and checked (a damaged file is named, never a traceback)
+    try:
+        args = yaml.safe_load(args_file.read_text(encoding="utf-8"))
+    except (OSError, yaml.YAMLError) as exc:
+        raise ValueError(f"{args_file} cannot be read ({' '.join(str(exc).split())})") from None
+    keys = ("algo", "env_id", "seed", "total_timesteps")
+    if not isinstance(args, dict) or any(k not in args for k in keys):
+        raise ValueError(f"{args_file} must map {', '.join(keys)} to the run's values")
+    return args
 
 
 def make_training_env(config: RunConfig, seed: int, venv_stats: Path | None = None) -> Any:
