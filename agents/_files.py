@@ -6,6 +6,7 @@ import os
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 
 def write_atomically(target: Path, write: Callable[[str], object]) -> None:
@@ -26,3 +27,9 @@ def write_atomically(target: Path, write: Callable[[str], object]) -> None:
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
+
+
+def save_figure(fig: Any, target: Path, dpi: float = 120.0) -> None:
+    """Save a matplotlib figure whole or not at all; the format from the file name."""
+    fmt = target.suffix[1:] or "png"
+    write_atomically(target, lambda tmp: fig.savefig(tmp, dpi=dpi, format=fmt))

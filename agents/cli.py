@@ -28,7 +28,7 @@ from pathlib import Path as FilePath
 
 import numpy as np
 
-from agents._files import write_atomically
+from agents._files import save_figure
 from contour_gym._validate import choice
 from contour_gym.api import Scenario, make_scenario, run_trace
 from contour_gym.paths import WORK_SYSTEMS, GcodeError, GcodePath, from_gcode
@@ -190,12 +190,6 @@ def format_table(columns: dict[str, dict[str, float]]) -> str:
     return "\n".join(lines)
 
 
-def _save_atomically(fig: object, target: FilePath, dpi: float = 120.0) -> None:
-    # an interrupted run never leaves half a file (agents._files); the format from the name
-    fmt = target.suffix[1:] or "png"
-    write_atomically(target, lambda tmp: fig.savefig(tmp, dpi=dpi, format=fmt))  # type: ignore[attr-defined]
-
-
 def read_part(args: argparse.Namespace) -> GcodePath:
     """Read and parse the ``--gcode`` file with the part setup options.
 
@@ -300,7 +294,7 @@ def simulate_command(args: argparse.Namespace) -> int:
     else:
         fig = part_figure(scenario.path, traces, axes=axes, offset=offset,
                           title=FilePath(args.gcode).name)  # fmt: skip
-    _save_atomically(fig, FilePath(args.out), args.dpi)
+    save_figure(fig, FilePath(args.out), args.dpi)
     print(f"plot written to {args.out}")
     return _report_failures(columns)
 

@@ -277,7 +277,14 @@ class PolicyEntry:
         return tuple(p.name for p in sig if p.kind in kinds)
 
 
-POLICIES: Registry[PolicyEntry] = Registry("policy")
+def _load_families() -> None:
+    # the reference families register themselves on import (they import this module), and so
+    # do the trained agents of agents/trained/ (agents.rl.saved; each loads when it is made)
+    from agents import ccc_policies, feedrate_policies  # noqa: F401
+    from agents.rl import saved  # noqa: F401
+
+
+POLICIES: Registry[PolicyEntry] = Registry("policy", loader=_load_families)
 
 
 def register_policy(name: str, factory: Callable[..., Policy], *, replace: bool = False) -> None:
@@ -348,8 +355,3 @@ def make(name: str, env: Any = None, **params: Any) -> Policy:
         policy.reset(env)
     return policy
 
-
-# the reference families register themselves (they import this module: keep this last), and
-# so do the trained agents of agents/trained/ (agents.rl.saved; each loads when it is made)
-from agents import ccc_policies, feedrate_policies  # noqa: E402, F401
-from agents.rl import saved  # noqa: E402, F401

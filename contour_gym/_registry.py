@@ -12,7 +12,7 @@ import importlib
 import importlib.metadata
 import logging
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Generic, Protocol, TypeVar
 
 PLUGIN_GROUP = "contour_gym.components"
@@ -54,11 +54,21 @@ class Registry(Generic[T]):
 
     Args:
         kind: What the registry holds ("estimator", "axis controller", ...), for messages.
+        loader: Imports the modules that register the built-in items; called once, at the
+            first lookup, listing or count.
     """
 
-    def __init__(self, kind: str) -> None:
+    def __init__(self, kind: str, loader: Callable[[], object] | None = None) -> None:
         self.kind = kind
         self._items: dict[str, T] = {}
+        self._loader = loader  # imports the modules that register the built-in items (once)
+
+    def _load(self) -> None:
+        # the built-in items, registered by their modules on import, on first use (so that a
+        # module defining the registry need not import the modules that fill it)
+        loader, self._loader = self._loader, None
+        if loader is not None:
+            loader()
 
     def register(self, item: T, *, replace: bool = False) -> T:
         """Add ``item`` under ``item.name``; returns it (usable as a one-line registration).
@@ -86,6 +96,7 @@ class Registry(Generic[T]):
         Raises:
             ValueError: for an unknown name, listing the accepted ones.
         """
+        self._load()
         if isinstance(name, str) and name not in self._items:
             load_plugins()  # a plugin's component, not imported yet
         if not isinstance(name, str) or name not in self._items:
@@ -98,13 +109,16 @@ class Registry(Generic[T]):
 
     def names(self) -> tuple[str, ...]:
         """Registered names, sorted."""
+        self._load()
         return tuple(sorted(self._items))
 
     def __contains__(self, name: object) -> bool:
+        self._load()
         return name in self._items
 
     def __iter__(self) -> Iterator[str]:
         return iter(self.names())
 
     def __len__(self) -> int:
+        self._load()
         return len(self._items)

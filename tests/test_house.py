@@ -244,3 +244,42 @@ def test_vector_env_info_equals_the_single_envs_infos(env_id):
                 done[i] = t1 or t2
             merged = merger._add_info(merged, info, i)
         assert data_equivalence(vinfo, merged), k
+
+
+def _agents_imports(path: pathlib.Path) -> set[str]:
+    """Modules of ``agents`` a file imports at module level (``from agents import x``: x)."""
+    out = set()
+    for node in ast.parse(path.read_text()).body:
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            if node.module == "agents":
+                out.update(f"agents.{a.name}" for a in node.names)
+            elif node.module.startswith("agents."):
+                out.add(node.module)
+        elif isinstance(node, ast.Import):
+            out.update(a.name for a in node.names if a.name.startswith("agents."))
+    return out
+
+
+def test_agents_modules_import_without_a_circle():
+    root = PACKAGE.parent / "agents"
+    graph: dict[str, set[str]] = {}
+    for path in root.rglob("*.py"):
+        mod = ".".join(path.relative_to(root.parent).with_suffix("").parts)
+        graph[mod.removesuffix(".__init__")] = {
+            m for m in _agents_imports(path) if m != mod.removesuffix(".__init__")
+        }
+    state: dict[str, int] = {}
+
+    def visit(node: str, trail: list[str]) -> None:
+        state[node] = 1
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == 1:
+                raise AssertionError(" -> ".join([*trail, node, nxt]))
+            if nxt not in state:
+                visit(nxt, [*trail, node])
+        state[node] = 2
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node, [])
+    assert "agents.ccc_policies" not in graph["agents.policies"]  # registered on first use

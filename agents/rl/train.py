@@ -47,7 +47,7 @@ import yaml
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 
 import contour_gym  # noqa: F401  (registers the ids)
-from agents._files import write_atomically
+from agents._files import save_figure, write_atomically
 from agents.rl.config import OFF_POLICY, RunConfig, algo_class, dump_block, load_config
 
 EVAL_SEED = 1_000_000  # eval member i is seeded EVAL_SEED + seed + i (apart from training's)
@@ -447,7 +447,6 @@ def plot_curve(rows: list[dict[str, float]], path: Path, env_id: str, algo: str)
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from agents.cli import _save_atomically
 
     steps = [r["timesteps"] for r in rows]
     fig, axes = plt.subplots(2, 3, figsize=(11, 6), constrained_layout=True)
@@ -459,7 +458,7 @@ def plot_curve(rows: list[dict[str, float]], path: Path, env_id: str, algo: str)
         ax.grid(alpha=0.3)
     axes.flat[-1].axis("off")
     fig.suptitle(f"{algo} on {env_id}: evaluation (deterministic, nominal machine)")
-    _save_atomically(fig, path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
