@@ -335,3 +335,24 @@ def test_resuming_a_damaged_run_names_the_file(tmp_path: Path, capsys, args_yml:
     assert main(["train", "--resume", str(run), "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and re.search(match, err[0])
+
+
+@pytest.mark.parametrize(("steps", "resumed"), [(64, True), (128, False)])
+def test_train_shipped_resumes_an_unfinished_run_and_exports_a_finished_one(
+    tmp_path: Path, monkeypatch, steps: int, resumed: bool
+) -> None:
+    from agents.rl import train_shipped as ts
+    from agents.rl.train import run_name
+
+    name, entry = next(iter(ts.load_shipped().items()))
+    run = tmp_path / "runs" / name / run_name(entry["env_id"], entry["algo"], entry.get("seed", 0))
+    (run / "checkpoints").mkdir(parents=True)
+    (run / "args.yml").write_text(f"algo: {entry['algo']}\nenv_id: {entry['env_id']}\nseed: 0\n"
+                                  "total_timesteps: 128\n")  # fmt: skip
+    (run / "checkpoints" / f"model_{steps}_steps.zip").write_bytes(b"")
+    calls: list[object] = []
+    monkeypatch.setattr(ts, "train", lambda *a, **k: calls.append(k.get("resume")) or run)
+    monkeypatch.setattr(ts, "export_agent", lambda r, dest, command: dest)
+    dest = ts.train_shipped(name, tmp_path / "runs", tmp_path / "agents", progress=False)
+    assert dest == tmp_path / "agents" / name
+    assert calls == ([run] if resumed else [])

@@ -292,6 +292,15 @@ def _save_file(target: Path, save: Any) -> None:
     write_atomically(target, write)
 
 
+def finished(run: Path) -> bool:
+    """Whether a run folder's training reached its step target (its last checkpoint did)."""
+    checkpoint = latest_checkpoint(run)
+    if checkpoint is None:
+        return False
+    steps = int(_CHECKPOINT.fullmatch(checkpoint.name).group(1))  # type: ignore[union-attr]
+    return steps >= int(_run_args(run / "args.yml")["total_timesteps"])
+
+
 def latest_checkpoint(run: Path) -> Path | None:
     """The checkpoint with the most steps in ``run/checkpoints`` (None: there is none)."""
     found = [(int(m.group(1)), p) for p in (run / "checkpoints").glob("model_*_steps.zip")

@@ -30,7 +30,7 @@ import yaml
 from agents._files import write_atomically
 from agents.rl.config import ALGOS
 from agents.rl.saved import META_FILE, MODEL_FILE, STATS_FILE, TRAINED_DIR
-from agents.rl.train import read_curve, train
+from agents.rl.train import finished, read_curve, run_name, train
 
 ENTRY_KEYS = {"algo": str, "env_id": str, "seed": int, "timesteps": int, "env_kwargs": dict}
 
@@ -91,9 +91,14 @@ def train_shipped(
     entry = entries[name]
     overrides = {"env_kwargs": entry["env_kwargs"]} if "env_kwargs" in entry else {}
     command = f"python -m agents.rl.train_shipped {shlex.quote(name)}"
-    run = train(entry["env_id"], entry["algo"], entry.get("timesteps"),
-                seed=entry.get("seed", 0), out_dir=Path(runs) / name, progress=progress,
-                command=command, **overrides)  # fmt: skip
+    folder = Path(runs) / name
+    run = folder / run_name(entry["env_id"], entry["algo"], entry.get("seed", 0))
+    if not (run / "args.yml").exists():
+        run = train(entry["env_id"], entry["algo"], entry.get("timesteps"),
+                    seed=entry.get("seed", 0), out_dir=folder, progress=progress,
+                    command=command, **overrides)  # fmt: skip
+    elif not finished(run):  # an interrupted or killed run: on from its last checkpoint
+        run = train(resume=run, progress=progress)
     return export_agent(run, dest, command)
 
 
