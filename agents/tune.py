@@ -122,7 +122,7 @@ from agents.optim.pso import schedules
 from contour_gym._registry import Registry
 from contour_gym._validate import choice
 from contour_gym.api import Scenario
-from contour_gym.envs.config import HARD_LIMIT_TOLERANCES, EnvConfig
+from contour_gym.envs.config import EnvConfig
 from contour_gym.envs.core import _scenario as env_scenario
 from contour_gym.loop import ServoLoop
 from contour_gym.presets import Preset, get_preset
@@ -550,7 +550,7 @@ def _case(
     scenario = env_scenario(config)
     preset = scenario.preset
     kp, ki, kd = config.ccc_gains or preset.ccc_gains.as_tuple()
-    hard = config.hard_limit or HARD_LIMIT_TOLERANCES * config.tolerance_for(preset)
+    hard = config.hard_limit_for(preset)
     return _Case(env_id, scenario, (float(kp), float(ki), float(kd)), float(hard))
 
 

@@ -159,6 +159,10 @@ class EnvConfig:
         """The contour tolerance the env scores against: ``tolerance``, else the preset's."""
         return self.tolerance if self.tolerance is not None else preset.tolerance
 
+    def hard_limit_for(self, preset: Preset) -> float:
+        """The contour error that fails an episode: ``hard_limit``, else 100 tolerances."""
+        return self.hard_limit or HARD_LIMIT_TOLERANCES * self.tolerance_for(preset)
+
     def randomization(self) -> dict[str, Any] | None:
         """The randomisation ranges in force, or None when off."""
         if self.randomize is False:

@@ -25,7 +25,7 @@ from contour_gym._blob import Blob
 from contour_gym._loopstate import LS, REASON_HARD_LIMIT, STATUS_ARRIVED
 from contour_gym.api import make_scenario
 from contour_gym.envs import _kernel as EK
-from contour_gym.envs.config import HARD_LIMIT_TOLERANCES, EnvConfig
+from contour_gym.envs.config import EnvConfig
 from contour_gym.metrics import member_metrics
 from contour_gym.motion import IP, IS
 from contour_gym.rewards import (
@@ -61,7 +61,7 @@ class ContourTask:
         self.path, self.stage, self.preset = path, preset.stage, preset
         self.n_contours, self.n_axes = len(self.stage.contours), self.stage.n_axes
         self.tolerance = config.tolerance_for(preset)
-        self.hard_limit = config.hard_limit or HARD_LIMIT_TOLERANCES * self.tolerance
+        self.hard_limit = config.hard_limit_for(preset)
         if self.hard_limit <= self.tolerance:
             raise ValueError(f"hard_limit must exceed tolerance, got {self.hard_limit!r}")
         self.g0 = np.asarray(config.ccc_gains or preset.ccc_gains.as_tuple(), dtype=float)
