@@ -96,6 +96,13 @@ def non_negative(value: Any, name: str) -> float:
     return out
 
 
+def seed_value(value: Any, name: str = "seed") -> int:
+    """Return ``value`` as a seed (a non-negative int, not a bool) or raise ValueError."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+        raise ValueError(f"{name} must be a non-negative int, got {value!r}")
+    return int(value)
+
+
 def choice(value: str, name: str, accepted: Iterable[str]) -> str:
     """Return ``value`` if it is one of ``accepted``, else raise ValueError listing them."""
     options = sorted(accepted)

@@ -50,7 +50,7 @@ from contour_gym._loopstate import (
     M,
 )
 from contour_gym._loopstate import LAST as LAST_SCHEMA
-from contour_gym._validate import as_finite_array, choice, non_negative, positive
+from contour_gym._validate import as_finite_array, choice, non_negative, positive, seed_value
 from contour_gym.ccc import CCC_FAMILY, CCC_LAWS, INJECTIONS, ccc_params
 from contour_gym.contour import ESTIMATORS, Estimator, get_estimator
 from contour_gym.contour._history import HIST_WIDTH
@@ -110,22 +110,6 @@ class Trace:
     u: Array
     eps: Array
     eps_est: Array
-
-
-def _is_seed(value: object) -> bool:
-    """Whether ``value`` is a seed: a non-negative int (a bool is not)."""
-    return bool(isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-                and value >= 0)  # fmt: skip
-
-
-def _seed_list(seed: object) -> list[int]:
-    """``seed`` as a list of seeds, or ValueError naming it."""
-    listed = isinstance(seed, (Sequence, np.ndarray)) and not isinstance(seed, (str, bytes))
-    if not listed or not all(map(_is_seed, cast(Sequence[object], seed))):
-        raise ValueError(
-            f"seed must be a non-negative int, a sequence of them or None, got {seed!r}"
-        )
-    return [int(s) for s in cast(Sequence[int], seed)]
 
 
 class _NoiseSource:
@@ -551,12 +535,14 @@ class ServoLoop:
         None each when the loop draws no noise: a tuner's reset of 16 members spent 0.2 ms
         making generators it never used.
         """
-        if seed is None or _is_seed(seed):
-            root = np.random.SeedSequence(cast(int | None, seed))
+        if seed is None or isinstance(seed, (int, np.integer)):
+            root = np.random.SeedSequence(None if seed is None else seed_value(seed))
             children = root.spawn(count) if self._noise.active else []
         else:
-            seeds = _seed_list(seed)
-            roots = [np.random.SeedSequence(s) for s in seeds]
+            if not isinstance(seed, (Sequence, np.ndarray)) or isinstance(seed, (str, bytes)):
+                raise ValueError("seed must be a non-negative int, a sequence of them or None, "
+                                 f"got {seed!r}")  # fmt: skip
+            roots = [np.random.SeedSequence(seed_value(s)) for s in seed]
             if len(roots) != count:
                 raise ValueError(f"need {count} seeds, got {len(roots)}")
             children = [r.spawn(1)[0] for r in roots] if self._noise.active else []

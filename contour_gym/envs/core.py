@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from contour_gym import _compile, _precompile, _tiers
 from contour_gym._blob import Blob
 from contour_gym._loopstate import LS, REASON_HARD_LIMIT, STATUS_ARRIVED
+from contour_gym._validate import seed_value
 from contour_gym.api import make_scenario
 from contour_gym.envs import _kernel as EK
 from contour_gym.envs.config import EnvConfig
@@ -511,16 +512,11 @@ def member_rngs(
             list of another length than ``count``.
     """
     if seed is None or not isinstance(seed, (Sequence, np.ndarray)) or isinstance(seed, str):
-        seeds: list[Any] = [None if seed is None else _seed(seed) + i for i in range(count)]
+        seeds: list[Any] = [None if seed is None else seed_value(seed) + i for i in range(count)]
     else:
         if len(seed) != count:
             raise ValueError(f"seed must be one int or {count} seeds (one per member), "
                              f"got {len(seed)}: {seed!r}")  # fmt: skip
-        seeds = [None if s is None else _seed(s) for s in seed]
+        seeds = [None if s is None else seed_value(s) for s in seed]
     return [seeding.np_random(s)[0] for s in seeds]
 
-
-def _seed(value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-        raise ValueError(f"seed must be a non-negative int, got {value!r}")
-    return int(value)
