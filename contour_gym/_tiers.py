@@ -98,7 +98,7 @@ def _compile_builtins_later(warmup: str) -> None:
 
 
 def _compile_own_later(owner: CompilesOwn) -> None:
-    if not _enabled():
+    if not _enabled() or _busy(_lock("own")):  # busy: not worth pickling the request
         return
     try:
         data = pickle.dumps(owner)
@@ -112,8 +112,12 @@ def _compile_own_later(owner: CompilesOwn) -> None:
 
 
 def _detach(func: str, arg: str, slot: str, env: dict[str, str] | None = None) -> bool:
-    """Start ``_tiers.func(arg)`` in a detached, niced interpreter unless ``slot`` is busy."""
-    lock = _compile.generated_dir() / f"background_{slot}.lock"
+    """Start ``_tiers.func(arg, held)`` in a detached, niced interpreter unless ``slot`` is busy.
+
+    ``held``: whether the process got the slot's lock (two requests may pass the probe at
+    once; the one without the lock only cleans up).
+    """
+    lock = _lock(slot)
     if _busy(lock):
         return False
     full = dict(os.environ, **(env or {}))
@@ -122,13 +126,17 @@ def _detach(func: str, arg: str, slot: str, env: dict[str, str] | None = None) -
         full["NUMBA_CACHE_DIR"] = cache
     script = "\n".join([
         "import os", "os.nice(19)", "from contour_gym import _tiers",
-        f"with _tiers._holding({str(lock)!r}):", f"    _tiers.{func}({arg!r})",
+        f"with _tiers._holding({str(lock)!r}) as held:", f"    _tiers.{func}({arg!r}, held)",
     ])  # fmt: skip
     subprocess.Popen(
         [sys.executable, "-c", script], env=full, stdin=subprocess.DEVNULL,
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
     )  # fmt: skip
     return True
+
+
+def _lock(slot: str) -> Path:
+    return _compile.generated_dir() / f"background_{slot}.lock"
 
 
 def _busy(lock: Path) -> bool:
@@ -147,26 +155,33 @@ def _busy(lock: Path) -> bool:
 
 
 @contextlib.contextmanager
-def _holding(lock: str) -> Iterator[None]:
-    """Hold the slot's lock for a background process's lifetime (exit if another holds it)."""
+def _holding(lock: str) -> Iterator[bool]:
+    """Hold the slot's lock for a background process's lifetime; whether it got it."""
     import fcntl
 
     with open(lock, "a") as handle:
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
-            sys.exit(0)
-        yield
+            yield False
+            return
+        yield True
 
 
-def _builtins_main(warmup: str) -> None:
+def _builtins_main(warmup: str, held: bool = True) -> None:
     """A background process: compile the built-ins' kernels of ``warmup`` (no progress bar)."""
-    _precompile.compile_builtins([warmup], progress=False)
+    if held:
+        _precompile.compile_builtins([warmup], progress=False)
 
 
-def _own_main(path: str) -> None:
-    """A background process: unpickle a loop or env task and run it once on its own kernels."""
+def _own_main(path: str, held: bool = True) -> None:
+    """A background process: unpickle a loop or env task and run it once on its own kernels.
+
+    The request file is removed whether or not this process holds the slot.
+    """
     try:
+        if not held:
+            return
         with open(path, "rb") as handle:
             owner = pickle.load(handle)
     finally:
