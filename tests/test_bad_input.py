@@ -356,3 +356,14 @@ def test_train_shipped_resumes_an_unfinished_run_and_exports_a_finished_one(
     dest = ts.train_shipped(name, tmp_path / "runs", tmp_path / "agents", progress=False)
     assert dest == tmp_path / "agents" / name
     assert calls == ([run] if resumed else [])
+
+
+def test_a_path_well_inside_the_travel_is_passed_without_evaluating_it(monkeypatch) -> None:
+    from contour_gym.paths import Path as PathClass
+    from contour_gym.paths import load
+    from contour_gym.presets import get_preset
+
+    path = load("circle_r10")
+    monkeypatch.setattr(type(path), "point", lambda *a, **k: pytest.fail("evaluated"))
+    assert isinstance(path, PathClass)
+    get_preset("xy_dc_servo").stage.check_travel(path)  # bounding spheres suffice
