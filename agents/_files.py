@@ -29,6 +29,19 @@ def write_atomically(target: Path, write: Callable[[str], object]) -> None:
             os.unlink(tmp)
 
 
+def write_handle_atomically(target: Path, write: Callable[[Any], object]) -> None:
+    """:func:`write_atomically` through ``write(handle)``, a binary file open on the temp file.
+
+    For writers that name their files themselves (stable-baselines3 adds a suffix to a path).
+    """
+
+    def through_handle(tmp: str) -> None:
+        with open(tmp, "wb") as handle:
+            write(handle)
+
+    write_atomically(target, through_handle)
+
+
 def save_figure(fig: Any, target: Path, dpi: float = 120.0) -> None:
     """Save a matplotlib figure whole or not at all; the format from the file name."""
     fmt = target.suffix[1:] or "png"

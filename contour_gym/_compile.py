@@ -25,9 +25,14 @@ Components are inlined into the kernel (fast, and numba would not inline a call 
 compiled functions by itself) unless their family says to call them (:class:`Called`: large
 components whose work per call dwarfs a call, compiled apart).
 
+A run of built-ins may also run on its *own* kernel (``bind(..., own=True)``: the same codes,
+only its components bound), faster than the built-ins' one; :mod:`contour_gym._tiers` says
+which of the two a run uses.
+
 **First run.** The built-ins' kernels compile in worker processes, several at a time, with a
-progress bar (:mod:`contour_gym._precompile`); a kernel for a user's component compiles in
-the calling process with a progress line (:func:`compiling`).
+progress bar (:mod:`contour_gym._precompile`); a kernel for a user's component, or a run's own
+kernel on a fresh installation, compiles in the calling process with a progress line
+(:func:`compiling`).
 """
 
 from __future__ import annotations

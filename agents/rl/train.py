@@ -47,7 +47,7 @@ import yaml
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 
 import contour_gym  # noqa: F401  (registers the ids)
-from agents._files import save_figure, write_atomically
+from agents._files import save_figure, write_atomically, write_handle_atomically
 from agents.rl.config import OFF_POLICY, RunConfig, algo_class, dump_block, load_config
 
 EVAL_SEED = 1_000_000  # eval member i is seeded EVAL_SEED + seed + i (apart from training's)
@@ -261,7 +261,7 @@ def save_final(model: Any, run: Path) -> None:
     normalizer = model.get_vec_normalize_env()
     if normalizer is not None:
         write_atomically(run / "vecnormalize.pkl", normalizer.save)
-    _save_file(run / "model.zip", model.save)
+    write_handle_atomically(run / "model.zip", model.save)
 
 
 def save_checkpoint(model: Any, run: Path) -> Path:
@@ -277,19 +277,11 @@ def save_checkpoint(model: Any, run: Path) -> Path:
     if normalizer is not None:
         write_atomically(folder / f"vecnormalize_{steps}_steps.pkl", normalizer.save)
     if getattr(model, "replay_buffer", None) is not None:
-        _save_file(folder / f"replay_buffer_{steps}_steps.pkl", model.save_replay_buffer)
+        buffer = folder / f"replay_buffer_{steps}_steps.pkl"
+        write_handle_atomically(buffer, model.save_replay_buffer)
     path = folder / f"model_{steps}_steps.zip"
-    _save_file(path, model.save)
+    write_handle_atomically(path, model.save)
     return path
-
-
-def _save_file(target: Path, save: Any) -> None:
-    # save(file object) into target atomically (SB3 would add a suffix to a temp file's name)
-    def write(tmp: str) -> None:
-        with open(tmp, "wb") as handle:
-            save(handle)
-
-    write_atomically(target, write)
 
 
 def finished(run: Path) -> bool:
@@ -297,8 +289,12 @@ def finished(run: Path) -> bool:
     checkpoint = latest_checkpoint(run)
     if checkpoint is None:
         return False
-    steps = int(_CHECKPOINT.fullmatch(checkpoint.name).group(1))  # type: ignore[union-attr]
-    return steps >= int(_run_args(run / "args.yml")["total_timesteps"])
+    return _steps(checkpoint) >= int(_run_args(run / "args.yml")["total_timesteps"])
+
+
+def _steps(checkpoint: Path) -> int:
+    # the step count in a checkpoint's name (model_<steps>_steps.zip)
+    return int(_CHECKPOINT.fullmatch(checkpoint.name).group(1))  # type: ignore[union-attr]
 
 
 def latest_checkpoint(run: Path) -> Path | None:
@@ -313,7 +309,7 @@ def load_checkpoint(run: Path, config: RunConfig, checkpoint: Path, seed: int) -
 
     The generators (torch, numpy, the env's members) are reseeded with ``seed + steps``.
     """
-    steps = int(_CHECKPOINT.fullmatch(checkpoint.name).group(1))  # type: ignore[union-attr]
+    steps = _steps(checkpoint)
     stats = checkpoint.with_name(f"vecnormalize_{steps}_steps.pkl")
     venv = make_training_env(config, seed + steps, stats if stats.is_file() else None)
     model = algo_class(config.algo).load(checkpoint, env=venv, device="cpu",
