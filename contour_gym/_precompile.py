@@ -292,7 +292,7 @@ register_warmup(Warmup("loop", "contour_gym._warmups:servo_loop", doc="servo loo
 register_warmup(Warmup("path_api", "contour_gym._warmups:path_api", after=("loop",),
                        doc="path searches for plots", seconds=8.0))  # fmt: skip
 register_warmup(Warmup("env", "contour_gym._warmups:env_step", after=("loop",),
-                       doc="env step", seconds=10.0))  # fmt: skip
+                       doc="env step", seconds=20.0))  # fmt: skip
 register_warmup(Warmup("estimators", "contour_gym._warmups:estimators", after=("loop",),
                        doc="estimator API", seconds=4.5))  # fmt: skip
 register_warmup(Warmup("axes", "contour_gym._warmups:axes",
