@@ -48,11 +48,8 @@ and are computed from the preset at import:
   the preset's 0 (``Kd = max(0 + k_df dKdf, 0)`` would be a derivative on one side only).
 
 Chosen conservatively from a coarse sweep on 000's machine (circle, "infinity" and trident,
-rig and ideal): the classic tables raise Ki whenever e > 0 and lower it when e < 0, so a
-larger ``k_if`` (Ki up to several times ki0) cuts the circle's transients by a third but
-more than doubles the peak on the free curves. These defaults lower the circle's peak and
-mean against the PID CCC by a few percent and stay within a few percent of it on the free
-curves (measured: the table in :mod:`agents.ccc_policies`).
+rig and ideal); the sweep and what it showed are in the documentation's "Measurements and
+design notes", the resulting table in :mod:`agents.ccc_policies`.
 
 ``adaptive_fuzzy_pid`` (paper 001, "Adaptive fuzzy PID cross coupled control for multi-axis
 motion system based on sliding mode disturbance observation", section "Design of CCC based
@@ -93,8 +90,8 @@ projection onto it, the standard parameter projection); the basis is a convex co
 so ``|K_j - K0_j| <= dkj_max``. Without it the gains run away: ``theta_p' = gamma_p e^2 xi
 >= 0`` only grows, and the sampled ``e de = (e^2 - e_prev^2) / (2 ts) + (e - e_prev)^2 /
 (2 ts)`` has a non-negative part that encoder quantisation alone feeds, so ``theta_d``
-drifts up as well. The bound is what keeps the loop stable: with twice the default Kd bound
-the rig diverged on the helix (below).
+drifts up as well. The bound is what keeps the loop stable (the documentation's
+"Measurements and design notes": a larger Kd bound diverged on the rig).
 
 Parameters (:data:`ADAPTIVE_FUZZY_PID_PARAMS`, all finite and >= 0): ``kp, ki, kd`` the base
 gains (the CCC env's action); ``k_e`` (1/m), ``k_de`` (s/m) the input scalings;
@@ -108,7 +105,7 @@ started``, the tick's scratch ``x_e, x_de, mu_<input>_<set>, xi_<rule>, dkp, dki
 gains ``kp0 = 3000`` A/m, ``ki0 = 10 kp0`` per s, ``kd0 = 0``, ts 1 ms) at import:
 
 - ``k_e = 3 / (32 tol) = 3.2e4`` 1/m: the error input reaches the universe's end at 92 um,
-  above the rig's peaks (~35 um); 8 and 16 tolerances were worse on the rig.
+  above the rig's peaks.
 - ``k_de = 3 / (3 mm/s) = 1000`` s/m, as fuzzy_pid's (one encoder count per tick is 1 of 3).
 - bounds ``dkp_max = kp0 / 4``, ``dki_max = ki0 / 2``, ``dkd_max = 6 kp0 ts = 18`` A s/m.
 - rates from adaptation times ``T = (10, 1, 0.03)`` s, the time a regressor at its reference
@@ -116,18 +113,10 @@ gains ``kp0 = 3000`` A/m, ``ki0 = 10 kp0`` per s, ``kd0 = 0``, ts 1 ms) at impor
   ``gamma_i = dki_max / (T_i tol I_ref)``, ``gamma_d = dkd_max / (T_d tol de_ref)`` with
   ``I_ref = tol kp0 / ki0`` (the PI corner) and ``de_ref = 1`` mm/s.
 
-Chosen by a sweep on 001's machine (``CCC-PMLSM-Helix-v0`` on ``smc_dob`` axes, seeds 1 and
-2 (not the reported seed 0), the helix and a user saddle path ``(20 cos, 20 sin, 5 sin 2)``
-mm, rig and ideal; checked on a 3-D Lissajous path): the gain comes from the derivative.
-Adapting Kd alone with bound 3, 6, 8, 10, 12 ``kp0 ts`` (T_d 0.03 s) took the helix's mean
-contour error from 7.71 um (PID CCC) to 6.66, 6.14, 6.15, 6.82 um and divergence on the rig,
-and from 3.27 to 2.74, 2.37, 2.19, 2.04, 1.92 um ideal: the bound is half the one that
-diverged. Adapting Kp helps ideal and hurts the rig, where a larger Kp amplifies the
-encoder's quantisation (bound kp0, T_p 0.1 s: ideal 2.97, rig 12.3 um): kept small and slow.
-Adapting Ki changed nothing measurable (< 0.5 %, bound ki0, T_i 0.1 s). A fixed PID CCC with
-``kd = 6 kp0 ts`` does better than the adapted one (helix rig 5.78, ideal 2.25 um): against
-001's PID CCC without derivative, the improvement is the derivative action the adaptation
-adds (measured: the table in :class:`agents.ccc_policies.AdaptiveFuzzyPIDCCC`).
+Chosen by a sweep on 001's machine (``CCC-PMLSM-Helix-v0`` on ``smc_dob`` axes, rig and ideal):
+the gain comes from the derivative. The sweep, its figures and the comparison with a fixed
+PID CCC are in the documentation's "Measurements and design notes"; the resulting table in
+:class:`agents.ccc_policies.AdaptiveFuzzyPIDCCC`.
 """
 
 from __future__ import annotations
@@ -147,9 +136,8 @@ from agents.fuzzy import (
     surface_eval_flat,
     surface_table,
 )
-from contour_gym._schema import Param, Schema, state_schema
-from contour_gym._validate import non_negative
 from contour_gym.ccc import PID_PARAMS, CCCLaw, pid_commit, register_ccc_law
+from contour_gym.params import Param, Schema, non_negative, state_schema
 from contour_gym.presets import get_preset
 from contour_gym.servo.pid import STATE as PID_STATE
 from contour_gym.servo.pid import pid_terms
@@ -184,10 +172,11 @@ def error_rate(s, row, e, ts):
     """``de/dt`` of the contour error as the PID differentiates it (0 on the first tick).
 
     Args:
-        s: (rows, n) state rows starting with the PID state (:data:`PID_STATE`).
-        row: State row.
-        e: Contour error of this tick, m.
-        ts: Sample time, s.
+        s (numpy.ndarray): (rows, n) state rows starting with the PID state
+            (:data:`PID_STATE`).
+        row (int): State row.
+        e (float): Contour error of this tick, m.
+        ts (float): Sample time, s.
     """
     return (e - s[row, _S.e_prev]) / ts if s[row, _S.started] > 0.0 else 0.0
 
@@ -197,13 +186,14 @@ def fuzzy_pid_gains(p, s, data, q, row, e, ts):
     """``(Kp, Ki, Kd)`` of this tick: the base gains plus the scaled fuzzy outputs, >= 0.
 
     Args:
-        p: (rows, FUZZY_PID_PARAMS.size) parameter rows.
-        s: (rows, PID state size) state rows.
-        data: The flattened fuzzy_pid_000 surface (:func:`agents.fuzzy.surface_table`).
-        q: Parameter row.
-        row: State row.
-        e: Contour error, m.
-        ts: Sample time, s.
+        p (numpy.ndarray): (rows, FUZZY_PID_PARAMS.size) parameter rows.
+        s (numpy.ndarray): (rows, PID state size) state rows.
+        data (numpy.ndarray): The flattened fuzzy_pid_000 surface
+            (:func:`agents.fuzzy.surface_table`).
+        q (int): Parameter row.
+        row (int): State row.
+        e (float): Contour error, m.
+        ts (float): Sample time, s.
     """
     de = error_rate(s, row, e, ts)
     x0, x1 = p[q, _C.k_e] * e, p[q, _C.k_de] * de
@@ -358,13 +348,13 @@ def adaptive_fuzzy_pid_gains(p, s, data, q, row, e, ts):
     scratch columns (:func:`adaptive_state_schema`), which the commit reads.
 
     Args:
-        p: (rows, ADAPTIVE_FUZZY_PID_PARAMS.size) parameter rows.
-        s: (rows, ADAPTIVE_STATE.size) state rows.
-        data: :func:`adaptive_fuzzy_pid_table`.
-        q: Parameter row.
-        row: State row.
-        e: Contour error, m.
-        ts: Sample time, s.
+        p (numpy.ndarray): (rows, ADAPTIVE_FUZZY_PID_PARAMS.size) parameter rows.
+        s (numpy.ndarray): (rows, ADAPTIVE_STATE.size) state rows.
+        data (numpy.ndarray): :func:`adaptive_fuzzy_pid_table`.
+        q (int): Parameter row.
+        row (int): State row.
+        e (float): Contour error, m.
+        ts (float): Sample time, s.
     """
     s[row, _A.x_e] = p[q, _P.k_e] * e
     s[row, _A.x_de] = p[q, _P.k_de] * error_rate(s, row, e, ts)

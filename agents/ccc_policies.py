@@ -16,43 +16,8 @@ Each holds constant CCC gains, mapped to the env's action by its ``gains_to_acti
   protocol ``000`` of :mod:`agents.tune` (``contour-gym tune 000 --seed 0``; shipped in
   ``agents/data/pso_fuzzy_pid_ccc.json``).
 
-Measured with :func:`agents.evaluate.run_policy` (seed 0, one episode; ``fuzzy_pid_ccc`` with
-the law's defaults), max /
-mean true contour error over the cut in um, on the rig (default) and with ``ideal=True``::
-
-    env               policy              rig max  rig mean   ideal max  ideal mean
-    CCC-Circle-v0     no_ccc                46.13     42.56       50.60       46.62
-                      pid_ccc               22.77      1.97       23.85        2.15
-                      fuzzy_pid_ccc         21.03      1.92       21.83        2.09
-                      pso_fuzzy_pid_ccc     16.93      0.92       16.61        0.78
-    CCC-Infinity-v0   no_ccc                67.10     13.29       73.46       14.62
-                      pid_ccc               12.80      2.42       14.04        2.66
-                      fuzzy_pid_ccc         12.81      2.42       14.22        2.66
-                      pso_fuzzy_pid_ccc     49.58      1.08      166.37        1.41
-    CCC-Trident-v0    no_ccc               343.03     16.73      364.11       18.30
-                      pid_ccc              221.72      6.91      232.28        7.38
-                      fuzzy_pid_ccc        211.94      6.74      222.03        7.19
-                      pso_fuzzy_pid_ccc    103.08      1.85       99.79        1.57
-
-    run_policy(env_id, make_policy(name), ideal=ideal)  # for each row
-
-The tuned factors minimise 000's eq. 15 (the mean modulus, :data:`agents.tune.FITNESSES`):
-they halve the mean on every path and cut the circle's and the trident's peaks, but they
-schedule Kp up to 30 times its base (``k_pf`` at the top of the box) and Ki up to 5.5
-times, and on "infinity" the peak grows (4x on the rig, 12x ideal, where the factors were
-not tuned) while the mean falls. 000's claims on the
-peaks (``benchmarks/tune_000.py``): the circle's >= 90 % below no CCC fails (63 % rig, 67 %
-ideal: the peaks are the start and stop transients), the trident's >= 50 % below the untuned
-fuzzy CCC holds (51 %, 55 %), infinity's fails. Tuned on the peaks instead (fitness
-``"max"``: ``tune(dataclasses.replace(get_protocol("000"), fitness="max"))``, not shipped),
-the rig's peaks become 23.96 um (circle), 11.45 ("infinity") and 33.84 (trident): the
-trident's claim holds by far (84 %), infinity's still fails (11 %), and so does the
-circle's. Tuned on the circle alone on its peak (``000_circle`` with fitness ``"max"``), the
-circle's rig peak falls to 5.81 um, 87.4 % below no CCC: near the claim's 90 % (and 000's own
-experiment, 87.57 %), but short of it.
-
-The circle's peaks with CCC are its start and stop transients (the reference starts and stops
-at full speed); both CCCs hold the lap itself well within the tolerance (7.6 um).
+Their errors on the papers' paths, measured, are in the documentation (Measurements and design
+notes: reference CCC policies).
 
 Paper 003 (ACC2PID on the X-Y-Y gantry, ``contour_gym/CCC-XYYGantry-Circle-v0`` and
 ``-ThreeLeaf-v0``):
@@ -63,33 +28,8 @@ Paper 003 (ACC2PID on the X-Y-Y gantry, ``contour_gym/CCC-XYYGantry-Circle-v0`` 
 - ``iabc_acc2pid``: the 19 parameters of tuning protocol ``003`` (``contour-gym tune 003
   --seed 0``; ``agents/data/iabc_acc2pid.json``).
 
-Measured with ``python benchmarks/tune_003.py`` (seed 0, one episode, the envs' 10 s
-windows), 003's P_eps and P_e (eqs. 39-40) in mm, sampled every servo tick (as the env
-reports them) and at 003's 10 Hz::
-
-    path       policy               P_eps tick  P_e tick P_eps 10Hz  P_e 10Hz
-    circle     no_ccc        rig        0.2675    0.6573     0.2550    0.6467
-    circle     no_ccc        ideal      0.2677    0.6560     0.2571    0.6458
-    circle     acc2pid       rig        0.2238    0.6286     0.2055    0.6146
-    circle     acc2pid       ideal      0.2239    0.6276     0.2123    0.6176
-    circle     iabc_acc2pid  rig        0.0717    0.1106     0.0678    0.1053
-    circle     iabc_acc2pid  ideal      0.0648    0.0874     0.0621    0.0851
-    three-leaf no_ccc        rig        0.3440    0.8408     0.3588    0.8903
-    three-leaf no_ccc        ideal      0.3364    0.8456     0.3487    0.8933
-    three-leaf acc2pid       rig        0.2711    0.8042     0.2748    0.8383
-    three-leaf acc2pid       ideal      0.2659    0.8108     0.2737    0.8468
-    three-leaf iabc_acc2pid  rig        0.1984    0.2967     0.1848    0.2837
-    three-leaf iabc_acc2pid  ideal      0.1958    0.2888     0.1779    0.2705
-
-003 claims IABC-tuned ACC2PID against hand-tuned 2PID P_eps -65.5 % (circle, table 2) and
--68.8 % (three-leaf, table 3); here (10 Hz) -73.4 % rig and -75.8 % ideal on the circle,
--48.5 % and -49.0 % on the three-leaf: the circle's claim holds, the three-leaf's falls
-short. The hand-set compensators alone give -19 % and -23 % (003's tables: ACC2PID's gain
-over A2PID is -61 % and -27 %). The tuned point (seed 0) puts K_c1x at 0.088 V/mm and K_c2x
-at the bottom of 003's box (0.010 of 0.010-0.31), K_c1y and K_c2y at 0.0028 and 0.0031 (the
-top), Kp_x 6.6 times the hand-tuned one (0.092 per count) and the integral times at
-0.019-0.027 s, while Kp_y1 (0.0013) and Kp_y2 (0.0007 per count) stay near the hand-tuned
-ones: x, the axis the two contours share, carries the gain.
+Their errors, measured with ``benchmarks/tune_003.py``, and 003's claims are in the
+documentation (Measurements and design notes: ACC2PID).
 """
 
 from __future__ import annotations
@@ -109,9 +49,8 @@ from agents.ccc_laws import (
     FUZZY_PID_PARAMS,
 )
 from agents.policies import ConstantPolicy, register_policy
-from contour_gym._schema import Schema
-from contour_gym._validate import choice
 from contour_gym.envs.core import CCC
+from contour_gym.params import Schema, choice
 
 _FACTORS = FUZZY_PID_PARAMS.names[3:]  # the law's parameters beyond kp, ki, kd
 

@@ -35,7 +35,6 @@ from agents.feedrate_search import fastest_constant
 from agents.policies import Policy, make_policy
 from agents.tune import compare
 from contour_gym.envs.config import EnvConfig
-from contour_gym.envs.core import _scenario as env_scenario
 
 UM, MM = 1e6, 1e3
 
@@ -138,7 +137,7 @@ def sampled_003(env_id: str, policy: Policy, ideal: bool) -> dict[str, float]:
     _, kwargs = env_arguments(env_id, policy, {"ideal": ideal})
     config = EnvConfig.from_kwargs({**gym.spec(env_id).kwargs, **kwargs})
     gains = None if policy.name == "no_ccc" else (1.0, 0.0, 0.0)
-    loop = env_scenario(config).loop(ccc_gains=gains, ccc_weights=config.ccc_weights,
+    loop = config.scenario().loop(ccc_gains=gains, ccc_weights=config.ccc_weights,
                                      sample_period=0.1, settle_time=config.settle_time)  # fmt: skip
     loop.reset(0)
     m = loop.run()

@@ -29,8 +29,9 @@ from pathlib import Path as FilePath
 import numpy as np
 
 from agents._files import save_figure
-from contour_gym._validate import choice
+from agents.rl.algorithms import ALGORITHMS
 from contour_gym.api import Scenario, make_scenario, run_trace
+from contour_gym.params import choice
 from contour_gym.paths import WORK_SYSTEMS, GcodeError, GcodePath, from_gcode
 from contour_gym.presets import PRESETS
 
@@ -99,6 +100,14 @@ def _tool_length(text: str) -> tuple[int, float]:
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="contour-gym", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
+    _add_simulate_parser(sub)
+    _add_train_parser(sub)
+    _add_tune_parser(sub)
+    _add_bench_parser(sub)
+    return parser
+
+
+def _add_simulate_parser(sub: argparse._SubParsersAction) -> None:
     sim = sub.add_parser("simulate", help="no CCC vs PID CCC on one preset and path or part")
     sim.add_argument(
         "--plant", default=None, choices=PRESETS,
@@ -128,12 +137,16 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--seed", type=int, default=0)
     sim.add_argument("--out", default="contour_gym_simulate.png", help="plot file")
     sim.add_argument("--dpi", type=_positive, default=120.0, help="plot resolution")
+
+
+def _add_train_parser(sub: argparse._SubParsersAction) -> None:
     train = sub.add_parser("train", help="train a stable-baselines3 agent on the native vector "
                            "env (needs the rl extra; configs/rl/ALGO.yml)")  # fmt: skip
     train.add_argument("env", nargs="?", default=None, metavar="ENV_ID",
                        help="registered env id with a block in the config, e.g. "
                        "contour_gym/CCC-Circle-v0 (not with --resume)")  # fmt: skip
-    train.add_argument("--algo", default="ppo", choices=("ppo", "sac", "td3"))
+    train.add_argument("--algo", default="ppo", choices=ALGORITHMS.names(),
+                       help="RL algorithm (agents.rl.algorithms; sb3-contrib's when installed)")
     train.add_argument("--timesteps", type=int, default=None, metavar="N",
                        help="env steps (default: the config's n_timesteps; with --resume, the "
                        "run's)")  # fmt: skip
@@ -144,6 +157,9 @@ def _parser() -> argparse.ArgumentParser:
     train.add_argument("--config", default=None, metavar="FILE",
                        help="rl-zoo YAML (default: the shipped configs/rl/ALGO.yml)")
     train.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _add_tune_parser(sub: argparse._SubParsersAction) -> None:
     tune = sub.add_parser("tune", help="tune a controller's parameters by a protocol "
                           "(agents.tune: 000 = paper 000's improved PSO fuzzy PID CCC)")
     tune.add_argument("protocol", metavar="PROTOCOL", help="tuning protocol name, e.g. 000")
@@ -163,8 +179,6 @@ def _parser() -> argparse.ArgumentParser:
     tune.add_argument("--quiet", action="store_true", help="no progress bar")
     tune.add_argument("--overwrite", action="store_true",
                       help="replace a finished result in the run folder")  # fmt: skip
-    _add_bench_parser(sub)
-    return parser
 
 
 def _add_bench_parser(sub: argparse._SubParsersAction) -> None:

@@ -30,8 +30,8 @@ from agents.policies import (
     batch_size,
     register_policy,
 )
-from contour_gym._validate import choice, finite, positive
 from contour_gym.envs.core import FEEDRATE, ContourTask
+from contour_gym.params import choice, finite, positive
 
 MM_PER_S = 1e-3  # m/s
 

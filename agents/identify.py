@@ -6,9 +6,9 @@ friction acts like the spring ``sigma0`` and damper ``sigma1 + sigma2``), then c
 plateaus at five speeds around ``v_s``, first all forwards, then all backwards (steady sliding:
 friction is the Stribeck curve ``g(v) + sigma2 v`` of 002 eq. 3, which fixes ``v_s`` and
 ``F_s``). Going up a staircase of speeds in one direction, rather than reversing between
-plateaus, keeps the large ``sigma1 dz/dt`` transients of a reversal (with 002's table-1 values
-the bristles take ~5 cm of travel to settle) from swamping the Stribeck curve in eq. 4: the
-fitness' Hessian condition number drops from ~300 (sinusoids of rising amplitude) to ~30. The
+plateaus, keeps the large ``sigma1 dz/dt`` transients of a reversal from swamping the
+Stribeck curve in eq. 4 (the documentation's "Measurements and design notes" says by how
+much). The
 plant is advanced by the LuGre law's own substep (:func:`contour_gym.plant.friction.lugre.substep`)
 at the servo tick with one substep (the LuGre rates stay below 40 1/s, well resolved) and the
 friction of each step is
@@ -41,8 +41,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
 from agents.optim import minimize
-from contour_gym._validate import as_finite_array, choice, non_negative, positive
-from contour_gym.plant._kernel import AX, ST, STATE
+from contour_gym.params import as_finite_array, choice, non_negative, positive
+from contour_gym.plant import AX, ST, STATE
 from contour_gym.plant.friction import lugre
 from contour_gym.plant.friction.lugre import LuGreFriction
 from contour_gym.plant.stage import axis_row, friction_row, zoh_matrices

@@ -31,10 +31,10 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from contour_gym._registry import Registry
-from contour_gym._validate import as_finite_array, choice, positive
 from contour_gym.envs.core import CCC, FEEDRATE
 from contour_gym.motion import DEFAULT_TOLERANCE
+from contour_gym.params import as_finite_array, choice, positive
+from contour_gym.registry import Registry
 
 Actions = NDArray[np.float64]
 Observation = Mapping[str, ArrayLike]

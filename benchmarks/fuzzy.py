@@ -1,6 +1,6 @@
-"""Compiled fuzzy systems against scikit-fuzzy (agents/fuzzy.py): speed and accuracy, one table.
+"""Compiled fuzzy systems against scikit-fuzzy (agents/fuzzy/): speed and accuracy, one table.
 
-Rows: every rule base of agents/fuzzy.py with each compiled method. Mamdani systems:
+Rows: every rule base of agents/fuzzy/ with each compiled method. Mamdani systems:
 ``surface`` (the default lookup) and ``exact`` (the compiled inference); the reference is
 skfuzzy's ``ControlSystemSimulation``. The product / centre-average system: the reference is
 the plain numpy basis on skfuzzy's memberships (skfuzzy.control has no such mode), the

@@ -24,8 +24,6 @@ once, they are shared by every specialised kernel. Per-tick helpers are ``inline
 (a call per tick with this many arguments cost more than the tick), and :func:`member_run` is
 compiled without numba's reference counting (its private ``_nrt=False`` option): the arrays
 are borrowed views (:func:`contour_gym._blob.borrow`), nothing allocates, nothing escapes.
-Measured on the default scenario before these measures: ~30 % of the tick went to atomic
-reference counts (see the README's benchmark section).
 """
 
 from __future__ import annotations
@@ -40,6 +38,7 @@ from contour_gym._loopstate import (
     AC,
     FT,
     LS,
+    MEM_COL,
     REASON_DIVERGED,
     REASON_NOT_IN_POSITION,
     REASON_OVER_LIMIT,
@@ -47,8 +46,7 @@ from contour_gym._loopstate import (
     STATUS_ARRIVED,
     STATUS_FAILED,
     STATUS_OK,
-    M,
-    W,
+    WORK_ROW,
     config,
     loop_arrays,
     path_arrays,
@@ -100,27 +98,27 @@ def drive_axis(ax, fr, rip, dist, ad, bd, st, u, t0, ts, nsub, w, xs, vs):
 
 
 @numba.njit(cache=True, inline="always")
-def _reference(A, P, s, v, acc, hist):
+def _reference(loop, path, s, v, acc, hist):
     # r = P(s) + offset, r' = P'(s) v, r'' = P''(s) v^2 + P'(s) a, written per axis; P(s)
     # remembered in the member's history row (its estimator asks for it again this tick)
-    px, py, pz, tx, ty, tz, kx, ky, kz = eval_path_memo(P.kind, P.s0, P.data, s, hist)
-    work, c_axes = A.work, A.c_axes
+    px, py, pz, tx, ty, tz, kx, ky, kz = eval_path_memo(path.kind, path.s0, path.data, s, hist)
+    work, c_axes = loop.work, loop.c_axes
     for c in range(c_axes.shape[0]):
         for j in range(3):
             a = c_axes[c, j]
             if a < 0:
                 continue
             p, t, k = (px, tx, kx) if j == 0 else ((py, ty, ky) if j == 1 else (pz, tz, kz))
-            work[W.r0, a] = p + A.c_off[c, j]
-            work[W.r, a] = work[W.r0, a]
-            work[W.rdot, a] = t * v
-            work[W.rddot, a] = k * v * v + t * acc
+            work[WORK_ROW.r0, a] = p + loop.c_off[c, j]
+            work[WORK_ROW.r, a] = work[WORK_ROW.r0, a]
+            work[WORK_ROW.rdot, a] = t * v
+            work[WORK_ROW.rddot, a] = k * v * v + t * acc
 
 
 @numba.njit(cache=True, inline="always")
-def _coords(A, c, row):
+def _coords(loop, c, row):
     # contour c's coordinates of the axis values in work row ``row``, offset removed
-    c_axes, c_off, work = A.c_axes, A.c_off, A.work
+    c_axes, c_off, work = loop.c_axes, loop.c_off, loop.work
     dim = 2 if c_axes[c, 2] < 0 else 3
     p0 = work[row, c_axes[c, 0]] - c_off[c, 0]
     p1 = work[row, c_axes[c, 1]] - c_off[c, 1]
@@ -129,13 +127,13 @@ def _coords(A, c, row):
 
 
 @numba.njit(cache=True, inline="always")
-def _track_foot(A, P, cfg, q, p0, p1, p2):
+def _track_foot(loop, path, cfg, q, p0, p1, p2):
     # the true error, searched around the machine's previous foot point; the foot's progress
     # is kept unwrapped on closed paths (a lap past the end continues beyond the length)
-    foot = A.foot
+    foot = loop.foot
     sf_prev = foot[q, FT.s]
     eps, g0, g1, g2, sf, qx, qy, qz = ground_truth_from(
-        P.kind, P.s0, P.data, P.bound, cfg.dim, p0, p1, p2, sf_prev,
+        path.kind, path.s0, path.data, path.bound, cfg.dim, p0, p1, p2, sf_prev,
         foot[q, FT.qx], foot[q, FT.qy], foot[q, FT.qz],
     )  # fmt: skip
     step = sf - sf_prev
@@ -145,81 +143,85 @@ def _track_foot(A, P, cfg, q, p0, p1, p2):
         step -= cfg.length
     foot[q, FT.progress] += step
     foot[q, FT.s], foot[q, FT.qx], foot[q, FT.qy], foot[q, FT.qz] = sf, qx, qy, qz
-    foot[q, FT.seg] = find_segment(P.s0, sf)
+    foot[q, FT.seg] = find_segment(path.s0, sf)
     return eps, g0, g1, g2
 
 
 @numba.njit(cache=True, inline="always")
-def _estimate(A, P, cfg, q, c, s, eps, g0, g1, g2):
+def _estimate(loop, path, cfg, q, c, s, eps, g0, g1, g2):
     # the contour error the CCC sees: from the encoder readings, by the run's estimator
     if cfg.meas_exact and cfg.search:
         return eps, g0, g1, g2  # the exact search on the exact position: already known
-    dim, p0, p1, p2 = _coords(A, c, W.y)
-    b = q // A.c_axes.shape[0]
+    dim, p0, p1, p2 = _coords(loop, c, WORK_ROW.y)
+    b = q // loop.c_axes.shape[0]
     if cfg.search:
         # an exact-search estimator tracks its own foot point from tick to tick (the reading's,
         # never the truth's): its search window is the reading's distance from that point
-        f = A.foot
+        f = loop.foot
         e, c0, c1, c2, sf, qx, qy, qz = ground_truth_from(
-            P.kind, P.s0, P.data, P.bound, dim, p0, p1, p2, f[q, FT.e_s], f[q, FT.e_qx],
+            path.kind, path.s0, path.data, path.bound, dim, p0, p1, p2, f[q, FT.e_s], f[q, FT.e_qx],
             f[q, FT.e_qy], f[q, FT.e_qz],
         )  # fmt: skip
         f[q, FT.e_s], f[q, FT.e_qx], f[q, FT.e_qy], f[q, FT.e_qz] = sf, qx, qy, qz
         return e, c0, c1, c2
-    foot = EST_FOOT(cfg.est, A.est_p, P.kind, P.s0, P.data, P.bound, p0, p1, p2, s, A.hist[b])
-    e, c0, c1, c2, _ = resolve(foot, P.kind, P.s0, P.data, P.bound, dim, p0, p1, p2, s)
+    foot = EST_FOOT(cfg.est, loop.est_p, path.kind, path.s0, path.data, path.bound, p0, p1, p2,
+                    s, loop.hist[b])  # fmt: skip
+    e, c0, c1, c2, _ = resolve(foot, path.kind, path.s0, path.data, path.bound, dim, p0, p1, p2, s)
     return e, c0, c1, c2
 
 
 @numba.njit(cache=True, inline="always")
-def _ccc(A, cfg, q, c, dim, eps, g0, g1, g2):
+def _ccc(loop, cfg, q, c, dim, eps, g0, g1, g2):
     # Contour row q = b * C + c; its state rows are 3 q + i. 2-D: the law on the signed eps,
     # distributed by C (state row 3 q). 3-D: the law on each signed component C_i eps.
-    row = W.r if cfg.inj_ref else W.uccc
-    axes, w, work = A.c_axes, A.ccc_w, A.work
+    row = WORK_ROW.r if cfg.inj_ref else WORK_ROW.uccc
+    axes, w, work = loop.c_axes, loop.ccc_w, loop.work
     for i in range(1 if dim == 2 else 3):
         g = g0 if i == 0 else (g1 if i == 1 else g2)
         e_i = eps if dim == 2 else g * eps
-        out = CCC_OUTPUT(cfg.ccc, A.ccc_p, A.ccc_s, A.ccc_data, q, 3 * q + i, e_i, cfg.ts)
+        out = CCC_OUTPUT(cfg.ccc, loop.ccc_p, loop.ccc_s, loop.ccc_data, q, 3 * q + i, e_i, cfg.ts)
         if dim == 2:
             work[row, axes[c, 0]] += w[q, 0] * g0 * out
             work[row, axes[c, 1]] += w[q, 1] * g1 * out
         else:
             work[row, axes[c, i]] += w[q, i] * out
-        CCC_COMMIT(cfg.ccc, A.ccc_p, A.ccc_s, A.ccc_data, q, 3 * q + i, e_i, cfg.ts, out, False)
+        CCC_COMMIT(cfg.ccc, loop.ccc_p, loop.ccc_s, loop.ccc_data, q, 3 * q + i, e_i, cfg.ts, out,
+                   False)  # fmt: skip
 
 
 @numba.njit(cache=True, inline="always")
-def _contours(A, P, cfg, b, s, n_axes):
-    n_c = A.c_axes.shape[0]
+def _contours(loop, path, cfg, b, s, n_axes):
+    n_c = loop.c_axes.shape[0]
     for a in range(n_axes):
-        A.work[W.uccc, a] = 0.0
+        loop.work[WORK_ROW.uccc, a] = 0.0
     for c in range(n_c):
         q = b * n_c + c
-        dim, p0, p1, p2 = _coords(A, c, W.x)
-        eps, g0, g1, g2 = _track_foot(A, P, cfg, q, p0, p1, p2)
-        eh, h0, h1, h2 = _estimate(A, P, cfg, q, c, s, eps, g0, g1, g2)
-        _ccc(A, cfg, q, c, dim, eh, h0, h1, h2)
-        A.last[q, LS.true], A.last[q, LS.est] = eps, eh
-    history_push(A.hist[b], s)
+        dim, p0, p1, p2 = _coords(loop, c, WORK_ROW.x)
+        eps, g0, g1, g2 = _track_foot(loop, path, cfg, q, p0, p1, p2)
+        eh, h0, h1, h2 = _estimate(loop, path, cfg, q, c, s, eps, g0, g1, g2)
+        _ccc(loop, cfg, q, c, dim, eh, h0, h1, h2)
+        loop.last[q, LS.true], loop.last[q, LS.est] = eps, eh
+    history_push(loop.hist[b], s)
 
 
 @numba.njit(cache=True, inline="always")
-def _axes(A, cfg, b, n_axes):
+def _axes(loop, cfg, b, n_axes):
     # control, compensation and CCC share; saturate; the command that drives the plant
-    work, ts = A.work, cfg.ts
+    work, ts = loop.work, cfg.ts
     for a in range(n_axes):
         i = b * n_axes + a
-        r, rd, rdd, y = work[W.r, a], work[W.rdot, a], work[W.rddot, a], work[W.y, a]
-        u_comp = COMP_OUTPUT(cfg.comp, A.comp_p, A.comp_s, i, rd, y, ts)
-        u = CTRL_CONTROL(cfg.ctrl, A.ctrl_p, A.ctrl_s, i, r, rd, rdd, y, ts)
-        u += u_comp + work[W.uccc, a]
-        u_max = A.ax_p[i, AX.u_max]
+        r, rd = work[WORK_ROW.r, a], work[WORK_ROW.rdot, a]
+        rdd, y = work[WORK_ROW.rddot, a], work[WORK_ROW.y, a]
+        u_comp = COMP_OUTPUT(cfg.comp, loop.comp_p, loop.comp_s, i, rd, y, ts)
+        u = CTRL_CONTROL(cfg.ctrl, loop.ctrl_p, loop.ctrl_s, i, r, rd, rdd, y, ts)
+        u += u_comp + work[WORK_ROW.uccc, a]
+        u_max = loop.ax_p[i, AX.u_max]
         u_sat = min(max(u, -u_max), u_max)
-        applied = A.u_cmd[b, a] if cfg.delay else u_sat
-        CTRL_COMMIT(cfg.ctrl, A.ctrl_p, A.ctrl_s, i, r, rd, rdd, y, ts, u, applied, u_comp, u_max)
-        COMP_COMMIT(cfg.comp, A.comp_p, A.comp_s, i, rd, y, ts)
-        work[W.u, a], work[W.ua, a] = u_sat, applied
+        applied = loop.u_cmd[b, a] if cfg.delay else u_sat
+        CTRL_COMMIT(cfg.ctrl, loop.ctrl_p, loop.ctrl_s, i, r, rd, rdd, y, ts, u, applied, u_comp,
+                    u_max)  # fmt: skip
+        COMP_COMMIT(cfg.comp, loop.comp_p, loop.comp_s, i, rd, y, ts)
+        work[WORK_ROW.u, a], work[WORK_ROW.ua, a] = u_sat, applied
 
 
 @numba.njit(cache=True, inline="always")
@@ -244,119 +246,120 @@ def _sums_axis(acc, i, e, du, sampled):
 
 
 @numba.njit(cache=True, inline="always")
-def _accumulate(A, P, cfg, b, k, n_axes):
+def _accumulate(loop, path, cfg, b, k, n_axes):
     # metrics count the ticks whose foot lies on a cutting segment while the reference is on one
     # (at a stop: the block that ended there): a rapid's arrival, with the machine overshooting
     # past the next cut's start before that cut begins, cuts nothing; so does a rapid's start
-    n_c = A.c_axes.shape[0]
-    if (int(P.flags[int(A.foot[b * n_c, FT.seg])]) & CUTTING) == 0:
+    n_c = loop.c_axes.shape[0]
+    if (int(path.flags[int(loop.foot[b * n_c, FT.seg])]) & CUTTING) == 0:
         return
-    seg = int(A.ip_s[b, IS.seg])
-    if seg > 0 and (A.ip_s[b, IS.wait] > 0.0 or A.ip_s[b, IS.hold] > 0.0):
+    seg = int(loop.ip_s[b, IS.seg])
+    if seg > 0 and (loop.ip_s[b, IS.wait] > 0.0 or loop.ip_s[b, IS.hold] > 0.0):
         seg -= 1
-    if (int(P.flags[seg]) & CUTTING) == 0:
+    if (int(path.flags[seg]) & CUTTING) == 0:
         return
     sampled = k % cfg.sample_every == 0
     for c in range(n_c):
         q = b * n_c + c
-        _sums_contour(A.acc_c, q, A.last[q, LS.true], sampled)
-        _sums_contour(A.ep_c, q, A.last[q, LS.true], sampled)
+        _sums_contour(loop.acc_c, q, loop.last[q, LS.true], sampled)
+        _sums_contour(loop.ep_c, q, loop.last[q, LS.true], sampled)
     for a in range(n_axes):
         i = b * n_axes + a
-        e = A.work[W.r0, a] - A.work[W.x, a]
-        du = A.work[W.u, a] - A.u_cmd[b, a]
-        _sums_axis(A.acc_a, i, e, du, sampled)
-        _sums_axis(A.ep_a, i, e, du, sampled)
+        e = loop.work[WORK_ROW.r0, a] - loop.work[WORK_ROW.x, a]
+        du = loop.work[WORK_ROW.u, a] - loop.u_cmd[b, a]
+        _sums_axis(loop.acc_a, i, e, du, sampled)
+        _sums_axis(loop.ep_a, i, e, du, sampled)
 
 
 @numba.njit(cache=True, inline="always")
-def _over_limit(A, cfg, b):
+def _over_limit(loop, cfg, b):
     # the run's stop_above (a tuner's hard limit): the episode's max contour error past it
-    n_c = A.c_axes.shape[0]
+    n_c = loop.c_axes.shape[0]
     for c in range(n_c):  # noqa: SIM110 (numba compiles no generator)
-        if A.ep_c[b * n_c + c, AC.max] > cfg.stop_above:
+        if loop.ep_c[b * n_c + c, AC.max] > cfg.stop_above:
             return True
     return False
 
 
 @numba.njit(cache=True, inline="always")
-def _record(A, b, j, s, v, rec, n_axes):
-    work = A.work
+def _record(loop, b, j, s, v, rec, n_axes):
+    work = loop.work
     rec[b, j, 0], rec[b, j, 1] = s, v
     for a in range(n_axes):
-        rec[b, j, 2 + a] = work[W.r0, a]
-        rec[b, j, 2 + n_axes + a] = work[W.x, a]
-        rec[b, j, 2 + 2 * n_axes + a] = work[W.u, a]
+        rec[b, j, 2 + a] = work[WORK_ROW.r0, a]
+        rec[b, j, 2 + n_axes + a] = work[WORK_ROW.x, a]
+        rec[b, j, 2 + 2 * n_axes + a] = work[WORK_ROW.u, a]
     base = 2 + 3 * n_axes
-    n_c = A.c_axes.shape[0]
+    n_c = loop.c_axes.shape[0]
     for c in range(n_c):
-        rec[b, j, base + 2 * c] = A.last[b * n_c + c, LS.true]
-        rec[b, j, base + 1 + 2 * c] = A.last[b * n_c + c, LS.est]
+        rec[b, j, base + 2 * c] = loop.last[b * n_c + c, LS.true]
+        rec[b, j, base + 1 + 2 * c] = loop.last[b * n_c + c, LS.est]
 
 
 @numba.njit(cache=True, inline="always")
-def _plant(A, cfg, b, k, noise, j, n_axes, has_noise):
+def _plant(loop, cfg, b, k, noise, j, n_axes, has_noise):
     # advance every axis with the applied command; False if the state left the physical range
     # (j: the member's row in the noise buffer)
     ok = True
     for a in range(n_axes):
         i = b * n_axes + a
-        A.u_cmd[b, a] = A.work[W.u, a]
+        loop.u_cmd[b, a] = loop.work[WORK_ROW.u, a]
         w = noise[b, j, a] if has_noise else 0.0
-        axis_tick(A.ax_p, A.fr_p, A.rip, A.dist, A.ad, A.bd, A.ax_s, i, A.work[W.ua, a],
-                  k * cfg.ts, cfg.ts, cfg.nsub, w)  # fmt: skip
-        x, v = A.ax_s[i, ST.x], A.ax_s[i, ST.v]
+        axis_tick(loop.ax_p, loop.fr_p, loop.rip, loop.dist, loop.ad, loop.bd, loop.ax_s, i,
+                  loop.work[WORK_ROW.ua, a], k * cfg.ts, cfg.ts, cfg.nsub, w)  # fmt: skip
+        x, v = loop.ax_s[i, ST.x], loop.ax_s[i, ST.v]
         if not (abs(x) < STATE_LIMIT and abs(v) < STATE_LIMIT):
             ok = False
     return ok
 
 
 @numba.njit(cache=True, inline="always")
-def _in_position(A, cfg, b, n_axes):
+def _in_position(loop, cfg, b, n_axes):
     # a CNC's in-position check on the encoder (noise-free): following error within the band,
     # and slow (the reading's change over this tick); asked only while something waits on it
     # (an exact stop, or the path end: see member_run)
-    if not (A.ip_s[b, IS.done] >= 0.0 or A.ip_s[b, IS.wait] > 0.0):
+    if not (loop.ip_s[b, IS.done] >= 0.0 or loop.ip_s[b, IS.wait] > 0.0):
         return False
     inpos = True
     for a in range(n_axes):
         i = b * n_axes + a
-        y = measure(A.ax_p, i, A.ax_s[i, ST.x], 0.0)
-        speed = abs(y - measure(A.ax_p, i, A.work[W.x, a], 0.0)) / cfg.ts
-        inpos = inpos and abs(A.work[W.r0, a] - y) <= cfg.in_band and speed <= cfg.in_speed
+        y = measure(loop.ax_p, i, loop.ax_s[i, ST.x], 0.0)
+        speed = abs(y - measure(loop.ax_p, i, loop.work[WORK_ROW.x, a], 0.0)) / cfg.ts
+        near = abs(loop.work[WORK_ROW.r0, a] - y) <= cfg.in_band
+        inpos = inpos and near and speed <= cfg.in_speed
     return inpos
 
 
 @numba.njit(cache=True, inline="always")
-def _arrived(A, P, cfg, b, inpos):
-    if not (inpos and A.ip_s[b, IS.done] >= 0.0):
+def _arrived(loop, path, cfg, b, inpos):
+    if not (inpos and loop.ip_s[b, IS.done] >= 0.0):
         return False
-    n_c = A.c_axes.shape[0]
+    n_c = loop.c_axes.shape[0]
     band = 2.0 * cfg.in_band
     for c in range(n_c):
         f = b * n_c + c
-        if A.foot[f, FT.progress] >= cfg.length - band - 1e-9:
+        if loop.foot[f, FT.progress] >= cfg.length - band - 1e-9:
             continue
         # a part whose moves retrace each other (a retract, then the return over the same
         # line): the foot may lie on the earlier pass, at the end point all the same
-        ex, ey, ez = eval_path(P.kind, P.s0, P.data, cfg.length)[:3]
-        dx, dy, dz = A.foot[f, FT.qx] - ex, A.foot[f, FT.qy] - ey, A.foot[f, FT.qz] - ez
+        ex, ey, ez = eval_path(path.kind, path.s0, path.data, cfg.length)[:3]
+        dx, dy, dz = loop.foot[f, FT.qx] - ex, loop.foot[f, FT.qy] - ey, loop.foot[f, FT.qz] - ez
         if dx * dx + dy * dy + dz * dz > band * band:
             return False
     return True
 
 
 @numba.njit(cache=True, inline="always")
-def _sense(A, cfg, b, noise, j, n_axes, has_noise):
-    work = A.work
+def _sense(loop, cfg, b, noise, j, n_axes, has_noise):
+    work = loop.work
     for a in range(n_axes):
         i = b * n_axes + a
-        work[W.x, a], work[W.v, a] = A.ax_s[i, ST.x], A.ax_s[i, ST.v]
+        work[WORK_ROW.x, a], work[WORK_ROW.v, a] = loop.ax_s[i, ST.x], loop.ax_s[i, ST.v]
         if cfg.meas_exact:
-            work[W.y, a] = work[W.x, a]
+            work[WORK_ROW.y, a] = work[WORK_ROW.x, a]
         else:
             w = noise[b, j, n_axes + a] if has_noise else 0.0
-            work[W.y, a] = measure(A.ax_p, i, work[W.x, a], w)
+            work[WORK_ROW.y, a] = measure(loop.ax_p, i, work[WORK_ROW.x, a], w)
 
 
 # numba's private ``_nrt`` option: compiled without reference counting (module docstring)
@@ -364,75 +367,79 @@ _NO_REFCOUNT: dict[str, Any] = {"cache": True, "_nrt": False}
 
 
 @numba.njit(**_NO_REFCOUNT)
-def member_run(b, n, k0, cfg, A, P, noise, rec):
+def member_run(b, n, k0, cfg, loop, path, noise, rec):
     """Run ``n`` servo ticks of member ``b`` from its local tick ``k0``; returns its status."""
-    n_axes = A.work.shape[1]
+    n_axes = loop.work.shape[1]
     has_noise = noise.shape[1] > 0
-    row = A.noise_at[b]  # the member's noise row of tick k0
-    prog = (P.feed, P.flags, P.vcap, P.vj, P.wait, P.dwell)
-    law = (P.law_s, P.law_v)
+    row = loop.noise_at[b]  # the member's noise row of tick k0
+    prog = (path.feed, path.flags, path.vcap, path.vj, path.wait, path.dwell)
+    law = (path.law_s, path.law_v)
     for j in range(n):
         k = k0 + j
-        in_pos = A.mem[b, M.in_pos] > 0.0
-        interp_tick(A.ip_p, A.ip_s, b, k, cfg.ts, P.s0, prog, law, cfg.law_dt, in_pos)
-        s = A.ip_s[b, IS.s]
-        _reference(A, P, s, A.ip_s[b, IS.v], A.ip_s[b, IS.a], A.hist[b])
-        _sense(A, cfg, b, noise, row + j, n_axes, has_noise)
-        _contours(A, P, cfg, b, s, n_axes)
-        _axes(A, cfg, b, n_axes)
-        _accumulate(A, P, cfg, b, k, n_axes)
-        if _over_limit(A, cfg, b):
-            A.mem[b, M.reason], A.mem[b, M.end] = REASON_OVER_LIMIT, k + 1
+        in_pos = loop.mem[b, MEM_COL.in_pos] > 0.0
+        interp_tick(loop.ip_p, loop.ip_s, b, k, cfg.ts, path.s0, prog, law, cfg.law_dt, in_pos)
+        s = loop.ip_s[b, IS.s]
+        _reference(loop, path, s, loop.ip_s[b, IS.v], loop.ip_s[b, IS.a], loop.hist[b])
+        _sense(loop, cfg, b, noise, row + j, n_axes, has_noise)
+        _contours(loop, path, cfg, b, s, n_axes)
+        _axes(loop, cfg, b, n_axes)
+        _accumulate(loop, path, cfg, b, k, n_axes)
+        if _over_limit(loop, cfg, b):
+            loop.mem[b, MEM_COL.reason], loop.mem[b, MEM_COL.end] = REASON_OVER_LIMIT, k + 1
             return STATUS_FAILED
         if cfg.record:
-            _record(A, b, j, s, A.ip_s[b, IS.v], rec, n_axes)
-        if not _plant(A, cfg, b, k, noise, row + j, n_axes, has_noise):
-            A.mem[b, M.reason], A.mem[b, M.end] = REASON_DIVERGED, k + 1
+            _record(loop, b, j, s, loop.ip_s[b, IS.v], rec, n_axes)
+        if not _plant(loop, cfg, b, k, noise, row + j, n_axes, has_noise):
+            loop.mem[b, MEM_COL.reason], loop.mem[b, MEM_COL.end] = REASON_DIVERGED, k + 1
             return STATUS_FAILED
-        inpos = _in_position(A, cfg, b, n_axes)
+        inpos = _in_position(loop, cfg, b, n_axes)
         for a in range(n_axes):
-            A.y_last[b, a] = A.work[W.y, a]
-        A.mem[b, M.in_pos] = 1.0 if inpos else 0.0
-        if _arrived(A, P, cfg, b, inpos):
-            A.mem[b, M.arrival], A.mem[b, M.end] = k + 1, k + 1
+            loop.y_last[b, a] = loop.work[WORK_ROW.y, a]
+        loop.mem[b, MEM_COL.in_pos] = 1.0 if inpos else 0.0
+        if _arrived(loop, path, cfg, b, inpos):
+            loop.mem[b, MEM_COL.arrival], loop.mem[b, MEM_COL.end] = k + 1, k + 1
             return STATUS_ARRIVED
-        done = A.ip_s[b, IS.done]
+        done = loop.ip_s[b, IS.done]
         if done >= 0.0 and k - done > cfg.settle_ticks:
-            A.mem[b, M.reason], A.mem[b, M.end] = REASON_NOT_IN_POSITION, k + 1
+            loop.mem[b, MEM_COL.reason], loop.mem[b, MEM_COL.end] = REASON_NOT_IN_POSITION, k + 1
             return STATUS_FAILED
     return STATUS_OK
 
 
 @numba.njit(cache=True, nogil=True)
-def run_ticks(n, k0, cf, fb, fl, ib, il, pk, pb, pl, noise, rec):
+def run_ticks(
+    n, k0, config_row, floats, float_layout, ints, int_layout, path_kinds, path_floats,
+    path_layout, noise, rec,
+):  # fmt: skip
     """Run ``n`` ticks for every member whose status is OK; ends are flagged in ``status``.
 
-    ``cf`` is the run's :data:`~contour_gym._loopstate.CONFIG` row; ``fb``/``fl`` and
-    ``ib``/``il`` the float and int blobs and their layouts; ``pk``, ``pb``/``pl`` the path's
-    segment kinds and float blob (:mod:`contour_gym._loopstate`). The blobs' views are made
-    here and handed to :func:`run_members`.
+    ``config_row`` is the run's :data:`~contour_gym._loopstate.CONFIG` row; ``floats`` and
+    ``ints`` the loop's float and int blobs with their layouts; ``path_kinds``, ``path_floats``
+    and ``path_layout`` the path's segment kinds and float blob
+    (:mod:`contour_gym._loopstate`). The blobs' views are made here and handed to
+    :func:`run_members`.
     """
     # borrowed: the views made here and in the callees carry no owner to count
-    P = path_arrays(borrow(pk), borrow(pb), pl)
-    A = loop_arrays(borrow(fb), fl, borrow(ib), il)
-    run_members(n, k0, config(cf), A, P, borrow(noise), borrow(rec))
+    path = path_arrays(borrow(path_kinds), borrow(path_floats), path_layout)
+    loop = loop_arrays(borrow(floats), float_layout, borrow(ints), int_layout)
+    run_members(n, k0, config(config_row), loop, path, borrow(noise), borrow(rec))
 
 
 @numba.njit(cache=True, nogil=True)
-def run_members(n, k0, cfg, A, P, noise, rec):
+def run_members(n, k0, cfg, loop, path, noise, rec):
     """:func:`run_ticks` on the blobs' views (the env kernel calls this with its own).
 
     ``acc_*`` receive the sums of just these ticks, ``ep_*`` the episode's running sums (kept
     in the kernel so they do not depend on how an episode is cut into calls). ``k0`` is the
     loop's tick; member ``b`` lives in local time ``k0 - k_start[b]`` (vector env members
     restart at different ticks). ``noise`` holds each member's normals; member ``b`` reads its
-    rows from ``noise_at[b]`` on and advances it by ``n`` (:class:`contour_gym.loop._NoiseSource`
-    refills the buffer).
+    rows from ``noise_at[b]`` on and advances it by ``n``
+    (:class:`contour_gym._loopnoise.NoiseSource` refills the buffer).
     """
-    A.acc_c[:] = 0.0  # the window sums start at zero
-    A.acc_a[:] = 0.0
-    for b in range(A.ip_s.shape[0]):
-        if A.status[b] != STATUS_OK:
+    loop.acc_c[:] = 0.0  # the window sums start at zero
+    loop.acc_a[:] = 0.0
+    for b in range(loop.ip_s.shape[0]):
+        if loop.status[b] != STATUS_OK:
             continue
-        A.status[b] = member_run(b, n, k0 - A.k_start[b], cfg, A, P, noise, rec)
-        A.noise_at[b] += n  # the member consumed n rows of its stream, whenever it stopped
+        loop.status[b] = member_run(b, n, k0 - loop.k_start[b], cfg, loop, path, noise, rec)
+        loop.noise_at[b] += n  # the member consumed n rows of its stream, whenever it stopped

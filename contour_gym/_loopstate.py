@@ -3,9 +3,9 @@
 A :class:`~contour_gym.loop.ServoLoop` keeps every per-member array in two blobs
 (:mod:`contour_gym._blob`): floats in the order of :data:`FLOATS`, ints in :data:`INTS`. The
 compiled side rebuilds them as one named tuple of views (:func:`loop_arrays`), indexed by name
-(``F.ip_s`` is the blob index of ``ip_s``): the kernels take a handful of grouped arguments
-(this tuple, the path's :data:`PathArrays`, the scalar settings :data:`Config`) instead of
-dozens of positional arrays.
+(``FLOAT_AT.ip_s`` is the blob index of ``ip_s``): the kernels take a handful of grouped
+arguments (this tuple as ``loop``, the path's :data:`PathArrays` as ``path``, the scalar
+settings :data:`Config` as ``cfg``) instead of dozens of positional arrays.
 
 Per-axis and per-contour arrays are *row tables* (all but the last dimension merged: row
 ``b * A + a`` or ``b * C + c``); see :mod:`contour_gym.plant._kernel` for why the kernels index
@@ -38,8 +38,8 @@ FLOATS = (
 INTS = (("c_axes", "view2"), ("status", "view1"), ("k_start", "view1"), ("noise_at", "view1"))
 FLOAT_NAMES = tuple(n for n, _ in FLOATS)
 INT_NAMES = tuple(n for n, _ in INTS)
-F = namedtuple("F", FLOAT_NAMES)(*range(len(FLOATS)))
-I = namedtuple("I", INT_NAMES)(*range(len(INTS)))  # noqa: E741
+FLOAT_AT = namedtuple("F", FLOAT_NAMES)(*range(len(FLOATS)))
+INT_AT = namedtuple("I", INT_NAMES)(*range(len(INTS)))  # noqa: E741
 
 LoopArrays = namedtuple("LoopArrays", FLOAT_NAMES + INT_NAMES)  # type: ignore[misc]
 # the path's arrays (its table, program and time law) in one float blob; ``kind`` apart (ints)
@@ -49,7 +49,7 @@ PATH_FLOATS = (
     ("dwell", "view1"), ("law_s", "view1"), ("law_v", "view1"),
 )  # fmt: skip
 PATH_NAMES = tuple(n for n, _ in PATH_FLOATS)
-PF = namedtuple("PF", PATH_NAMES)(*range(len(PATH_FLOATS)))
+PATH_AT = namedtuple("PF", PATH_NAMES)(*range(len(PATH_FLOATS)))
 PathArrays = namedtuple("PathArrays", ("kind",) + PATH_NAMES)  # type: ignore[misc]
 
 # the run's scalars, passed as one float row (a tuple argument costs the dispatcher ~2 us)
@@ -74,9 +74,9 @@ AC = ACC_C.col
 ACC_A = state_schema("axis sums", "abs", "sq", "max", "tv", "s_abs")
 AA = ACC_A.col
 MEM = state_schema("member", "in_pos", "arrival", "reason", "end")
-M = MEM.col
+MEM_COL = MEM.col
 WORK = state_schema("work", "r0", "r", "rdot", "rddot", "x", "y", "u", "ua", "uccc", "v")
-W = WORK.col
+WORK_ROW = WORK.col
 
 STATUS_OK, STATUS_FAILED, STATUS_PAUSED, STATUS_ARRIVED = 0, 1, 2, 3
 REASON_NONE, REASON_DIVERGED, REASON_NOT_IN_POSITION, REASON_OVER_LIMIT = 0.0, 1.0, 2.0, 3.0
@@ -94,37 +94,67 @@ STATE_LIMIT = 1e3  # |x| in m or |v| in m/s beyond this is a diverged member
 
 
 @numba.njit(cache=True, inline="always")
-def loop_arrays(fb, fl, ib, il):
+def loop_arrays(floats, float_layout, ints, int_layout):
     """Every array of the loop's blobs as one named tuple of (borrowed) views."""
     return LoopArrays(
-        rows2(fb, fl, F.ax_p), rows2(fb, fl, F.fr_p), rows3(fb, fl, F.rip),
-        rows2(fb, fl, F.dist), rows3(fb, fl, F.ad), rows3(fb, fl, F.bd),
-        rows2(fb, fl, F.ax_s), rows2(fb, fl, F.ctrl_p), rows2(fb, fl, F.ctrl_s),
-        rows2(fb, fl, F.comp_p), rows2(fb, fl, F.comp_s), rows2(fb, fl, F.ccc_p),
-        rows2(fb, fl, F.ccc_w), rows2(fb, fl, F.ccc_s), view1(fb, fl, F.ccc_data),
-        view1(fb, fl, F.est_p), view2(fb, fl, F.hist), view2(fb, fl, F.ip_p),
-        view2(fb, fl, F.ip_s), rows2(fb, fl, F.foot), rows2(fb, fl, F.last),
-        rows2(fb, fl, F.acc_c), rows2(fb, fl, F.acc_a), rows2(fb, fl, F.ep_c),
-        rows2(fb, fl, F.ep_a), view2(fb, fl, F.u_cmd), view2(fb, fl, F.y_last),
-        view2(fb, fl, F.mem), view2(fb, fl, F.work), view2(fb, fl, F.c_off),
-        view2(ib, il, I.c_axes), view1(ib, il, I.status), view1(ib, il, I.k_start),
-        view1(ib, il, I.noise_at),
-    )  # fmt: skip
+        rows2(floats, float_layout, FLOAT_AT.ax_p),
+        rows2(floats, float_layout, FLOAT_AT.fr_p),
+        rows3(floats, float_layout, FLOAT_AT.rip),
+        rows2(floats, float_layout, FLOAT_AT.dist),
+        rows3(floats, float_layout, FLOAT_AT.ad),
+        rows3(floats, float_layout, FLOAT_AT.bd),
+        rows2(floats, float_layout, FLOAT_AT.ax_s),
+        rows2(floats, float_layout, FLOAT_AT.ctrl_p),
+        rows2(floats, float_layout, FLOAT_AT.ctrl_s),
+        rows2(floats, float_layout, FLOAT_AT.comp_p),
+        rows2(floats, float_layout, FLOAT_AT.comp_s),
+        rows2(floats, float_layout, FLOAT_AT.ccc_p),
+        rows2(floats, float_layout, FLOAT_AT.ccc_w),
+        rows2(floats, float_layout, FLOAT_AT.ccc_s),
+        view1(floats, float_layout, FLOAT_AT.ccc_data),
+        view1(floats, float_layout, FLOAT_AT.est_p),
+        view2(floats, float_layout, FLOAT_AT.hist),
+        view2(floats, float_layout, FLOAT_AT.ip_p),
+        view2(floats, float_layout, FLOAT_AT.ip_s),
+        rows2(floats, float_layout, FLOAT_AT.foot),
+        rows2(floats, float_layout, FLOAT_AT.last),
+        rows2(floats, float_layout, FLOAT_AT.acc_c),
+        rows2(floats, float_layout, FLOAT_AT.acc_a),
+        rows2(floats, float_layout, FLOAT_AT.ep_c),
+        rows2(floats, float_layout, FLOAT_AT.ep_a),
+        view2(floats, float_layout, FLOAT_AT.u_cmd),
+        view2(floats, float_layout, FLOAT_AT.y_last),
+        view2(floats, float_layout, FLOAT_AT.mem),
+        view2(floats, float_layout, FLOAT_AT.work),
+        view2(floats, float_layout, FLOAT_AT.c_off),
+        view2(ints, int_layout, INT_AT.c_axes),
+        view1(ints, int_layout, INT_AT.status),
+        view1(ints, int_layout, INT_AT.k_start),
+        view1(ints, int_layout, INT_AT.noise_at),
+    )
 
 
 @numba.njit(cache=True, inline="always")
-def path_arrays(pk, pb, pl):
+def path_arrays(path_kinds, path_floats, path_layout):
     """The path's arrays (kind, then the float blob ``pb`` in :data:`PATH_FLOATS` order).
 
     Typed read-only, as the path tables of the Python API are (:func:`_blob.readonly`).
     """
-    pk, pb = readonly(pk), readonly(pb)
+    path_kinds, path_floats = readonly(path_kinds), readonly(path_floats)
     return PathArrays(
-        pk, view1(pb, pl, PF.s0), view2(pb, pl, PF.data), view2(pb, pl, PF.bound),
-        view1(pb, pl, PF.feed), view1(pb, pl, PF.flags), view1(pb, pl, PF.vcap),
-        view1(pb, pl, PF.vj), view1(pb, pl, PF.wait), view1(pb, pl, PF.dwell),
-        view1(pb, pl, PF.law_s), view1(pb, pl, PF.law_v),
-    )  # fmt: skip
+        path_kinds,
+        view1(path_floats, path_layout, PATH_AT.s0),
+        view2(path_floats, path_layout, PATH_AT.data),
+        view2(path_floats, path_layout, PATH_AT.bound),
+        view1(path_floats, path_layout, PATH_AT.feed),
+        view1(path_floats, path_layout, PATH_AT.flags),
+        view1(path_floats, path_layout, PATH_AT.vcap),
+        view1(path_floats, path_layout, PATH_AT.vj),
+        view1(path_floats, path_layout, PATH_AT.wait),
+        view1(path_floats, path_layout, PATH_AT.dwell),
+        view1(path_floats, path_layout, PATH_AT.law_s),
+        view1(path_floats, path_layout, PATH_AT.law_v),
+    )
 
 
 @numba.njit(cache=True, inline="always")

@@ -27,6 +27,8 @@ DISPATCHED: dict[str, tuple[str, bool]] = {
     "CCC_OUTPUT": ("p, s, data, q, row, e, ts", True),
     "CCC_COMMIT": ("p, s, data, q, row, e, ts, out, saturated", False),
     "REWARD": ("comp, w", True),
+    "TASK_APPLY": ("loop, env, ec, b", False),
+    "TASK_OBSERVE": ("loop, path, env, ec, b, col", True),
 }
 
 
@@ -87,7 +89,7 @@ def CCC_COMMIT(code, p, s, data, q, row, e, ts, out, saturated):
 
 
 @numba.njit(cache=True)
-def RUN_MEMBERS(n, k0, cfg, A, P, noise, rec):
+def RUN_MEMBERS(n, k0, cfg, loop, path, noise, rec):
     """The loop's run on its views, bound to the loop's own ``run_members``."""
 
 
@@ -95,3 +97,14 @@ def RUN_MEMBERS(n, k0, cfg, A, P, noise, rec):
 def REWARD(code, comp, w):
     """Reward of one member from its components and weights (:mod:`contour_gym.rewards`)."""
     return 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def TASK_APPLY(code, loop, env, ec, b):
+    """Task: member ``b``'s clipped action sets what it acts on (:mod:`contour_gym.tasks`)."""
+
+
+@numba.njit(cache=True, inline="always")
+def TASK_OBSERVE(code, loop, path, env, ec, b, col):
+    """Task: member ``b``'s own observation columns from ``col``; the column after them."""
+    return col

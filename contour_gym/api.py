@@ -130,33 +130,58 @@ def make_scenario(
             machine, a non-positive feedrate, or laps of an open path.
     """
     preset = resolve_preset(plant)
-    resolved = load(preset.path if path is None else path) if not isinstance(path, Path) else path
-    own = path is None or path == preset.path
-    if laps is None:
-        laps = preset.laps if own else 1
-    resolved = _on_machine(resolved, preset).repeat(laps)
+    resolved, laps = _scenario_path(preset, path, laps)
     override = 1.0
     if feedrate_override is not None:
         override = positive(feedrate_override, "feedrate_override")
     given = None if feedrate is None else positive(feedrate, "feedrate")
-    if resolved.time_law is not None:
-        rate = resolved.time_law.mean_speed()
-        override *= 1.0 if given is None else given / rate
-    else:
-        rate = given or _programmed_feedrate(resolved) or preset.feedrate
-        if given is not None:
-            options.setdefault("use_program_feeds", False)
-        if rate * override > preset.max_feedrate:
-            warnings.warn(
-                f"feedrate {rate * override:.4g} m/s exceeds {preset.name}'s machine limit "
-                f"{preset.max_feedrate:.4g} m/s; the interpolator caps it, as a CNC does",
-                stacklevel=2,
-            )
+    if given is not None and resolved.time_law is None:
+        options.setdefault("use_program_feeds", False)  # the given feed replaces the F words
+    rate, override = _nominal_feedrate(preset, resolved, given, override)
+    _check_loop_options(options)
+    return Scenario(preset, resolved, rate, _with_paper_options(preset, options), override, laps)
+
+
+def _scenario_path(preset: Preset, path: str | Path | None, laps: int | None) -> tuple[Path, int]:
+    """The path on the machine's axes, repeated ``laps`` times, and the laps.
+
+    None: the preset's paper path, with its laps; laps default to 1 on any other path.
+    """
+    resolved = load(preset.path if path is None else path) if not isinstance(path, Path) else path
+    own = path is None or path == preset.path
+    if laps is None:
+        laps = preset.laps if own else 1
+    return _on_machine(resolved, preset).repeat(laps), laps
+
+
+def _nominal_feedrate(
+    preset: Preset, path: Path, given: float | None, override: float
+) -> tuple[float, float]:
+    """The scenario's nominal feedrate and feed override (see :func:`make_scenario`).
+
+    On a time-law path the nominal is the law's mean speed and ``given`` scales the override;
+    else ``given``, the part's highest cutting F word or the preset's feedrate. Warns when the
+    commanded feedrate exceeds the machine's limit.
+    """
+    if path.time_law is not None:
+        rate = path.time_law.mean_speed()
+        return rate, override * (1.0 if given is None else given / rate)
+    rate = given or _programmed_feedrate(path) or preset.feedrate
+    if rate * override > preset.max_feedrate:
+        warnings.warn(
+            f"feedrate {rate * override:.4g} m/s exceeds {preset.name}'s machine limit "
+            f"{preset.max_feedrate:.4g} m/s; the interpolator caps it, as a CNC does",
+            stacklevel=3,
+        )
+    return rate, override
+
+
+def _check_loop_options(options: Mapping[str, Any]) -> None:
+    """Raise ValueError naming the keys of ``options`` that are no :class:`LoopOptions` field."""
     unknown = sorted(set(options) - set(LoopOptions.__dataclass_fields__))
     if unknown:
         raise ValueError(f"unknown option(s) {unknown}; accepted: "
                          f"{', '.join(sorted(LoopOptions.__dataclass_fields__))}")
-    return Scenario(preset, resolved, rate, _with_paper_options(preset, options), override, laps)
 
 
 def _with_paper_options(preset: Preset, options: Mapping[str, Any]) -> dict[str, Any]:

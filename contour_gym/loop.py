@@ -11,6 +11,12 @@ so a member's result depends only on its own seed and parameters, never on ``B``
 The machine is a rig by default: the encoder quantises, noise is added where the axes have it,
 and the command computed from sample k drives the plant from tick k + 1. ``ideal=True`` drops
 all three (the papers' pure simulations).
+
+This module holds the loop's core (construction, kernel choice, reset, stepping, runs and their
+metrics); its parts live next to it: the arrays by name and their read-outs
+(:mod:`contour_gym._loopviews`), the parameter setters (:mod:`contour_gym._loopparams`), the
+arrays' construction (:mod:`contour_gym._loopbuild`), the random numbers
+(:mod:`contour_gym._loopnoise`) and the per-tick record (:mod:`contour_gym._looprecord`).
 """
 
 from __future__ import annotations
@@ -26,39 +32,40 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from contour_gym import _compile, _precompile, _tiers, motion
-from contour_gym._blob import Blob
-from contour_gym._loopstate import ACC_A as ACC_A_SCHEMA
-from contour_gym._loopstate import ACC_C as ACC_C_SCHEMA
+from contour_gym._loopbuild import (
+    axis_arrays,
+    config_row,
+    contour_axes,
+    contour_offsets,
+    filled_blob,
+    path_blob,
+    state_shapes,
+)
+from contour_gym._loopnoise import NOISE_CHUNK as NOISE_CHUNK  # re-exported
+from contour_gym._loopnoise import NoiseSource, draws_noise, member_generators
+from contour_gym._loopparams import LoopParameters
+from contour_gym._looprecord import MAX_RECORD_BYTES, Recorder, Trace
 from contour_gym._loopstate import (
     CF,
-    CONFIG,
     FLOAT_NAMES,
-    FOOT,
     FT,
     INT_NAMES,
-    LS,
-    MEM,
-    PATH_FLOATS,
+    MEM_COL,
     REASON_DIVERGED,
     REASON_NAMES,
     REASON_TIME_CAP,
-    STATUS_ARRIVED,
     STATUS_FAILED,
     STATUS_OK,
     STATUS_PAUSED,
-    WORK,
-    M,
 )
-from contour_gym._loopstate import LAST as LAST_SCHEMA
-from contour_gym._validate import as_finite_array, choice, non_negative, positive, seed_value
+from contour_gym._validate import as_finite_array, choice, non_negative, positive
 from contour_gym.ccc import CCC_FAMILY, CCC_LAWS, INJECTIONS, ccc_params
 from contour_gym.contour import ESTIMATORS, Estimator, get_estimator
-from contour_gym.contour._history import HIST_WIDTH
 from contour_gym.contour.base import ESTIMATOR_FAMILY
 from contour_gym.metrics import ErrorSums, metrics_from_sums
-from contour_gym.motion import IP, IS, build_program
+from contour_gym.motion import IP, build_program
 from contour_gym.paths import Path
-from contour_gym.plant._kernel import AX, DISTURBANCE, ST, STATE
+from contour_gym.plant._kernel import ST, STATE
 from contour_gym.plant.friction import FRICTION_FAMILY, FRICTION_LAWS, law_for
 from contour_gym.plant.params import AxisParams
 from contour_gym.plant.stage import (
@@ -73,92 +80,15 @@ from contour_gym.plant.stage import (
 from contour_gym.servo import CONTROLLERS, PIDGains, build_controller, compensation
 from contour_gym.servo.base import CONTROLLER_FAMILY
 from contour_gym.servo.compensation import COMPENSATION_FAMILY
-from contour_gym.servo.compensation import STATE as COMP_STATE
 from contour_gym.servo.gains import as_pid_gains
 
 Array = NDArray[np.float64]
 # config columns holding the code of the loop's one component of each family
 _CODED = {"ctrl": CONTROLLER_FAMILY, "est": ESTIMATOR_FAMILY, "ccc": CCC_FAMILY,
           "comp": COMPENSATION_FAMILY}  # fmt: skip
-NOISE_CHUNK = 256  # ticks of normals drawn per member at a time
 MAX_RUN_TICKS = 200_000_000  # ticks one run() may take (55 h of machine time at 1 kHz)
-MAX_RECORD_BYTES = 2 * 1024**3  # memory a recorded run() may fill with its trace
 LOOP_TEMPLATE = "contour_gym._loopkernel"  # the servo loop's kernel template (_compile)
 DEFAULT_SETTLE = 1.0  # s the machine may take to get in position after the reference ends
-
-
-@dataclass
-class Trace:
-    """Per-tick record of a run, batch-first.
-
-    Attributes:
-        t: (T,) time of each tick, s.
-        s: (B, T) reference arc length, m.
-        v: (B, T) reference path speed, m/s.
-        r: (B, T, A) reference per axis, m.
-        x: (B, T, A) true axis positions, m.
-        u: (B, T, A) saturated control command.
-        eps: (B, T, C) true contour error (signed in 2-D), m.
-        eps_est: (B, T, C) contour error seen by the CCC, m.
-    """
-
-    t: Array
-    s: Array
-    v: Array
-    r: Array
-    x: Array
-    u: Array
-    eps: Array
-    eps_est: Array
-
-
-class _NoiseSource:
-    """Per-member standard normals, drawn in chunks, each member with its own read position.
-
-    A member's numbers are its own generator's normal stream consumed in order (numpy fills
-    arrays sequentially, so chunk sizes do not matter): results never depend on B, on how a
-    run is cut into calls, or on other members' resets and pauses. The kernel reads member
-    ``b``'s rows in place from ``pos[b]`` (the loop's ``noise_at``) and advances it.
-    """
-
-    def __init__(self, batch: int, width: int, active: bool) -> None:
-        self.width, self.active = width, active
-        self.gens: list[np.random.Generator | None] = [None] * batch
-        self.buf = np.zeros((batch, NOISE_CHUNK if active else 0, width))
-        self.end = np.zeros(batch, dtype=np.int64)  # end of the valid rows per member
-        self.ahead = 0  # rows every member has left at least (a call takes n from each)
-
-    def reseed(
-        self, members: NDArray[np.intp], gens: list[np.random.Generator | None], pos: Any
-    ) -> None:
-        for b, g in zip(members, gens, strict=True):
-            self.gens[b] = g
-            pos[b] = self.end[b] = 0  # nothing left: the next take draws fresh
-        self.ahead = 0
-
-    def take(self, n: int, status: NDArray[np.int64], pos: Any) -> Array:
-        """The buffer (B, rows, width): rows ``pos[b]`` on hold ``n`` for running members.
-
-        Without noise, an empty buffer (B, 0, width).
-        """
-        if not self.active:
-            return self.buf
-        if n <= self.ahead:  # every member has its n rows: no array work on a short call
-            self.ahead -= n
-            return self.buf
-        running = status == STATUS_OK
-        if n > self.buf.shape[1]:
-            grown = np.zeros((self.buf.shape[0], n, self.width))
-            grown[:, : self.buf.shape[1]] = self.buf
-            self.buf = grown
-        cap = self.buf.shape[1]
-        for b in np.flatnonzero(running & (pos + n > self.end)):
-            rest = self.buf[b, pos[b] : self.end[b]].copy()
-            self.buf[b, : len(rest)] = rest
-            self.buf[b, len(rest) :] = self.gens[b].standard_normal((cap - len(rest), self.width))  # type: ignore[union-attr]
-            pos[b], self.end[b] = 0, cap
-        self.ahead = int((self.end - pos).min()) - n
-        return self.buf
 
 
 @dataclass(frozen=True)
@@ -196,8 +126,14 @@ class LoopOptions:
     sample_period: float | None = None
 
 
-class ServoLoop:
+class ServoLoop(LoopParameters):
     """Batched closed loop over one stage and one path.
+
+    The arrays of its blobs are attributes (``loop.ax_s``, ``loop.status``, ...: views written
+    in place, declared in :class:`contour_gym._loopviews.LoopViews` with the state read-outs
+    ``done``, ``failed``, ``cycle_time`` ...); the parameter setters (``set_ccc_gains``,
+    ``set_feedrate``, ``set_plant_scaling`` ...) are those of
+    :class:`contour_gym._loopparams.LoopParameters`.
 
     Args:
         stage: The machine.
@@ -214,42 +150,6 @@ class ServoLoop:
             time law (:attr:`Path.time_law`) is run on it instead of the interpolator's feeds.
     """
 
-    # views into the float and int blobs (contour_gym._loopstate; always written in place)
-    ax_p: Array
-    fr_p: Array
-    rip: Array
-    dist: Array
-    ad: Array
-    bd: Array
-    ax_s: Array
-    ctrl_p: Array
-    ctrl_s: Array
-    comp_p: Array
-    comp_s: Array
-    ccc_p: Array
-    ccc_w: Array
-    ccc_s: Array
-    ccc_data: Array
-    est_p: Array
-    hist: Array
-    ip_p: Array
-    ip_s: Array
-    foot: Array
-    last: Array
-    acc_c: Array
-    acc_a: Array
-    ep_c: Array
-    ep_a: Array
-    u_cmd: Array
-    y_last: Array
-    mem: Array
-    work: Array
-    c_off: Array
-    c_axes: NDArray[np.int64]
-    status: NDArray[np.int64]
-    k_start: NDArray[np.int64]
-    noise_at: NDArray[np.int64]
-
     def __init__(
         self,
         stage: Stage,
@@ -263,15 +163,7 @@ class ServoLoop:
         record: bool = False,
         **options: Any,
     ) -> None:
-        if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
-            raise ValueError(f"batch_size must be a positive int, got {batch_size!r}")
-        if path.dim != stage.dim:
-            raise ValueError(
-                f"path {path.name!r} is {path.dim}-D but stage {stage.name!r} draws "
-                f"{stage.dim}-D contours"
-            )
-        if len(axis_gains) != stage.n_axes:
-            raise ValueError(f"need {stage.n_axes} axis gains, got {len(axis_gains)}")
+        _check_sizes(stage, path, axis_gains, batch_size)
         stage.check_travel(path)  # before any array is sized
         self.opts = _options(options)
         self.stage, self.path, self.batch_size, self.record = stage, path, int(batch_size), record
@@ -293,14 +185,13 @@ class ServoLoop:
             use_program_feeds=self.opts.use_program_feeds,
         )  # fmt: skip
         self._bind(bool(np.any(comp_p[..., compensation.C.mode] != compensation.NONE)))
-        params = self._parameter_arrays(ctrl_p, comp_p, ccc_gains, ccc_weights)
-        self._build_blobs(params)
-        self._build_path_blob()
+        self._build_blobs(self._parameter_arrays(ctrl_p, comp_p, ccc_gains, ccc_weights))
+        self._pblob, self._kind = path_blob(path, self.program)
         self._config = self._config_row()
         self._kernel: ModuleType | None = None  # chosen on first use (kernel)
-        self._rec_width = 2 + 3 * stage.n_axes + 2 * len(stage.contours)
+        self._recorder = Recorder(b, stage.n_axes, len(stage.contours))
         self._marked = False  # mark_compiled done (advance)
-        self._no_record = np.zeros((b, 0, self._rec_width))
+        self._no_record = self._recorder.empty
         self._nominal = (self.ax_p.copy(), self.fr_p.copy(), self.dist.copy())
         self.reset(0)
 
@@ -308,90 +199,36 @@ class ServoLoop:
     def _parameter_arrays(
         self, ctrl_p: Array, comp_p: Array, ccc_gains: ArrayLike | None, ccc_weights: ArrayLike
     ) -> dict[str, Array]:
-        stage, b, ideal = self.stage, self.batch_size, self.opts.ideal
+        stage, b = self.stage, self.batch_size
         c = len(stage.contours)
         code = dict(zip(self.law_names, self.codes[FRICTION_FAMILY.name], strict=True))
-        ax_p = np.stack(
-            [axis_row(x, code[law_for(x.friction).name], ideal=ideal) for x in stage.axes]
-        )
-        ax_p = np.repeat(ax_p[None], b, axis=0)
-        ad, bd = zoh_matrices(ax_p, stage.ts / stage.substeps)
-        each = {
-            "fr_p": np.stack([friction_row(x) for x in stage.axes]),
-            "rip": np.stack([ripple_rows(x) for x in stage.axes]),
-            "dist": np.stack([disturbance_row(x, stage.ts) for x in stage.axes]),
-        }
         law_params = self.opts.ccc_law_params or {}
         ccc_w = np.broadcast_to(as_finite_array(ccc_weights, "ccc_weights"), (b, c, 3))
-        params = {
-            "ax_p": ax_p, "ad": ad, "bd": bd, "ctrl_p": ctrl_p, "comp_p": comp_p,
+        axes = axis_arrays(stage, b, code, self.opts.ideal)
+        return {
+            "ax_p": axes.pop("ax_p"), "ad": axes.pop("ad"), "bd": axes.pop("bd"),
+            "ctrl_p": ctrl_p, "comp_p": comp_p,
             "ccc_p": ccc_params(ccc_gains, b, c, self.ccc_law, **law_params), "ccc_w": ccc_w,
             "ccc_data": self.ccc_law.table(), "est_p": self.estimator.params,
-            "ip_p": self.interpolator.params(b), "c_off": self._contour_offsets(),
-            **{k: np.repeat(v[None], b, axis=0) for k, v in each.items()},
+            "ip_p": self.interpolator.params(b), "c_off": contour_offsets(stage), **axes,
         }  # fmt: skip
-        return params
-
-    def _contour_offsets(self) -> Array:
-        out = np.zeros((len(self.stage.contours), 3))
-        for i, con in enumerate(self.stage.contours):
-            if con.offset:
-                out[i, : con.dim] = con.offset
-        return out
 
     def _build_blobs(self, params: dict[str, Array]) -> None:
         # every array the kernel touches lives in one of two blobs (contour_gym._blob); the
-        # attributes named in FLOAT_NAMES / INT_NAMES are views, always written in place
-        stage, b = self.stage, self.batch_size
-        c, a = len(stage.contours), stage.n_axes
-        state = {
-            "ax_s": (b, a, STATE.size), "ctrl_s": (b, a, self.controller.state.size),
-            "comp_s": (b, a, COMP_STATE.size), "ccc_s": (b, c, 3, self.ccc_law.state.size),
-            "hist": (b, HIST_WIDTH), "ip_s": (b, motion.IP_STATE.size), "foot": (b, c, FOOT.size),
-            "last": (b, c, LAST_SCHEMA.size), "acc_c": (b, c, ACC_C_SCHEMA.size),
-            "acc_a": (b, a, ACC_A_SCHEMA.size), "ep_c": (b, c, ACC_C_SCHEMA.size),
-            "ep_a": (b, a, ACC_A_SCHEMA.size), "u_cmd": (b, a), "y_last": (b, a),
-            "mem": (b, MEM.size), "work": (WORK.size, a),
-        }  # fmt: skip
-        shapes = {**{k: v.shape for k, v in params.items()}, **state}
-        self._fblob = Blob([(name, shapes[name]) for name in FLOAT_NAMES])
-        c_axes = np.full((c, 3), -1, dtype=np.int64)
-        for i, con in enumerate(stage.contours):
-            c_axes[i, : con.dim] = con.axes
-        int_shapes = {"c_axes": c_axes.shape, "status": (b,), "k_start": (b,), "noise_at": (b,)}
-        self._iblob = Blob([(name, int_shapes[name]) for name in INT_NAMES], np.int64)
-        self._attach_views()
-        for name, value in params.items():
-            getattr(self, name)[...] = value
-        self.c_axes[...] = c_axes
-
-    def _build_path_blob(self) -> None:
-        t, law = self.path.table, self.path.time_law
-        names = ("feed", "flags", "vcap", "vj", "wait", "dwell")
-        values = dict(zip(names, self.program.arrays(), strict=True))
-        values.update(s0=t.s0, data=t.data, bound=t.bound)
-        values["law_s"] = law.s if law is not None else np.zeros(1)
-        values["law_v"] = law.v if law is not None else np.zeros(1)
-        self._pblob = Blob([(name, values[name].shape) for name, _ in PATH_FLOATS])
-        for name, _ in PATH_FLOATS:
-            self._pblob.views[name][...] = values[name]
-        self._kind = np.ascontiguousarray(t.kind, dtype=np.int64)
+        # attributes named in FLOAT_NAMES / INT_NAMES are views (LoopViews), written in place
+        b = self.batch_size
+        shapes = state_shapes(self.stage, b, self.controller.state.size, self.ccc_law.state.size)
+        self._fblob = filled_blob(FLOAT_NAMES, params, shapes)
+        self._iblob = filled_blob(
+            INT_NAMES, {"c_axes": contour_axes(self.stage)},
+            {"status": (b,), "k_start": (b,), "noise_at": (b,)}, np.int64,
+        )  # fmt: skip
+        self.sums = ErrorSums(self.ep_c, self.ep_a)
 
     def _config_row(self) -> Array:
-        stage, o = self.stage, self.opts
-        exact = o.ideal or not any(x.encoder_resolution > 0 or x.noise_std > 0 for x in stage.axes)
-        every = 1 if o.sample_period is None else max(1, round(o.sample_period / stage.ts))
-        return CONFIG.row(
-            ts=stage.ts, nsub=stage.substeps, dim=self.path.dim, length=self.path.length,
-            closed=float(self.path.closed), meas_exact=float(exact),
-            delay=0.0 if o.ideal else float(stage.delay_ticks),
-            inj_ref=float(o.ccc_injection == "reference"), record=float(self.record),
-            settle_ticks=math.ceil(o.settle_time / stage.ts), in_band=stage.in_position,
-            in_speed=stage.in_position_speed,
-            law_dt=1.0 if self.path.time_law is None else self.path.time_law.dt,
-            sample_every=every, search=float(self.estimator.kind.foot is None),
-            **{key: self.codes[fam.name][0] for key, fam in _CODED.items()},
-        )  # fmt: skip
+        codes = {key: self.codes[fam.name][0] for key, fam in _CODED.items()}
+        search = self.estimator.kind.foot is None
+        return config_row(self.stage, self.path, self.opts, self.record, search, codes)
 
     def _bind(self, compensates: bool) -> None:
         # the kernel's slots and this loop's component codes (contour_gym._compile.bind)
@@ -405,6 +242,7 @@ class ServoLoop:
         generic = _compile.is_generic(self._slots)
         self._own_slots = _compile.bind(uses, own=True)[0] if generic else self._slots
 
+    # ---------------------------------------------------------------- kernel
     def describe(self) -> str:
         """The components of this loop, in one line."""
         return (
@@ -446,14 +284,10 @@ class ServoLoop:
         self.reset(0)
         self.step(1)
 
-    def _attach_views(self) -> None:
-        for name, view in {**self._fblob.views, **self._iblob.views}.items():
-            setattr(self, name, view)
-        self.sums = ErrorSums(self.ep_c, self.ep_a)
-
+    # -------------------------------------------------------------- pickling
     def __getstate__(self) -> dict[str, object]:
         # components are pickled by name (and the estimator with its option row) and looked
-        # up in their registries again on load
+        # up in their registries again on load; the views are made again from the blobs
         names = set(self._fblob.views) | set(self._iblob.views) | {"sums", "_kernel"}
         state = {k: v for k, v in self.__dict__.items() if k not in names}
         state["controller"] = self.controller.name
@@ -468,7 +302,7 @@ class ServoLoop:
         self.ccc_law = CCC_LAWS.get(state["ccc_law"])  # type: ignore[arg-type]
         est_name, est_params = cast(tuple[str, Array], state["estimator"])
         self.estimator = Estimator(ESTIMATORS.get(est_name), est_params)
-        self._attach_views()
+        self.sums = ErrorSums(self.ep_c, self.ep_a)
         codes = self.codes
         self._bind(self._compensates)
         if codes != self.codes:
@@ -480,11 +314,9 @@ class ServoLoop:
     # ----------------------------------------------------------------- state
     def _restart_clock(self) -> None:
         self.tick = 0
-        self._records: list[Array] = []
-        active = self.stage.is_random if not self.opts.ideal else any(
-            x.disturbance is not None and x.disturbance.is_random for x in self.stage.axes
-        )  # fmt: skip
-        self._noise = _NoiseSource(self.batch_size, 2 * self.stage.n_axes, active)
+        self._recorder.clear()
+        active = draws_noise(self.stage, self.opts.ideal)
+        self._noise = NoiseSource(self.batch_size, 2 * self.stage.n_axes, active)
 
     def start_positions(self) -> Array:
         """(A,) axis positions at the path start (contour offsets included), m."""
@@ -525,202 +357,8 @@ class ServoLoop:
         self.k_start[idx] = self.tick
         self.sums.contour[idx] = 0.0
         self.sums.axis[idx] = 0.0
-        self._noise.reseed(idx, self._generators(seed, len(idx)), self.noise_at)
-
-    def _generators(
-        self, seed: int | Sequence[int] | None, count: int
-    ) -> list[np.random.Generator | None]:
-        """The reset members' generators, checked seeds.
-
-        None each when the loop draws no noise: a tuner's reset of 16 members spent 0.2 ms
-        making generators it never used.
-        """
-        if seed is None or isinstance(seed, (int, np.integer)):
-            root = np.random.SeedSequence(None if seed is None else seed_value(seed))
-            children = root.spawn(count) if self._noise.active else []
-        else:
-            if not isinstance(seed, (Sequence, np.ndarray)) or isinstance(seed, (str, bytes)):
-                raise ValueError("seed must be a non-negative int, a sequence of them or None, "
-                                 f"got {seed!r}")  # fmt: skip
-            roots = [np.random.SeedSequence(seed_value(s)) for s in seed]
-            if len(roots) != count:
-                raise ValueError(f"need {count} seeds, got {len(roots)}")
-            children = [r.spawn(1)[0] for r in roots] if self._noise.active else []
-        if not self._noise.active:
-            return [None] * count
-        return [np.random.default_rng(c) for c in children]
-
-    # ------------------------------------------------------------ parameters
-    def set_ccc_gains(self, gains: ArrayLike | None) -> None:
-        """Set the CCC gains (kp, ki, kd), broadcastable to (B, C, 3); None switches it off."""
-        rows = ccc_params(gains, self.batch_size, len(self.stage.contours))
-        self.ccc_p[..., :3] = rows[..., :3]
-
-    def set_ccc_params(self, **params: ArrayLike) -> None:
-        """Set the CCC law's named parameters, each broadcastable to (B, C)."""
-        schema = self.ccc_law.params
-        schema.check_names(params)
-        for name, value in params.items():
-            arr = np.broadcast_to(as_finite_array(value, name), self.ccc_p.shape[:2])
-            for x in np.unique(arr):
-                schema.value(name, x)
-            self.ccc_p[..., schema.names.index(name)] = arr
-
-    def set_ccc_weights(self, weights: ArrayLike) -> None:
-        """Set per-member CCC output weights, broadcastable to (B, C, 3).
-
-        ``weights[b, c, i]`` scales what contour ``c``'s CCC adds to coordinate ``i`` of
-        member ``b`` (:mod:`contour_gym.ccc`; e.g. 003's compensator gains K_cix, K_ciy with
-        ``kp = 1``).
-
-        Raises:
-            ValueError: for a NaN or infinite weight or a shape that does not broadcast.
-        """
-        _assign(self.ccc_w, weights, "ccc_weights")
-
-    @property
-    def nominal_feedrate(self) -> float:
-        """The programmed cutting feedrate the override refers to, m/s."""
-        return self.program.nominal
-
-    def set_feedrate(self, feedrate: ArrayLike) -> None:
-        """Command a feedrate (m/s), scalar or (B,): the override ``F / nominal_feedrate``."""
-        f = as_finite_array(feedrate, "feedrate")
-        if np.any(f < 0):
-            raise ValueError(f"feedrate must be >= 0, got {f.min()}")
-        self.set_feed_override(f / self.nominal_feedrate)
-
-    def set_feed_override(self, override: ArrayLike) -> None:
-        """Set the feed override (fraction of the programmed feeds), scalar or (B,)."""
-        o = as_finite_array(override, "feed override")
-        if np.any(o < 0):
-            raise ValueError(f"feed override must be >= 0, got {o.min()}")
-        self.ip_p[:, IP.ovr] = np.broadcast_to(o, (self.batch_size,))
-
-    @property
-    def feedrate(self) -> Array:
-        """(B,) commanded feedrate of the cutting moves, m/s (before the machine's cap)."""
-        return self.ip_p[:, IP.ovr] * self.nominal_feedrate
-
-    def set_controller_params(self, params: ArrayLike) -> None:
-        """Set per-member axis controller parameters, broadcastable to (B, A, P).
-
-        The columns are the controller's schema (``loop.controller.params.col``).
-        """
-        _assign(self.ctrl_p, params, "controller params")
-
-    def set_plant_scaling(
-        self,
-        members: ArrayLike,
-        *,
-        mass: ArrayLike = 1.0,
-        damping: ArrayLike = 1.0,
-        force_constant: ArrayLike = 1.0,
-        friction: ArrayLike = 1.0,
-        disturbance: ArrayLike = 1.0,
-    ) -> None:
-        """Scale members' axis parameters relative to the stage's nominal values.
-
-        Domain randomisation (axis mismatch, friction and disturbance levels; 002 section 4.2
-        analyses gain and time-constant mismatch). Each factor broadcasts to (len(members),
-        n_axes) and must be finite and > 0 (friction/disturbance >= 0); friction scales the
-        parameters each law names in its ``scale``.
-        """
-        idx = np.arange(self.batch_size)[np.asarray(members)].reshape(-1)
-        shape = (len(idx), self.stage.n_axes)
-        f = {
-            k: np.broadcast_to(as_finite_array(v, k), shape)
-            for k, v in dict(mass=mass, damping=damping, force_constant=force_constant,
-                             friction=friction, disturbance=disturbance).items()
-        }  # fmt: skip
-        for k in ("mass", "damping", "force_constant"):
-            if np.any(f[k] <= 0):
-                raise ValueError(f"{k} scale must be > 0, got {f[k].min()}")
-        for k in ("friction", "disturbance"):
-            if np.any(f[k] < 0):
-                raise ValueError(f"{k} scale must be >= 0, got {f[k].min()}")
-        ax_p, fr_p, dist = (arr[idx].copy() for arr in self._nominal)
-        ax_p[..., AX.m] *= f["mass"]
-        ax_p[..., AX.b] *= f["damping"]
-        ax_p[..., AX.k] *= f["force_constant"]
-        for a, axis in enumerate(self.stage.axes):
-            law = law_for(axis.friction)
-            for name in law.scale:
-                fr_p[:, a, law.params.names.index(name)] *= f["friction"][:, a]
-        for name in ("step_a", "sin_a", "rnd_std"):
-            dist[..., DISTURBANCE.names.index(name)] *= f["disturbance"]
-        self.ax_p[idx], self.fr_p[idx], self.dist[idx] = ax_p, fr_p, dist
-        self.ad[idx], self.bd[idx] = zoh_matrices(ax_p, self.stage.ts / self.stage.substeps)
-
-    # ----------------------------------------------------------------- views
-    @property
-    def s(self) -> Array:
-        """(B,) reference arc length, m."""
-        return self.ip_s[:, IS.s]
-
-    @property
-    def reference_done(self) -> NDArray[np.bool_]:
-        """(B,) whether the reference has reached the end of the path."""
-        return self.ip_s[:, IS.done] >= 0
-
-    @property
-    def done(self) -> NDArray[np.bool_]:
-        """(B,) whether a member has finished the contour: in position at the path end."""
-        return self.status == STATUS_ARRIVED
-
-    @property
-    def failed(self) -> NDArray[np.bool_]:
-        """(B,) whether a member failed: diverged, or never got in position at the end."""
-        return self.status == STATUS_FAILED
-
-    @property
-    def failure_reason(self) -> NDArray[np.float64]:
-        """(B,) why a member failed: 0 none, 1 diverged, 2 not in position, 3 over, 4 time cap.
-
-        In words: :data:`REASON_NAMES`. 2: not in position within the settle time after the
-        path end; 3: stopped by :meth:`run`'s ``stop_above``; 4: still running when
-        :meth:`run`'s ``max_time`` ran out.
-        """
-        return self.mem[:, M.reason].copy()
-
-    @property
-    def running(self) -> NDArray[np.bool_]:
-        """(B,) members still on their way."""
-        return (self.status == STATUS_OK) | (self.status == STATUS_PAUSED)
-
-    @property
-    def ticks_run(self) -> NDArray[np.int64]:
-        """(B,) ticks each member has run since its reset (until its end, if it ended)."""
-        ended = (self.status == STATUS_ARRIVED) | (self.status == STATUS_FAILED)
-        return np.where(ended, self.mem[:, M.end], self.tick - self.k_start).astype(np.int64)
-
-    @property
-    def cycle_time(self) -> Array:
-        """(B,) time from the start to the arrival in position at the end, s (inf if not)."""
-        return np.where(self.done, self.mem[:, M.arrival] * self.stage.ts, np.inf)
-
-    @property
-    def contour_error(self) -> Array:
-        """(B, C) true contour error at the last tick, m."""
-        return self.last[..., LS.true]
-
-    @property
-    def contour_error_estimate(self) -> Array:
-        """(B, C) contour error the CCC saw at the last tick, m."""
-        return self.last[..., LS.est]
-
-    @property
-    def progress(self) -> Array:
-        """(B, C) arc length of the machine's foot point along the path (unwrapped), m."""
-        return self.foot[..., FT.progress]
-
-    def blobs(self) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any], NDArray[Any]]:
-        """The float and int blobs and their layouts (what compiled callers take)."""
-        return self._fblob.buffer, self._fblob.layout, self._iblob.buffer, self._iblob.layout
-
-    def path_blobs(self) -> tuple[NDArray[np.int64], NDArray[Any], NDArray[np.int64]]:
-        """The path's segment kinds, float blob and its layout (what compiled callers take)."""
-        return self._kind, self._pblob.buffer, self._pblob.layout
+        gens = member_generators(seed, len(idx), self._noise.active)
+        self._noise.reseed(idx, gens, self.noise_at)
 
     # ------------------------------------------------------------------- run
     def step(self, n_ticks: int, skip: ArrayLike | None = None) -> ErrorSums:
@@ -766,8 +404,7 @@ class ServoLoop:
         paused = None if skip is None else self._pause(skip)
         # reading noise ahead leaves no trace: each member's stream is consumed in order
         noise = self._noise.take(n_ticks, self.status, self.noise_at)
-        rec = np.zeros((self.batch_size, n_ticks, self._rec_width)) if self.record else (
-            self._no_record)  # fmt: skip
+        rec = self._recorder.new(n_ticks) if self.record else self._no_record
         args = (n_ticks, self.tick, self._config, self._fblob.buffer, self._fblob.layout,
                 self._iblob.buffer, self._iblob.layout, self._kind, self._pblob.buffer,
                 self._pblob.layout, noise, rec)  # fmt: skip
@@ -776,8 +413,9 @@ class ServoLoop:
             if paused is not None:
                 self._resume(paused, 0)
             return result
-        if self.record:
-            self._keep_record(rec)
+        if self.record:  # rows after a member's end were never written: NaN, not data
+            ends = self.mem[:, MEM_COL.end]
+            self._recorder.keep(rec, self._ended, ends, self.tick - self.k_start)
         self.tick += n_ticks
         if paused is not None:
             self._resume(paused, n_ticks)
@@ -799,15 +437,6 @@ class ServoLoop:
         # paused members run again, their local clocks n_ticks behind the loop's
         self.status[paused] = STATUS_OK
         self.k_start[paused] += n_ticks
-
-    def _keep_record(self, rec: Array) -> None:
-        # keep a recorded call; rows after a member's end were never written: NaN, not data
-        local = self.tick - self.k_start
-        ended = (self.status == STATUS_ARRIVED) | (self.status == STATUS_FAILED)
-        for b in np.flatnonzero(ended):
-            first = int(self.mem[b, M.end]) - local[b]
-            rec[b, max(first, 0) :] = np.nan
-        self._records.append(rec)
 
     def planned_time(self, override: float | None = None) -> float:
         """A generous estimate of one contour's duration, s.
@@ -880,18 +509,15 @@ class ServoLoop:
             raise ValueError(f"{what}, more than a run may take ({MAX_RUN_TICKS:.3g}): check "
                              "the path's length, its feeds and the stage's ts, or pass "
                              "max_time")  # fmt: skip
-        need = ticks * self.batch_size * self._rec_width * 8
-        if self.record and need > MAX_RECORD_BYTES:
-            raise ValueError(f"{what}: recording it needs {need / 2**30:.3g} GiB, more than "
-                             f"{MAX_RECORD_BYTES / 2**30:.3g} GiB; run without record=True, or "
-                             "a shorter max_time")  # fmt: skip
+        if self.record:
+            self._recorder.check_size(ticks, what)
         return ticks
 
     def _fail(self, members: NDArray[np.bool_], reason: float) -> None:
         # end these members now as failed, for this reason
         self.status[members] = STATUS_FAILED
-        self.mem[members, M.reason] = reason
-        self.mem[members, M.end] = (self.tick - self.k_start)[members]
+        self.mem[members, MEM_COL.reason] = reason
+        self.mem[members, MEM_COL.end] = (self.tick - self.k_start)[members]
 
     def metrics(self) -> dict[str, Array]:
         """Metrics of everything run since the last reset.
@@ -900,7 +526,7 @@ class ServoLoop:
         the errors measured until it was stopped, with ``cycle_time = inf``.
         """
         out = metrics_from_sums(self.sums, self.cycle_time)
-        diverged = self.failed & (self.mem[:, M.reason] == REASON_DIVERGED)
+        diverged = self.failed & (self.mem[:, MEM_COL.reason] == REASON_DIVERGED)
         for v in out.values():
             v[diverged] = np.inf
         return out
@@ -912,32 +538,20 @@ class ServoLoop:
         """
         if not self.record:
             raise ValueError("trace() needs ServoLoop(record=True)")
-        a, c = self.stage.n_axes, len(self.stage.contours)
-        rec = (
-            np.concatenate(self._records, axis=1)
-            if self._records
-            else np.zeros((self.batch_size, 0, self._rec_width))
-        )
-        base = 2 + 3 * a
-        return Trace(
-            t=np.arange(rec.shape[1], dtype=np.float64) * self.stage.ts,
-            s=rec[..., 0],
-            v=rec[..., 1],
-            r=rec[..., 2 : 2 + a],
-            x=rec[..., 2 + a : 2 + 2 * a],
-            u=rec[..., 2 + 2 * a : base],
-            eps=rec[..., base : base + 2 * c : 2],
-            eps_est=rec[..., base + 1 : base + 2 * c : 2],
-        )
+        return self._recorder.trace(self.stage.ts)
 
 
-def _assign(target: Array, value: ArrayLike, name: str) -> None:
-    """Write finite ``value`` into ``target`` in place, broadcast; ValueError naming ``name``."""
-    v = as_finite_array(value, name)
-    try:
-        target[...] = np.broadcast_to(v, target.shape)
-    except ValueError as exc:
-        raise ValueError(f"{name} of shape {v.shape} do not broadcast to {target.shape}") from exc
+def _check_sizes(stage: Stage, path: Path, axis_gains: Sequence[PIDGains], batch: Any) -> None:
+    """Raise ValueError unless the batch size, path dimension and axis gains fit the stage."""
+    if not isinstance(batch, (int, np.integer)) or batch < 1:
+        raise ValueError(f"batch_size must be a positive int, got {batch!r}")
+    if path.dim != stage.dim:
+        raise ValueError(
+            f"path {path.name!r} is {path.dim}-D but stage {stage.name!r} draws "
+            f"{stage.dim}-D contours"
+        )
+    if len(axis_gains) != stage.n_axes:
+        raise ValueError(f"need {stage.n_axes} axis gains, got {len(axis_gains)}")
 
 
 def simulate_axis(
@@ -974,7 +588,7 @@ def simulate_axis(
     ad, bd = zoh_matrices(ax, positive(ts, "ts") / substeps)
     st = np.zeros((1, STATE.size))
     st[0, ST.x], st[0, ST.v] = x0, v0
-    kernel = _compile.specialise("contour_gym._loopkernel", slots)
+    kernel = _compile.specialise(LOOP_TEMPLATE, slots)
     xs, vs = np.zeros(n), np.zeros(n)
     kernel.drive_axis(ax, friction_row(axis)[None], ripple_rows(axis)[None],
                       disturbance_row(axis, ts)[None], ad, bd, st, u, 0.0, ts, substeps, w, xs,

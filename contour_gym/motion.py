@@ -271,28 +271,11 @@ def build_program(
     flags = rapid * RAPID + cutting * CUTTING
     has_modes = hasattr(path, "exact_stop")
     mode = path_control if path_control is not None else ("program" if has_modes else "none")
-    tol_default = DEFAULT_TOLERANCE if path_tolerance is None else non_negative(
-        path_tolerance, "path_tolerance")
-    tolerance = np.where(np.isnan(tol), tol_default, tol) if mode == "program" else np.full(
-        n, tol_default)
+    tolerance = _tolerances(mode, tol, path_tolerance, n)
     dwell_s = _dwell_after(path, n)
-    if mode == "program":
-        stop = np.asarray(stop, dtype=bool) | (dwell_s > 0)
-    else:  # the mode replaces the part's G61/G64 choices, never its mandatory stops
-        kept = np.asarray(getattr(path, "mandatory_stops", np.zeros(n, bool)), dtype=bool)
-        stop = np.full(n, mode == "G61") | kept | (dwell_s > 0)
+    stop = _stops(path, mode, stop, dwell_s)
     a = interpolator.planning_accel
-    t_in, t_out, lengths = _segment_ends(path)
-    vcap = np.full(n, math.inf)
-    vj = np.full(n, math.inf)
-    if mode != "none":
-        exact_path = mode == "G61.1"
-        if math.isfinite(a):
-            kappa = _max_curvature(path)
-            vcap = np.where(kappa > 0, np.sqrt(a / np.maximum(kappa, 1e-300)), math.inf)
-        for j in range(n - 1):
-            delta = 0.0 if exact_path else float(tolerance[j])
-            vj[j] = junction_speed(t_out[j], t_in[j + 1], a, delta)
+    vcap, vj, lengths = _speed_limits(path, mode, tolerance, a)
     vj[stop] = 0.0
     vj[-1] = 0.0
     _backward_pass(vj, vcap, lengths, a)
@@ -301,6 +284,49 @@ def build_program(
         vcap, vj, np.ascontiguousarray(stop, dtype=float),
         np.ascontiguousarray(np.round(dwell_s / ts), dtype=float), nominal,
     )  # fmt: skip
+
+
+def _tolerances(mode: str, tol: Array, path_tolerance: float | None, n: int) -> Array:
+    """Blending tolerance per segment, m: the program's P words (NaN: default) or one value."""
+    tol_default = DEFAULT_TOLERANCE if path_tolerance is None else non_negative(
+        path_tolerance, "path_tolerance")
+    if mode == "program":
+        return np.where(np.isnan(tol), tol_default, tol)
+    return np.full(n, tol_default)
+
+
+def _stops(path: Path, mode: str, stop: NDArray[Any], dwell_s: Array) -> NDArray[np.bool_]:
+    """Where the motion comes to rest: the program's stops, or ``mode``'s and the mandatory.
+
+    A given mode replaces the part's G61/G64 choices, never its mandatory stops; a dwell
+    always stops.
+    """
+    if mode == "program":
+        return np.asarray(stop, dtype=bool) | (dwell_s > 0)
+    n = dwell_s.shape[0]
+    kept = np.asarray(getattr(path, "mandatory_stops", np.zeros(n, bool)), dtype=bool)
+    return np.full(n, mode == "G61") | kept | (dwell_s > 0)
+
+
+def _speed_limits(path: Path, mode: str, tolerance: Array, accel: float
+                  ) -> tuple[Array, Array, Array]:  # fmt: skip
+    """Curvature caps and junction limits before the backward pass, and segment lengths.
+
+    Under ``"none"`` nothing limits the speed but the path end and the stops.
+    """
+    n = path.table.n_segments
+    t_in, t_out, lengths = _segment_ends(path)
+    vcap = np.full(n, math.inf)
+    vj = np.full(n, math.inf)
+    if mode != "none":
+        exact_path = mode == "G61.1"
+        if math.isfinite(accel):
+            kappa = _max_curvature(path)
+            vcap = np.where(kappa > 0, np.sqrt(accel / np.maximum(kappa, 1e-300)), math.inf)
+        for j in range(n - 1):
+            delta = 0.0 if exact_path else float(tolerance[j])
+            vj[j] = junction_speed(t_out[j], t_in[j + 1], accel, delta)
+    return vcap, vj, lengths
 
 
 def _backward_pass(vj: Array, vcap: Array, lengths: Array, accel: float) -> None:

@@ -201,7 +201,7 @@ def fidelity_table(rows: tuple[BaselineRow, ...] = ROWS, seed: int = 0) -> list[
 
 
 def as_markdown(table: list[dict[str, Any]]) -> str:
-    """The table in Markdown (the README's "How close to the papers")."""
+    """The table in Markdown (the documentation's "Machines and papers": how close)."""
     lines = [
         "| paper | row | paper's figure | ours, ideal | ours, rig | ratio | band | verdict |",
         "|---|---|---|---|---|---|---|---|",

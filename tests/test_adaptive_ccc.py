@@ -19,7 +19,7 @@ from agents import fuzzy as F  # noqa: N812
 from agents.evaluate import run_policy, run_policy_batch
 from agents.policies import POLICIES, make_policy
 from contour_gym import _compile
-from contour_gym._loopstate import W
+from contour_gym._loopstate import WORK_ROW
 from contour_gym.api import make_scenario
 from contour_gym.ccc import CCC_LAWS
 from contour_gym.loop import ServoLoop
@@ -67,7 +67,7 @@ def run_rows(loop: ServoLoop) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     for k in range(TICKS):
         loop.step(1)
         eps[k] = loop.ccc_s[0, 0, :, e_prev]
-        out[k] = loop.work[W.uccc, :3]
+        out[k] = loop.work[WORK_ROW.uccc, :3]
         theta.append(thetas(loop)[0].copy())
     return eps, out, np.array(theta)
 
@@ -195,7 +195,7 @@ def test_bad_parameters_raise_naming_the_value(name: str, value: float) -> None:
 def test_the_kernel_cache_key_follows_the_fuzzy_module_the_law_calls() -> None:
     key = _compile.identity(L.ADAPTIVE_FUZZY_PID.output)
     assert key.startswith("agents.ccc_laws.adaptive_fuzzy_pid_output @ ")
-    assert " + agents.fuzzy @ " in key
+    assert " + agents.fuzzy.kernels @ " in key
 
 
 # ----------------------------------------------------------------------------------------

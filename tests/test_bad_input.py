@@ -250,7 +250,7 @@ def test_a_nanosecond_servo_period_is_refused_at_once() -> None:
 def test_a_full_disk_is_one_line_naming_the_file(tmp_path: Path, monkeypatch, capsys) -> None:
     import errno
 
-    from agents import tune as tune_module
+    from agents.tune import runner as tune_module
 
     def full(target: Path, data: object) -> None:
         raise OSError(errno.ENOSPC, "No space left on device", str(target))

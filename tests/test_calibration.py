@@ -10,7 +10,6 @@ import pytest
 import contour_gym  # noqa: F401  (registers the ids)
 from contour_gym.api import make_scenario, simulate
 from contour_gym.envs.config import EnvConfig
-from contour_gym.envs.core import _scenario
 from contour_gym.envs.registration import SCENARIOS, scenario_table
 from contour_gym.metrics import member_metrics
 from contour_gym.paths import TimeLaw, circle, line, load
@@ -37,7 +36,7 @@ def test_000_circle_without_ccc_is_within_15_percent_of_000s_simulation():
 )
 def test_004_constant_feedrate_rows_hold(scenario, peak, cycle):
     kwargs = dict(SCENARIOS[scenario][1], ideal=True)
-    loop = _scenario(EnvConfig.from_kwargs(kwargs)).loop()
+    loop = EnvConfig.from_kwargs(kwargs).scenario().loop()
     loop.reset(0)
     m = member_metrics(loop.run(), 0)
     assert within(m["max_contour_error"], peak, 0.20), m["max_contour_error"]
@@ -74,7 +73,7 @@ def test_three_leaf_runs_theta_2_pi_f_t_and_its_speed_varies_threefold():
 
 def test_003_windows_are_10_seconds():
     for name in ("CCC-XYYGantry-Circle-v0", "CCC-XYYGantry-ThreeLeaf-v0"):
-        scenario = _scenario(EnvConfig.from_kwargs(dict(SCENARIOS[name][1])))
+        scenario = EnvConfig.from_kwargs(dict(SCENARIOS[name][1])).scenario()
         loop = scenario.loop()
         duration = loop.planned_time() - loop.opts.settle_time
         assert duration == pytest.approx(10.0, rel=1e-3), (name, duration)
@@ -172,7 +171,7 @@ CCC_IDS = [name for name, (task, _) in SCENARIOS.items() if task == "CCC"]
 @pytest.mark.parametrize("name", CCC_IDS)
 def test_preset_pid_ccc_mean_error_is_within_a_decade_of_the_tolerance(name):
     config = EnvConfig.from_kwargs(dict(SCENARIOS[name][1]))
-    scenario = _scenario(config)
+    scenario = config.scenario()
     loop = scenario.loop(ccc_gains=scenario.preset.ccc_gains)
     loop.reset(0)
     m = member_metrics(loop.run(), 0)

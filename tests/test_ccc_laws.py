@@ -14,8 +14,9 @@ from _law_checks import (
 
 from agents import ccc_laws
 from agents import fuzzy as F  # noqa: N812
+from agents.fuzzy import kernels as fuzzy_kernels
 from contour_gym import _compile
-from contour_gym._loopstate import W
+from contour_gym._loopstate import WORK_ROW
 from contour_gym.api import make_scenario
 from contour_gym.ccc import CCC_LAWS
 from contour_gym.loop import ServoLoop
@@ -48,8 +49,8 @@ def run_ccc_outputs(loop: ServoLoop) -> tuple[np.ndarray, np.ndarray]:
     eps, out = np.empty(TICKS), np.empty(TICKS)
     for k in range(TICKS):
         loop.step(1)
-        ux, uy = loop.work[W.uccc, :2]
-        vx, vy = loop.work[W.rdot, :2]
+        ux, uy = loop.work[WORK_ROW.uccc, :2]
+        vx, vy = loop.work[WORK_ROW.rdot, :2]
         eps[k] = loop.contour_error_estimate[0, 0]
         out[k] = math.copysign(math.hypot(ux, uy), vy * ux - vx * uy)
     return eps, out
@@ -76,7 +77,7 @@ def test_the_flat_table_reads_the_surface_bit_for_bit() -> None:
     table = ccc_laws.fuzzy_pid_table()
     assert table is ccc_laws.fuzzy_pid_table() and not table.flags.writeable
     flat = np.empty((len(x), 3))
-    F._surface_flat_batch(table, x, flat)
+    fuzzy_kernels._surface_flat_batch(table, x, flat)
     np.testing.assert_array_equal(flat[4:], F.evaluate(system, x[4:], method="surface"))
     assert np.isnan(flat[:2]).all()
     assert CCC_LAWS.get("fuzzy_pid") is ccc_laws.FUZZY_PID
@@ -114,8 +115,8 @@ def test_bad_parameters_raise_naming_the_value(name: str, value: float) -> None:
 
 
 def test_the_kernel_cache_key_follows_the_fuzzy_module_the_law_calls() -> None:
-    # the law's surface code lives in agents/fuzzy.py: editing it must recompile the loop
+    # the law's surface code lives in agents/fuzzy/kernels.py: editing it must recompile the loop
     key = _compile.identity(ccc_laws.FUZZY_PID.output)
     assert key.startswith("agents.ccc_laws.fuzzy_pid_output @ ")
-    assert " + agents.fuzzy @ " in key
+    assert " + agents.fuzzy.kernels @ " in key
     assert " + " not in _compile.identity(CCC_LAWS.get("pid").output)

@@ -1,4 +1,4 @@
-"""Compiled fuzzy systems (agents/fuzzy.py) against scikit-fuzzy and plain numpy."""
+"""Compiled fuzzy systems (agents/fuzzy/) against scikit-fuzzy and plain numpy."""
 
 from __future__ import annotations
 

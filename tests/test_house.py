@@ -274,3 +274,63 @@ def test_agents_modules_import_without_a_circle():
         }
     _assert_acyclic(graph)
     assert "agents.ccc_policies" not in graph["agents.policies"]  # registered on first use
+
+
+# ------------------------------------------------------------ a house a newcomer can walk
+
+AGENTS = PACKAGE.parent / "agents"
+
+
+def _private_contour_gym_imports(path: pathlib.Path) -> list[str]:
+    """``contour_gym`` names a file imports whose module path or name is private (``_x``)."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            modules, names = [node.module], [a.name for a in node.names]
+        elif isinstance(node, ast.Import):
+            modules, names = [a.name for a in node.names], []
+        else:
+            continue
+        for module in modules:
+            if module.split(".")[0] != "contour_gym":
+                continue
+            private = [p for p in module.split(".") if p.startswith("_")]
+            out += [f"{module} ({', '.join(names)})"] if private else []
+            out += [f"{module}.{n}" for n in names if n.startswith("_")]
+    return out
+
+
+def test_agents_import_only_public_names_of_contour_gym():
+    found = {str(p.relative_to(AGENTS.parent)): _private_contour_gym_imports(p)
+             for p in sorted(AGENTS.rglob("*.py"))}  # fmt: skip
+    assert {k: v for k, v in found.items() if v} == {}
+
+
+def test_the_env_core_has_no_branch_on_the_task_kind():
+    """The task kinds are strategies (contour_gym.tasks): neither the env core nor its kernel
+    compares a task kind."""
+    kinds = {"CCC", "FEEDRATE", "KIND_CCC", "KIND_FEEDRATE", "kind"}
+    for name in ("envs/core.py", "envs/_kernel.py"):
+        for node in ast.walk(ast.parse((PACKAGE / name).read_text())):
+            if isinstance(node, ast.Compare):
+                names = {n.id for n in ast.walk(node) if isinstance(n, ast.Name)}
+                attrs = {n.attr for n in ast.walk(node) if isinstance(n, ast.Attribute)}
+                assert not (names | attrs) & kinds, f"{name}:{node.lineno}"
+
+
+MAX_FILE_LINES, MAX_FUNCTION_LINES = 700, 60
+
+
+def test_no_file_over_700_lines_and_no_function_over_60():
+    big_files, long_functions = [], []
+    for path in sorted([*PACKAGE.rglob("*.py"), *AGENTS.rglob("*.py")]):
+        text = path.read_text()
+        rel = path.relative_to(PACKAGE.parent).as_posix()
+        if len(text.splitlines()) > MAX_FILE_LINES:
+            big_files.append((rel, len(text.splitlines())))
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                length = (node.end_lineno or node.lineno) - node.lineno + 1
+                if length > MAX_FUNCTION_LINES:
+                    long_functions.append((rel, node.name, length))
+    assert big_files == [] and long_functions == []

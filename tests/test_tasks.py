@@ -188,3 +188,44 @@ def test_gcode_part_runs_each_block_at_its_own_feedrate():
         slow = simulate(plant="xy_servo_coulomb", path=part, feedrate_override=0.5, ideal=True)
     full = simulate(plant="xy_servo_coulomb", path=part, ideal=True)
     assert slow["cycle_time"] > 1.3 * full["cycle_time"]  # the rapid is not overridden
+
+
+@pytest.fixture
+def kp_task():
+    from _kp_task import KP_ONLY
+
+    from contour_gym.tasks import TASKS, register_task
+
+    register_task(KP_ONLY, replace=True)
+    yield KP_ONLY
+    TASKS.unregister(KP_ONLY.name)
+
+
+def test_a_third_task_is_one_module_and_a_registration(kp_task):
+    """A user's task (tests/_kp_task.py) runs like a built-in one: its action sets kp alone,
+    which is the CCC task with ki and kd at action -1 (exactly 0), bit for bit."""
+    from _kp_task import KpEnv, kp_actions
+
+    env, ccc = KpEnv(plant="xy_dc_servo", path="circle"), CCCEnv(plant="xy_dc_servo", path="circle")
+    assert env.action_space.shape == (1,)
+    assert env.observation_space["kp"].shape == (1,) and "gains" not in env.observation_space
+    obs, _ = env.reset(seed=3)
+    assert obs["kp"].tolist() == [-1.0]
+    ccc.reset(seed=3)
+    for a in (0.2, 0.5, -0.3):
+        obs, r, te, tr, info = env.step(np.array([a], dtype=np.float32))
+        obs_c, r_c, te_c, tr_c, info_c = ccc.step(kp_actions(a, 1))
+        assert r == r_c and (te, tr) == (te_c, tr_c)
+        np.testing.assert_array_equal(info["contour_error"], info_c["contour_error"])
+        np.testing.assert_array_equal(obs["contour_error"], obs_c["contour_error"])
+        assert obs["kp"].tolist() == [np.float32(a)]
+    env.close()
+    ccc.close()
+
+
+def test_unknown_task_is_named():
+    from contour_gym.envs.config import EnvConfig
+    from contour_gym.envs.core import ContourTask
+
+    with pytest.raises(ValueError, match="unknown task 'gain_schedule'; accepted: ccc, feedrate"):
+        ContourTask(EnvConfig.from_kwargs({}), 1, "gain_schedule")

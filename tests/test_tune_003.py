@@ -180,7 +180,7 @@ def test_work_units_cover_every_candidate_once_with_balanced_predicted_work() ->
 
 def test_run_stops_a_member_past_the_limit_on_that_tick() -> None:
     """stop_above: the member fails (reason 3) on the first tick its max error passes it."""
-    from contour_gym._loopstate import REASON_OVER_LIMIT, M
+    from contour_gym._loopstate import MEM_COL, REASON_OVER_LIMIT
 
     objective = PopulationObjective(CIRCLE_003, workers=1)
     loop = objective._loops_for(2)[0]
@@ -195,7 +195,7 @@ def test_run_stops_a_member_past_the_limit_on_that_tick() -> None:
     assert np.all(stopped["max_contour_error"] > limit)
     # it stopped on the tick: its max is the first error past the limit, below the full run's
     assert np.all(stopped["max_contour_error"] < full["max_contour_error"])
-    assert np.all(loop.mem[:, M.end] < free.mem[:, M.end])
+    assert np.all(loop.mem[:, MEM_COL.end] < free.mem[:, MEM_COL.end])
     # the next run without a limit runs to the end again
     loop.reset([0, 0])
     again = loop.run()

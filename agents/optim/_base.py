@@ -30,7 +30,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from contour_gym._validate import finite
+from contour_gym.params import finite
 
 FloatArray = NDArray[np.float64]
 

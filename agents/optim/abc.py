@@ -31,14 +31,8 @@ roulette ``p_i = fit_i / sum(fit)`` (:func:`abc_probabilities`) and eq. 25, ``p_
 max(fit) + 0.1`` normalised (:func:`iabc_probabilities`). ``1 / (1 + r)`` is Karaboga's formula
 with the rank in place of the raw value; it favours the best sources strongly (the best gets
 ``1 / H_SN`` of Karaboga's roulette, ``H_SN = 1 + 1/2 + ... + 1/SN``: 26 % for ``SN = 25``).
-Measured (colony 50, 100 cycles, median final fitness of seeds 0-39 on sphere-5,
-Rosenbrock-2, Rosenbrock-5, Rastrigin-5; these objectives are of order 1, where ``1 / (1 + f)``
-is not uniform): ABC 3.3e-11, 2.9e-3, 0.25, 4.3e-6 with the rank fitness, 5.3e-10, 1.4e-3,
-0.15, 2.9e-5 with ``1 / (1 + f)`` and 3.5e-10, 1.5e-3, 0.32, 9.3e-4 with a uniform roulette
-(what ``1 / (1 + f)`` gives on an objective in metres); IABC 1.8e-5, 6.8e-4, 0.16, 1.3e-2
-against 1.9e-5, 1.2e-3, 0.18, 1.8e-2 and 2.6e-5, 6.4e-4, 0.31, 3.1e-2. A linear ranking,
-``fit = (SN - r) / SN`` (a milder preference), gave ABC 1.2e-10, 1.5e-3, 0.19, 1.6e-4: better
-on Rosenbrock, worse on sphere and Rastrigin. Greedy selection (eq. 24), the worst-position
+The measured effect of the rank fitness is in the documentation (Measurements and design
+notes: ABC). Greedy selection (eq. 24), the worst-position
 update and the scouts compare fitness values only, so they need no change.
 """
 
@@ -61,7 +55,7 @@ from agents.optim._base import (
     ranks,
     run,
 )
-from contour_gym._validate import finite
+from contour_gym.params import finite
 
 IntArray = NDArray[np.intp]
 
@@ -218,6 +212,52 @@ def _karaboga_move(colony: Colony, bees: IntArray, rng: np.random.Generator) -> 
     return clip_unit(cand)
 
 
+def iabc_move(
+    colony: Colony, bees: IntArray, rng: np.random.Generator, *, etas: tuple[float, float, float]
+) -> FloatArray:
+    """Paper 003's eq. 23: the improved neighbour move of employed and onlooker bees.
+
+    ``v_ij = psi_ij + eta1 r (psi_kj - psi_ij) + eta2 r (g_j - psi_ij) + eta3 r (psi_ij -
+    w_ij)`` in one random coordinate ``j``, each ``r ~ U(-1, 1)`` drawn independently, ``k`` a
+    random other source, ``g`` the colony's best and ``w_i`` bee ``i``'s worst position.
+
+    Reconstructed / chosen: the paper does not say whether eq. 23 changes one coordinate (as the
+    conventional move it replaces) or all; here it changes one random coordinate ``j`` like the
+    conventional ABC, so the two differ only in the move and the probability. The paper gives
+    no values for the learning weights; the defaults ``eta1 = 1`` (the conventional step),
+    ``eta2 = 1``, ``eta3 = 0.1`` are ours. Measured here: the worst-repelling term costs final
+    precision (its sign is random and ``|psi - w|`` stays large, as ``w`` is an early, far
+    point), so ``eta3`` is kept small; ``eta3 = 0`` gives a best-guided ABC. With these
+    defaults (colony 50, 100 cycles, median of seeds 0-39) it beats :func:`abc` on Rosenbrock
+    (2-D 6.8e-4 vs 2.9e-3, 5-D 0.16 vs 0.25) and loses on 5-D sphere (1.8e-5 vs 3.3e-11) and
+    5-D Rastrigin (1.3e-2 vs 4.3e-6), where the pull towards ``g`` costs diversity.
+
+    Args:
+        colony: The colony (unit coordinates).
+        bees: The moving bees' sources.
+        rng: The run's generator (partners, then coordinates, then the ``r``).
+        etas: The learning weights ``eta1, eta2, eta3``.
+
+    Returns:
+        The candidates, clipped to the unit box.
+    """
+    e1, e2, e3 = etas
+    psi = colony.food[bees].copy()
+    k = partners(rng, bees, colony.f.size)
+    j = rng.integers(0, psi.shape[1], size=bees.size)
+    rows = np.arange(bees.size)
+    r = rng.uniform(-1.0, 1.0, size=(3, bees.size))
+    g = colony.best[j]
+    x = psi[rows, j]
+    psi[rows, j] = (
+        x
+        + e1 * r[0] * (colony.food[k, j] - x)
+        + e2 * r[1] * (g - x)
+        + e3 * r[2] * (x - colony.worst[bees, j])
+    )
+    return clip_unit(psi)
+
+
 def _limit(limit: int | None) -> int | None:
     return None if limit is None else positive_int(limit, "limit")
 
@@ -291,16 +331,7 @@ def improved_abc(
     and eq. 25 gives every source the same probability. The run is the same on ``c * f + d``
     for any ``c > 0``; see the module docstring.
 
-    Reconstructed / chosen: the paper does not say whether eq. 23 changes one coordinate (as the
-    conventional move it replaces) or all; here it changes one random coordinate ``j`` like the
-    conventional ABC, so the two differ only in the move and the probability. The paper gives
-    no values for the learning weights; the defaults ``eta1 = 1`` (the conventional step),
-    ``eta2 = 1``, ``eta3 = 0.1`` are ours. Measured here: the worst-repelling term costs final
-    precision (its sign is random and ``|psi - w|`` stays large, as ``w`` is an early, far
-    point), so ``eta3`` is kept small; ``eta3 = 0`` gives a best-guided ABC. With these
-    defaults (colony 50, 100 cycles, median of seeds 0-39) it beats :func:`abc` on Rosenbrock
-    (2-D 6.8e-4 vs 2.9e-3, 5-D 0.16 vs 0.25) and loses on 5-D sphere (1.8e-5 vs 3.3e-11) and
-    5-D Rastrigin (1.3e-2 vs 4.3e-6), where the pull towards ``g`` costs diversity.
+    Eq. 23's reconstruction and the learning weights' defaults: :func:`iabc_move`.
 
     Args:
         objective: Batch objective ``(n, dim) -> (n,)``, lower is better.
@@ -318,28 +349,19 @@ def improved_abc(
     Returns:
         The run's :class:`OptimResult`.
     """
-    e1, e2, e3 = finite(eta1, "eta1"), finite(eta2, "eta2"), finite(eta3, "eta3")
-
-    def move(colony: Colony, bees: IntArray, rng: np.random.Generator) -> FloatArray:
-        psi = colony.food[bees].copy()
-        k = partners(rng, bees, colony.f.size)
-        j = rng.integers(0, psi.shape[1], size=bees.size)
-        rows = np.arange(bees.size)
-        r = rng.uniform(-1.0, 1.0, size=(3, bees.size))
-        g = colony.best[j]
-        x = psi[rows, j]
-        psi[rows, j] = (
-            x
-            + e1 * r[0] * (colony.food[k, j] - x)
-            + e2 * r[1] * (g - x)
-            + e3 * r[2] * (x - colony.worst[bees, j])
-        )
-        return clip_unit(psi)
-
+    etas = finite(eta1, "eta1"), finite(eta2, "eta2"), finite(eta3, "eta3")
+    move = partial(iabc_move, etas=etas)
     core = partial(_colony, move=move, selection=iabc_probabilities, limit=_limit(limit))
     return run(
         "improved_abc", core, objective, bounds, population, iterations, seed, keep_population, 4
     )
 
 
-__all__ = ["abc", "abc_probabilities", "iabc_probabilities", "improved_abc", "rank_fitness"]
+__all__ = [
+    "abc",
+    "abc_probabilities",
+    "iabc_move",
+    "iabc_probabilities",
+    "improved_abc",
+    "rank_fitness",
+]

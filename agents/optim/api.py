@@ -14,7 +14,7 @@ from agents.optim.abc import abc, improved_abc
 from agents.optim.foa import foa, improved_foa
 from agents.optim.pso import improved_pso, pso
 from agents.optim.wrappers import cma, de
-from contour_gym._validate import choice
+from contour_gym.params import choice
 
 Optimizer = Callable[..., OptimResult]
 

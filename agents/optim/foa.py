@@ -18,6 +18,63 @@ the squared mean, unchanged by ``c * f`` but not by ``f + d``; eq. 9's division 
 smell is dropped. Its path on ``c * f`` is the same up to rounding: eq. 5's ratio, computed
 from rounded smells, can differ in the last bit, and it is also eq. 6's crossover weight, so
 offspring can differ by an ulp.
+
+**Improved FOA** (:func:`improved_foa`, paper 002 section 2.2, eqs. 5-11). Each generation,
+in two batches (so ``nfev`` per generation is still ``population``):
+
+1. Flight (eqs. 8-11), ``ceil(population / 2)`` flies:
+   ``x_i = X_axis + L_s,i * radius * U(-1, 1)`` per coordinate with the dynamic step
+   ``L_s,i = L_max * R_i * a**c``, ``c = (t + t_max) / t_max - cos(t / t_max)`` (eq. 10)
+   and ``R_i`` drawn from the exponential distribution of eq. 11 with rate 0.5 (the text's
+   "power exponent is 0.5"), one draw per fly. ``c`` grows from 0 to ``2 - cos 1 = 1.46``,
+   so with ``a = 0.01`` the step shrinks from ``L_max`` to about ``1.2e-3 L_max``.
+2. Adaptive crossover (eqs. 5-6) or Cauchy mutation (eq. 7), the other
+   ``floor(population / 2)`` points. If the smell variance of the flight is at most
+   ``delta`` times its squared mean (the swarm is trapped) and a uniform draw is below
+   ``p_mutation``, these points are Cauchy mutants of the swarm location (eq. 7 makes
+   ``k = 1 .. N`` of them), ``X_axis + cauchy_scale * tan(pi (U - 1/2)) / 2`` per
+   coordinate; the next flight searches around the best of them if it is better ("secondary
+   optimisation"). Otherwise they are offspring of the flown flies: random pairs cross with
+   probability ``q`` (eq. 5) into ``q a + (1 - q) b`` and ``q b + (1 - q) a`` (eq. 6); a
+   pair that does not cross is copied.
+
+After each batch the swarm flies to the best point if it beats the best smell so far.
+
+Reconstructed or changed, and why:
+
+* eq. 5 reads ``q1 - (q2 - q1) / (1 + exp(-2 A r))`` for a pair at least as good as the
+  average and ``q2`` otherwise, with ``r = (Smell_mid - Smell_avg) / (Smell_max -
+  Smell_avg)`` written for a fitness to maximise, ``Smell_mid`` the better fly of the pair
+  (the adaptive-GA convention the equation comes from). As printed it leaves ``[q1, q2]``;
+  we read the leading ``q1`` as ``q2``: ``q = q2 - (q2 - q1) / (1 + exp(-2 A r))``, which
+  runs from ``(q1 + q2) / 2`` for an average pair down to ``q1`` for the best, while worse
+  pairs cross with ``q2`` (good pairs are preserved, as the text says). Smell is minimised
+  here, so ``r = (avg - smell_mid) / (avg - best)``, a ratio of smell differences that
+  ``c * f + d`` leaves unchanged. ``A_con = 9.903438`` is the constant of the sigmoid
+  adaptive-GA literature; ``q1 = 0.6``, ``q2 = 0.9`` are ours.
+* eq. 9 reads ``L_s = L_max / Smellbest_{i-1} * R_i * a**c``. Dividing by the last best
+  smell gives the step the objective's units (the same task with the objective in
+  micrometres instead of metres would take steps 1e6 times shorter) and makes it grow
+  without bound as the best smell falls towards a zero minimum, against the text's
+  "dynamically reducing step length". The factor is dropped (absorbed into ``L_max``):
+  ``L_s = L_max R_i a**c``, and ``a**c`` alone makes the step shrink. Scale-free forms that
+  keep a smell factor were measured and rejected (50 flies, 100 generations, median final
+  fitness of seeds 0-19 on sphere-5, Rosenbrock-2, Rosenbrock-5, Rastrigin-5):
+  ``Smellbest_0 / Smellbest_{i-1}`` (eq. 9 relative to the initial best) gave 4.9e-3,
+  5.5e-4, 1.36, 9.95 and its inverse 2.3e-2, 4.8e-3, 2.87, 11.4, against 2.1e-8, 4.2e-9,
+  1.18, 13.9 without the factor.
+* eq. 8 adds ``L_s R_Value`` to Pan's 2-D location; here ``R_Value = radius * U(-1, 1)``
+  per coordinate, as in :func:`foa`.
+* eq. 7 is multiplicative, ``X_0 (1 + C / 2)`` with ``C`` standard Cauchy: it cannot move
+  a zero coordinate. It is applied additively in unit coordinates with scale
+  ``cauchy_scale = 0.25``, the scale eq. 7 gives a coordinate in the middle of a box
+  ``[0, high]`` (``X_0 / 2``).
+* The paper's "trapped" test ``sigma^2 <= delta`` is absolute (and ``delta`` unpublished),
+  so whether the swarm counts as trapped would depend on the objective's units. Here it is
+  relative, ``var <= delta * mean^2`` (a squared coefficient of variation): one default
+  serves any scale and ``c * f`` gives the same decisions (an offset ``f + d`` does not).
+  Mutation probability: the paper uses the symbol ``q`` again; it is a separate option
+  here.
 """
 
 from __future__ import annotations
@@ -38,7 +95,7 @@ from agents.optim._base import (
     progress,
     run,
 )
-from contour_gym._validate import non_negative, positive
+from contour_gym.params import non_negative, positive
 
 
 class Swarm:
@@ -185,61 +242,10 @@ def improved_foa(
 ) -> OptimResult:
     """Improved fruit-fly optimisation of paper 002 (section 2.2, eqs. 5-11).
 
-    Each generation, in two batches (so ``nfev`` per generation is still ``population``):
-
-    1. Flight (eqs. 8-11), ``ceil(population / 2)`` flies:
-       ``x_i = X_axis + L_s,i * radius * U(-1, 1)`` per coordinate with the dynamic step
-       ``L_s,i = L_max * R_i * a**c``, ``c = (t + t_max) / t_max - cos(t / t_max)`` (eq. 10)
-       and ``R_i`` drawn from the exponential distribution of eq. 11 with rate 0.5 (the text's
-       "power exponent is 0.5"), one draw per fly. ``c`` grows from 0 to ``2 - cos 1 = 1.46``,
-       so with ``a = 0.01`` the step shrinks from ``L_max`` to about ``1.2e-3 L_max``.
-    2. Adaptive crossover (eqs. 5-6) or Cauchy mutation (eq. 7), the other
-       ``floor(population / 2)`` points. If the smell variance of the flight is at most
-       ``delta`` times its squared mean (the swarm is trapped) and a uniform draw is below
-       ``p_mutation``, these points are Cauchy mutants of the swarm location (eq. 7 makes
-       ``k = 1 .. N`` of them), ``X_axis + cauchy_scale * tan(pi (U - 1/2)) / 2`` per
-       coordinate; the next flight searches around the best of them if it is better ("secondary
-       optimisation"). Otherwise they are offspring of the flown flies: random pairs cross with
-       probability ``q`` (eq. 5) into ``q a + (1 - q) b`` and ``q b + (1 - q) a`` (eq. 6); a
-       pair that does not cross is copied.
-
-    After each batch the swarm flies to the best point if it beats the best smell so far.
-
-    Reconstructed or changed, and why:
-
-    * eq. 5 reads ``q1 - (q2 - q1) / (1 + exp(-2 A r))`` for a pair at least as good as the
-      average and ``q2`` otherwise, with ``r = (Smell_mid - Smell_avg) / (Smell_max -
-      Smell_avg)`` written for a fitness to maximise, ``Smell_mid`` the better fly of the pair
-      (the adaptive-GA convention the equation comes from). As printed it leaves ``[q1, q2]``;
-      we read the leading ``q1`` as ``q2``: ``q = q2 - (q2 - q1) / (1 + exp(-2 A r))``, which
-      runs from ``(q1 + q2) / 2`` for an average pair down to ``q1`` for the best, while worse
-      pairs cross with ``q2`` (good pairs are preserved, as the text says). Smell is minimised
-      here, so ``r = (avg - smell_mid) / (avg - best)``, a ratio of smell differences that
-      ``c * f + d`` leaves unchanged. ``A_con = 9.903438`` is the constant of the sigmoid
-      adaptive-GA literature; ``q1 = 0.6``, ``q2 = 0.9`` are ours.
-    * eq. 9 reads ``L_s = L_max / Smellbest_{i-1} * R_i * a**c``. Dividing by the last best
-      smell gives the step the objective's units (the same task with the objective in
-      micrometres instead of metres would take steps 1e6 times shorter) and makes it grow
-      without bound as the best smell falls towards a zero minimum, against the text's
-      "dynamically reducing step length". The factor is dropped (absorbed into ``L_max``):
-      ``L_s = L_max R_i a**c``, and ``a**c`` alone makes the step shrink. Scale-free forms that
-      keep a smell factor were measured and rejected (50 flies, 100 generations, median final
-      fitness of seeds 0-19 on sphere-5, Rosenbrock-2, Rosenbrock-5, Rastrigin-5):
-      ``Smellbest_0 / Smellbest_{i-1}`` (eq. 9 relative to the initial best) gave 4.9e-3,
-      5.5e-4, 1.36, 9.95 and its inverse 2.3e-2, 4.8e-3, 2.87, 11.4, against 2.1e-8, 4.2e-9,
-      1.18, 13.9 without the factor.
-    * eq. 8 adds ``L_s R_Value`` to Pan's 2-D location; here ``R_Value = radius * U(-1, 1)``
-      per coordinate, as in :func:`foa`.
-    * eq. 7 is multiplicative, ``X_0 (1 + C / 2)`` with ``C`` standard Cauchy: it cannot move
-      a zero coordinate. It is applied additively in unit coordinates with scale
-      ``cauchy_scale = 0.25``, the scale eq. 7 gives a coordinate in the middle of a box
-      ``[0, high]`` (``X_0 / 2``).
-    * The paper's "trapped" test ``sigma^2 <= delta`` is absolute (and ``delta`` unpublished),
-      so whether the swarm counts as trapped would depend on the objective's units. Here it is
-      relative, ``var <= delta * mean^2`` (a squared coefficient of variation): one default
-      serves any scale and ``c * f`` gives the same decisions (an offset ``f + d`` does not).
-      Mutation probability: the paper uses the symbol ``q`` again; it is a separate option
-      here.
+    Each generation flies ``ceil(population / 2)`` flies with the dynamic step of eqs. 8-11
+    and makes the other ``floor(population / 2)`` points by adaptive crossover (eqs. 5-6) or,
+    when the swarm is trapped, Cauchy mutation (eq. 7): the module docstring gives the steps
+    and what is reconstructed or changed, and why.
 
     Measured (50 flies, 100 generations, 20 seeds): far more precise than :func:`foa` on
     sphere and 2-D Rosenbrock, better on 5-D Rosenbrock (median 1.18 vs 1.67), worse on 5-D
@@ -267,17 +273,8 @@ def improved_foa(
     Returns:
         The run's :class:`OptimResult`.
     """
-    lo, hi = in_range(q1, "q1", 0.0, 1.0), in_range(q2, "q2", 0.0, 1.0)
-    if lo > hi:
-        raise ValueError(f"q1 must be <= q2, got q1={q1!r}, q2={q2!r}")
-    core = _ImprovedFlight(
-        step=positive(radius, "radius") * positive(l_max, "l_max"),
-        a=in_range(a, "a", 0.0, 1.0),
-        rate=positive(rate, "rate"),
-        q=(lo, hi, non_negative(a_con, "a_con")),
-        delta=non_negative(delta, "delta"),
-        p_mutation=in_range(p_mutation, "p_mutation", 0.0, 1.0),
-        cauchy_scale=positive(cauchy_scale, "cauchy_scale"),
+    core = _ImprovedFlight.checked(
+        radius, l_max, a, rate, (q1, q2, a_con), delta, p_mutation, cauchy_scale
     )
     return run(
         "improved_foa", core, objective, bounds, population, iterations, seed, keep_population, 2
@@ -295,6 +292,29 @@ class _ImprovedFlight:
     delta: float
     p_mutation: float
     cauchy_scale: float
+
+    @classmethod
+    def checked(
+        cls, radius: float, l_max: float, a: float, rate: float, q: tuple[float, float, float],
+        delta: float, p_mutation: float, cauchy_scale: float,
+    ) -> _ImprovedFlight:  # fmt: skip
+        """The options of :func:`improved_foa`, checked (ValueError naming a bad one).
+
+        ``q`` is ``(q1, q2, A_con)``.
+        """
+        q1, q2, a_con = q
+        lo, hi = in_range(q1, "q1", 0.0, 1.0), in_range(q2, "q2", 0.0, 1.0)
+        if lo > hi:
+            raise ValueError(f"q1 must be <= q2, got q1={q1!r}, q2={q2!r}")
+        return cls(
+            step=positive(radius, "radius") * positive(l_max, "l_max"),
+            a=in_range(a, "a", 0.0, 1.0),
+            rate=positive(rate, "rate"),
+            q=(lo, hi, non_negative(a_con, "a_con")),
+            delta=non_negative(delta, "delta"),
+            p_mutation=in_range(p_mutation, "p_mutation", 0.0, 1.0),
+            cauchy_scale=positive(cauchy_scale, "cauchy_scale"),
+        )
 
     def __call__(
         self, problem: Problem, rng: np.random.Generator, population: int, iterations: int

@@ -28,7 +28,7 @@ from agents.optim._base import (
     progress,
     run,
 )
-from contour_gym._validate import choice, finite, positive
+from contour_gym.params import choice, finite, positive
 
 # (fraction of the run done) -> (w, c1, c2)
 Schedule = Callable[[float], tuple[float, float, float]]
@@ -140,6 +140,28 @@ def improved_coefficients(
 ) -> tuple[float, float, float]:
     """Inertia weight and learning factors of the improved PSO (paper 000 eqs. 13-14, rebuilt).
 
+    Eqs. 13 and 14 were lost in extraction; reconstructed here:
+
+    * eq. 13 (inertia, "nonlinear decreasing strategy"): a decreasing logistic curve
+      ``w(t) = w_end + (w_start - w_end) / (1 + exp(beta t - alpha))``. Why this form: with
+      the published constants and ``T = 100`` it does what the text asks and nothing the text
+      does not: it starts at ``w(0) = 0.884`` (about ``w_start``), ends at ``w(100) = 0.413``
+      (about ``w_end``) and turns at ``t = alpha / beta = 48.6``, mid-run. The common
+      exponential form ``w_end + (w_start - w_end) exp(-alpha (t / T)^beta)`` with the same
+      constants drops to ``w = 0.44`` at ``t = 1``, which no "decreasing strategy" intends.
+      The paper's Figure 6 (the curves) was not extracted, so the shape is not checked
+      against it. For a run of another length the
+      paper's clock is rescaled: ``t = t_ref * tau``, ``tau`` the fraction of the run done,
+      ``t_ref = 100``, so the curve keeps its shape.
+    * eq. 14 (learning factors "with the inertia weight", between ``c_start`` and ``c_end``,
+      large ``c1`` / small ``c2`` early, the opposite late): with
+      ``lam = (w - w_end) / (w_start - w_end)`` (about 1 early, about 0 late),
+      ``c1 = c_start + (c_end - c_start) lam`` and ``c2 = c_end - (c_end - c_start) lam``.
+      ``c1`` thus falls from ``c_end`` to ``c_start`` and ``c2`` rises from ``c_start`` to
+      ``c_end`` along the same nonlinear (logistic-in-time) curve as ``w``, and ``c1 + c2``
+      stays ``c_start + c_end``. Linear in ``w`` is the simplest coupling consistent with the
+      text; the nonlinearity in time comes from eq. 13.
+
     Args:
         tau: Fraction of the run done, 0 at the first generation and 1 at the last.
         w_start: Inertia weight scale at the start.
@@ -183,27 +205,8 @@ def improved_pso(
     0.9``, ``w_end = 0.4``, ``alpha = 3.4``, ``beta = 0.07``, ``c_start = 0.5``, ``c_end = 1``
     with ``T = 100`` generations. The velocity/position update is eq. 12 (as :func:`pso`).
 
-    Eqs. 13 and 14 were lost in extraction; reconstructed here:
-
-    * eq. 13 (inertia, "nonlinear decreasing strategy"): a decreasing logistic curve
-      ``w(t) = w_end + (w_start - w_end) / (1 + exp(beta t - alpha))``. Why this form: with
-      the published constants and ``T = 100`` it does what the text asks and nothing the text
-      does not: it starts at ``w(0) = 0.884`` (about ``w_start``), ends at ``w(100) = 0.413``
-      (about ``w_end``) and turns at ``t = alpha / beta = 48.6``, mid-run. The common
-      exponential form ``w_end + (w_start - w_end) exp(-alpha (t / T)^beta)`` with the same
-      constants drops to ``w = 0.44`` at ``t = 1``, which no "decreasing strategy" intends.
-      The paper's Figure 6 (the curves) was not extracted, so the shape is not checked
-      against it. For a run of another length the
-      paper's clock is rescaled: ``t = t_ref * tau``, ``tau`` the fraction of the run done,
-      ``t_ref = 100``, so the curve keeps its shape.
-    * eq. 14 (learning factors "with the inertia weight", between ``c_start`` and ``c_end``,
-      large ``c1`` / small ``c2`` early, the opposite late): with
-      ``lam = (w - w_end) / (w_start - w_end)`` (about 1 early, about 0 late),
-      ``c1 = c_start + (c_end - c_start) lam`` and ``c2 = c_end - (c_end - c_start) lam``.
-      ``c1`` thus falls from ``c_end`` to ``c_start`` and ``c2`` rises from ``c_start`` to
-      ``c_end`` along the same nonlinear (logistic-in-time) curve as ``w``, and ``c1 + c2``
-      stays ``c_start + c_end``. Linear in ``w`` is the simplest coupling consistent with the
-      text; the nonlinearity in time comes from eq. 13.
+    Eqs. 13 and 14 were lost in extraction: :func:`improved_coefficients` gives the
+    reconstruction and why.
 
     Measured (tests/test_optim.py, 50 particles, 100 generations, 5 seeds): faster and more
     precise than :func:`pso` on sphere and 2-D Rosenbrock, about even on 5-D Rosenbrock, worse
@@ -228,19 +231,7 @@ def improved_pso(
     Returns:
         The run's :class:`OptimResult`.
     """
-    w0, w1 = finite(w_start, "w_start"), finite(w_end, "w_end")
-    if w0 <= w1:
-        raise ValueError(f"w_start must be > w_end, got w_start={w_start!r}, w_end={w_end!r}")
-    schedule = partial(
-        improved_coefficients,
-        w_start=w0,
-        w_end=w1,
-        alpha=finite(alpha, "alpha"),
-        beta=finite(beta, "beta"),
-        c_start=finite(c_start, "c_start"),
-        c_end=finite(c_end, "c_end"),
-        t_ref=positive(t_ref, "t_ref"),
-    )
+    schedule = _improved_schedule(w_start, w_end, alpha, beta, c_start, c_end, t_ref)
     core = partial(_swarm, schedule=schedule, v_max=positive(v_max, "v_max"))
     return run(
         "improved_pso", core, objective, bounds, population, iterations, seed, keep_population
@@ -251,6 +242,26 @@ _COEFFICIENTS: dict[str, Callable[..., tuple[float, float, float]]] = {
     "pso": linear_coefficients,
     "improved_pso": improved_coefficients,
 }
+
+
+def _improved_schedule(
+    w_start: float, w_end: float, alpha: float, beta: float, c_start: float, c_end: float,
+    t_ref: float,
+) -> Schedule:  # fmt: skip
+    """:func:`improved_coefficients` with checked options (ValueError naming a bad one)."""
+    w0, w1 = finite(w_start, "w_start"), finite(w_end, "w_end")
+    if w0 <= w1:
+        raise ValueError(f"w_start must be > w_end, got w_start={w_start!r}, w_end={w_end!r}")
+    return partial(
+        improved_coefficients,
+        w_start=w0,
+        w_end=w1,
+        alpha=finite(alpha, "alpha"),
+        beta=finite(beta, "beta"),
+        c_start=finite(c_start, "c_start"),
+        c_end=finite(c_end, "c_end"),
+        t_ref=positive(t_ref, "t_ref"),
+    )
 
 
 def schedules(name: str, iterations: int, **options: Any) -> FloatArray:

@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike
 from scipy.optimize import differential_evolution
 
 from agents.optim._base import FloatArray, Objective, OptimResult, Problem, in_range, ranks, run
-from contour_gym._validate import choice, positive
+from contour_gym.params import choice, positive
 
 
 def de(

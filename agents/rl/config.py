@@ -38,8 +38,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-ALGOS = ("ppo", "sac", "td3")
-OFF_POLICY = ("sac", "td3")
+from agents.rl.algorithms import algorithm
+
 NOISE_TYPES = ("normal", "ornstein-uhlenbeck")
 SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
 # constructor arguments the trainer sets itself (or that name Python classes)
@@ -51,16 +51,13 @@ _LIN = re.compile(r"lin_([0-9.eE+-]+)")
 
 
 def algo_class(algo: str) -> Any:
-    """The stable-baselines3 class of ``algo`` (``ppo``, ``sac``, ``td3``).
+    """The class of the registered RL algorithm ``algo`` (:mod:`agents.rl.algorithms`).
 
     Raises:
-        ValueError: for an unknown algo, listing the accepted ones.
+        ValueError: for an unknown algo, listing the accepted ones, or one whose package is
+            not installed, saying how to install it.
     """
-    if algo not in ALGOS:
-        raise ValueError(f"unknown algo {algo!r}; accepted: {', '.join(ALGOS)}")
-    import stable_baselines3
-
-    return getattr(stable_baselines3, algo.upper())
+    return algorithm(algo).load_class()
 
 
 @dataclass(frozen=True)
@@ -139,9 +136,17 @@ def _lin(text: str) -> float:
 
 
 def default_config_file(algo: str) -> Path:
-    """The shipped ``configs/rl/<algo>.yml`` (inside the package as ``agents/configs``)."""
-    algo_class(algo)  # unknown algos are refused first
-    return Path(str(importlib.resources.files("agents") / "configs" / "rl" / f"{algo}.yml"))
+    """The shipped ``configs/rl/<algo>.yml`` (inside the package as ``agents/configs``).
+
+    Raises:
+        ValueError: for an unknown algo, or one with no shipped config (give a file).
+    """
+    algorithm(algo)  # unknown algos are refused first
+    path = Path(str(importlib.resources.files("agents") / "configs" / "rl" / f"{algo}.yml"))
+    if not path.is_file():
+        raise ValueError(f"no shipped config for algo {algo!r}: give a config file in "
+                         "rl-baselines3-zoo's format (contour-gym train --config FILE)")
+    return path
 
 
 def load_config(
@@ -241,7 +246,7 @@ def _zoo_checks(algo: str, cls: Any) -> dict[str, Check]:
         "policy_kwargs": lambda v: "" if v is None or _is_str_mapping(v)
         else "must be a mapping (e.g. {net_arch: [64, 64]}), not a string to eval",
     }  # fmt: skip
-    if algo in OFF_POLICY:
+    if algorithm(algo).off_policy:
         checks["noise_type"] = lambda v: "" if v is None or v in NOISE_TYPES \
             else f"must be one of {', '.join(NOISE_TYPES)}"  # fmt: skip
         checks["noise_std"] = lambda v: "" if _is_float(v) and v >= 0 else "must be a number >= 0"

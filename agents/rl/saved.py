@@ -50,6 +50,9 @@ class SB3Policy(Policy):
             :data:`TRAINING_ONLY`).
         label: Name for messages (the agent's folder name).
         deterministic: Act on the mean action (True) or sample.
+        recurrent: The model's policy keeps a state between steps (sb3-contrib's
+            RecurrentPPO): :meth:`act` carries it from step to step, and :meth:`reset`
+            starts it afresh.
     """
 
     name = "sb3"
@@ -61,9 +64,11 @@ class SB3Policy(Policy):
         env_kwargs: Mapping[str, Any] | None = None,
         label: str = "sb3 agent",
         deterministic: bool = True,
+        recurrent: bool = False,
     ) -> None:
         self.model, self.normalizer, self.label = model, normalizer, label
-        self.deterministic = deterministic
+        self.deterministic, self.recurrent = deterministic, recurrent
+        self._state: Any = None  # a recurrent policy's state, None at an episode's start
         self._env_kwargs = {k: v for k, v in (env_kwargs or {}).items() if k not in TRAINING_ONLY}
         space = model.observation_space
         # trained on the flattened Dict (env_wrapper FlattenObservation): a Box
@@ -84,6 +89,7 @@ class SB3Policy(Policy):
             ValueError: naming both shapes, for an observation or action space that differs
                 from the agent's.
         """
+        self._state = None
         if env is None:
             return
         obs_space = getattr(env, "single_observation_space", env.observation_space)
@@ -103,8 +109,15 @@ class SB3Policy(Policy):
 
     def act(self, obs: Observation) -> Actions:
         """Actions ``(B, n)`` for a batch of observations (every value ``(B, ...)``)."""
-        batch_size(obs)
-        actions, _ = self.model.predict(self._normalized(obs), deterministic=self.deterministic)
+        n = batch_size(obs)
+        if not self.recurrent:
+            actions, _ = self.model.predict(self._normalized(obs), deterministic=self.deterministic)
+            return np.asarray(actions, dtype=np.float64)
+        starts = np.full(n, self._state is None)
+        actions, self._state = self.model.predict(
+            self._normalized(obs), state=self._state, episode_start=starts,
+            deterministic=self.deterministic,
+        )  # fmt: skip
         return np.asarray(actions, dtype=np.float64)
 
     def predict(
@@ -135,7 +148,9 @@ class SB3Policy(Policy):
             raise ValueError(f"agent {self.label!r} observes {self._observes()} (or a batch), "
                              f"got {given}")  # fmt: skip
         batch = {k: np.asarray(v)[None] for k, v in obs.items()} if single else dict(obs)
-        actions, _ = self.model.predict(self._normalized(batch), deterministic=deterministic)
+        actions, state = self.model.predict(self._normalized(batch), state=state,
+                                            episode_start=episode_start,
+                                            deterministic=deterministic)  # fmt: skip
         actions = np.asarray(actions, dtype=np.float64)
         return (actions[0] if single else actions), state
 
@@ -184,18 +199,19 @@ class SavedAgent(SB3Policy):
     name = "saved_agent"
 
     def __init__(self, path: str | Path, deterministic: bool = True) -> None:
-        from agents.rl.config import algo_class
+        from agents.rl.algorithms import algorithm
 
         folder = Path(path)
         self.folder, self.meta = folder, read_meta(folder)
         model_path = folder / MODEL_FILE
         if not model_path.is_file():
             raise ValueError(f"agent {folder.name!r}: model file {model_path} is missing")
-        model = algo_class(self.meta["algo"]).load(model_path, device="cpu")
+        algo = algorithm(self.meta["algo"])
+        model = algo.load_class().load(model_path, device="cpu")
         stats = folder / STATS_FILE
         normalizer = load_normalizer(stats) if stats.is_file() else None
         super().__init__(model, normalizer, self.meta.get("env_kwargs"), folder.name,
-                         deterministic)  # fmt: skip
+                         deterministic, algo.recurrent)  # fmt: skip
 
     @property
     def env_id(self) -> str:

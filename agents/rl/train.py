@@ -48,7 +48,8 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 
 import contour_gym  # noqa: F401  (registers the ids)
 from agents._files import save_figure, write_atomically, write_handle_atomically
-from agents.rl.config import OFF_POLICY, RunConfig, algo_class, dump_block, load_config
+from agents.rl.algorithms import algorithm
+from agents.rl.config import RunConfig, algo_class, dump_block, load_config
 
 EVAL_SEED = 1_000_000  # eval member i is seeded EVAL_SEED + seed + i (apart from training's)
 EVAL_COLUMNS = ("timesteps", "max_contour_error_um", "mean_contour_error_um", "cycle_time_s",
@@ -116,29 +117,52 @@ def train(
         raise ValueError(f"env_id must be a registered id, got {env_id!r}")
     given = {} if total_timesteps is None else {"n_timesteps": total_timesteps}
     config = load_config(algo, env_id, config_file, {**overrides, **given})
+    args = _new_run_args(config, env_id, algo, seed, eval_every, eval_episodes, checkpoint_every)
+    run = _new_run_folder(Path(out_dir) / run_name(env_id, algo, seed), config, args,
+                          command or _call_repr(args, config_file, overrides))  # fmt: skip
+    _set_threads(torch_threads)
+    model = _new_model(config, algo, seed, run)
+    _learn(model, run, config, args, args["total_timesteps"], progress)
+    return run
+
+
+def _new_run_args(
+    config: RunConfig, env_id: str, algo: str, seed: int, eval_every: int | None,
+    eval_episodes: int, checkpoint_every: int | None,
+) -> dict[str, Any]:  # fmt: skip
+    """A new run's ``args.yml`` content (without its command), every value checked."""
     steps = config.n_timesteps
-    args: dict[str, Any] = {
-        "env_id": env_id, "algo": algo, "total_timesteps": _positive(steps, "total_timesteps"),
-        "seed": _integer(seed, "seed"),
+    return {
+        "env_id": env_id, "algo": algo,
+        "total_timesteps": _positive(steps, "total_timesteps"), "seed": _integer(seed, "seed"),
         "eval_every": _positive(eval_every or max(steps // 10, 1), "eval_every"),
         "eval_episodes": _positive(eval_episodes, "eval_episodes"),
         "checkpoint_every": _positive(checkpoint_every or max(steps // 5, 1), "checkpoint_every"),
     }  # fmt: skip
-    run = Path(out_dir) / run_name(env_id, algo, seed)
+
+
+def _new_run_folder(run: Path, config: RunConfig, args: dict[str, Any], command: str) -> Path:
+    """Make the run folder ``run``, write its ``config.yml`` and ``args.yml`` (with ``command``).
+
+    Raises:
+        ValueError: if the folder holds a run already (naming how to resume it).
+    """
     if (run / "args.yml").exists():
         raise ValueError(f"run folder {run} exists; resume it (resume={str(run)!r}) or choose "
                          "another out_dir or seed")  # fmt: skip
     run.mkdir(parents=True, exist_ok=True)
-    args["command"] = command or _call_repr(args, config_file, overrides)
+    args["command"] = command
     (run / "config.yml").write_text(dump_block(config), encoding="utf-8")
     (run / "args.yml").write_text(yaml.safe_dump(args, sort_keys=False), encoding="utf-8")
-    _set_threads(torch_threads)
+    return run
+
+
+def _new_model(config: RunConfig, algo: str, seed: int, run: Path) -> Any:
+    """A fresh SB3 model of ``algo`` on the training env, logging into ``run``."""
     venv = make_training_env(config, seed)
     cls = algo_class(algo)
-    model = cls(env=venv, seed=seed, verbose=0, tensorboard_log=str(run / "tensorboard"),
-                device="cpu", **config.model_kwargs(_n_actions(venv)))  # fmt: skip
-    _learn(model, run, config, args, args["total_timesteps"], progress)
-    return run
+    return cls(env=venv, seed=seed, verbose=0, tensorboard_log=str(run / "tensorboard"),
+               device="cpu", **config.model_kwargs(_n_actions(venv)))  # fmt: skip
 
 
 def _resume(run: Path, total_timesteps: int | None, progress: bool, threads: int) -> Path:
@@ -316,7 +340,7 @@ def load_checkpoint(run: Path, config: RunConfig, checkpoint: Path, seed: int) -
                                          tensorboard_log=str(run / "tensorboard"))  # fmt: skip
     model.set_random_seed(seed + steps)
     buffer = checkpoint.with_name(f"replay_buffer_{steps}_steps.pkl")
-    if config.algo in OFF_POLICY and buffer.is_file():
+    if algorithm(config.algo).off_policy and buffer.is_file():
         model.load_replay_buffer(buffer)
     return model
 

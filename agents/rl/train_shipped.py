@@ -28,7 +28,7 @@ from typing import Any
 import yaml
 
 from agents._files import write_atomically
-from agents.rl.config import ALGOS
+from agents.rl.algorithms import ALGORITHMS
 from agents.rl.saved import META_FILE, MODEL_FILE, STATS_FILE, TRAINED_DIR
 from agents.rl.train import finished, read_curve, run_name, train
 
@@ -62,8 +62,8 @@ def load_shipped(path: str | Path | None = None) -> dict[str, dict[str, Any]]:
             if not isinstance(value, kind) or isinstance(value, bool):
                 raise ValueError(f"{file}: {name}: {key} must be a {kind.__name__}, got {value!r}")
         missing = [k for k in ("algo", "env_id") if k not in entry]
-        if missing or entry["algo"] not in ALGOS:
-            raise ValueError(f"{file}: {name}: needs algo (one of {', '.join(ALGOS)}) and "
+        if missing or entry["algo"] not in ALGORITHMS:
+            raise ValueError(f"{file}: {name}: needs algo (one of {', '.join(ALGORITHMS)}) and "
                              f"env_id, got {entry}")  # fmt: skip
     return data
 

@@ -21,9 +21,8 @@
 * ``flatten=True`` hands SB3 one Box (the Dict's values concatenated in its key order), as
   ``gymnasium.wrappers.FlattenObservation`` does to each single env (the ``env_wrapper`` of
   the shipped configs, :data:`agents.rl.observation.FLATTEN_WRAPPER`): one VecNormalize
-  array and an ``MlpPolicy`` instead of a normaliser and an extractor per key. PPO on the
-  CCC circle then trains about 30 % faster per env step (``benchmarks/train_throughput.py``);
-  the agent learns from the same numbers.
+  array and an ``MlpPolicy`` instead of a normaliser and an extractor per key, faster per env
+  step (``benchmarks/train_throughput.py``); the agent learns from the same numbers.
 
 >>> venv = make_native_vec_env("contour_gym/Feedrate-Corner-v0", n_envs=2)
 >>> _ = venv.seed(0)

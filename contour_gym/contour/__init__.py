@@ -6,20 +6,18 @@ positions, and :func:`estimate` is the one-call form. The loop selects an estima
 ``ServoLoop(estimator=name, estimator_options={...})``; the same compiled functions run there
 and here. Ground truth (the exact nearest point) stays available for metrics and rewards
 whatever the CCC uses. Add an estimator with one module and one :func:`register_estimator`
-call (the README's "Add an estimator").
+call (the documentation's "Extending" page: an estimator).
 
-=============  ==========================================================  ================
-name           method                                                      options
-=============  ==========================================================  ================
-ground_truth   exact nearest point in a window around the reference        -
-exact          000 eqs. 1-3: distance to the reference's line or arc       -
-two_circle     000: two circles through interpolation points near the tool -
-tangent        001 (Yeh & Hsu): foot on the tangent line at the reference  max_turn
-frenet         002 eqs. 19-22: Frenet frame, delay time, Taylor expansion  order, max_turn
-angle          003 eqs. 16-21: line through previous and current command   lag, max_turn
-window         004 sec. 2.2: variable window, two closest reference points half_width
-iterative      Newton / osculating-circle iteration from the reference     n_iter, method, tol
-=============  ==========================================================  ================
+| name | method | options |
+|---|---|---|
+| ground_truth | exact nearest point in a window around the reference | - |
+| exact | 000 eqs. 1-3: distance to the reference's line or arc | - |
+| two_circle | 000: two circles through interpolation points near the tool | - |
+| tangent | 001 (Yeh & Hsu): foot on the tangent line at the reference | max_turn |
+| frenet | 002 eqs. 19-22: Frenet frame, delay time, Taylor expansion | order, max_turn |
+| angle | 003 eqs. 16-21: line through previous and current command | lag, max_turn |
+| window | 004 sec. 2.2: variable window, two closest reference points | half_width |
+| iterative | Newton / osculating-circle iteration from the reference | n_iter, method, tol |
 
 Options (keywords of the factory, or ``estimator_options`` of the loop):
 

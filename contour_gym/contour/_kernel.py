@@ -106,8 +106,8 @@ def ground_truth_from(kind, s0, data, bound, dim, p0, p1, p2, s, rx, ry, rz):
     for any point of the path near the foot. Returns ``(eps, c0, c1, c2, s_foot, qx, qy, qz)``.
 
     Compiled once and *called*, never inlined: every specialised loop kernel shares this one
-    copy. Inlined, it made each kernel's compile 3x longer (43 s against 14 s for the default
-    scenario) for 1-3.5 % more throughput (measured with an ablated template).
+    copy (inlining it costs far more compile time than it gains in throughput: the
+    documentation's "Measurements and design notes").
     """
     w = 4.0 * math.sqrt((p0 - rx) ** 2 + (p1 - ry) ** 2 + (p2 - rz) ** 2) + 1e-9
     sf, _ = nearest_window_wrapped(kind, s0, data, bound, p0, p1, p2, s - w, s + w)

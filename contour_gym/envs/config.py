@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from contour_gym._validate import as_finite_array, non_negative, positive
+from contour_gym.api import Scenario, make_scenario
 from contour_gym.ccc import INJECTIONS
 from contour_gym.motion import PATH_CONTROLS
 from contour_gym.paths import Path
@@ -162,6 +163,22 @@ class EnvConfig:
     def hard_limit_for(self, preset: Preset) -> float:
         """The contour error that fails an episode: ``hard_limit``, else 100 tolerances."""
         return self.hard_limit or HARD_LIMIT_TOLERANCES * self.tolerance_for(preset)
+
+    def scenario(self) -> Scenario:
+        """The scenario (machine, path, loop options) these arguments describe."""
+        options: dict[str, Any] = {
+            "ideal": self.ideal, "ccc_law": self.ccc_law, "ccc_law_params": self.ccc_law_params,
+            "path_control": self.path_control, "path_tolerance": self.path_tolerance,
+            "settle_time": self.settle_time, "estimator_options": self.estimator_options,
+            "controller_options": self.controller_options,
+        }  # fmt: skip
+        for key in ("ccc_injection", "estimator", "axis_controller"):  # None: the preset's
+            if getattr(self, key) is not None:
+                options[key] = getattr(self, key)
+        return make_scenario(
+            self.plant, self.path, self.feedrate, feedrate_override=self.feedrate_override,
+            laps=self.laps, **options,
+        )  # fmt: skip
 
     def randomization(self) -> dict[str, Any] | None:
         """The randomisation ranges in force, or None when off."""

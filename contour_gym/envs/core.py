@@ -22,13 +22,13 @@ from numpy.typing import NDArray
 
 from contour_gym import _compile, _precompile, _tiers
 from contour_gym._blob import Blob
+from contour_gym._compile import Family
+from contour_gym._envstate import EC, ENV_CONFIG, ENV_FLOATS, OBS_LIMIT
 from contour_gym._loopstate import LS, REASON_HARD_LIMIT, STATUS_ARRIVED
 from contour_gym._validate import seed_value
-from contour_gym.api import make_scenario
-from contour_gym.envs import _kernel as EK
 from contour_gym.envs.config import EnvConfig
 from contour_gym.metrics import member_metrics
-from contour_gym.motion import IP, IS
+from contour_gym.motion import IS
 from contour_gym.rewards import (
     COMPONENTS,
     REWARD_FAMILY,
@@ -38,10 +38,12 @@ from contour_gym.rewards import (
     components_dict,
     reward_range,
 )
+from contour_gym.tasks import TASK_FAMILY, Task, task_named
+from contour_gym.tasks.ccc import GainMap
 
 Array = NDArray[np.float64]
 OUTCOME = ("reward", "terminated", "truncated", "failure")  # a decision's outcome, in order
-CCC, FEEDRATE = "ccc", "feedrate"
+CCC, FEEDRATE = "ccc", "feedrate"  # the built-in tasks' names (contour_gym.tasks)
 EPISODE_MARGIN = 2.0  # the step limit is this times the planned decisions (+ 10)
 
 
@@ -51,13 +53,17 @@ class ContourTask:
     Args:
         config: The environment arguments.
         batch: Number of members.
-        kind: ``"ccc"`` (actions are CCC gains) or ``"feedrate"`` (actions are dF).
+        kind: The task (:mod:`contour_gym.tasks`), or its registered name: ``"ccc"`` (actions
+            are CCC gains), ``"feedrate"`` (actions change the feed override), or your own.
         record: Keep per-tick traces (for rendering).
     """
 
-    def __init__(self, config: EnvConfig, batch: int, kind: str, record: bool = False) -> None:
-        self.config, self.batch, self.kind = config, batch, kind
-        self.scenario = _scenario(config)
+    def __init__(
+        self, config: EnvConfig, batch: int, kind: str | Task, record: bool = False
+    ) -> None:
+        self.task_kind: Task = task_named(kind)
+        self.config, self.batch, self.kind = config, batch, self.task_kind.name
+        self.scenario = config.scenario()
         preset, path = self.scenario.preset, self.scenario.path
         self.path, self.stage, self.preset = path, preset.stage, preset
         self.n_contours, self.n_axes = len(self.stage.contours), self.stage.n_axes
@@ -66,13 +72,13 @@ class ContourTask:
         if self.hard_limit <= self.tolerance:
             raise ValueError(f"hard_limit must exceed tolerance, got {self.hard_limit!r}")
         self.g0 = np.asarray(config.ccc_gains or preset.ccc_gains.as_tuple(), dtype=float)
-        # the feedrate env runs without CCC unless given fixed gains (004 has none)
-        fixed = config.ccc_gains if kind == FEEDRATE else None
         self.loop = self.scenario.loop(
-            batch_size=batch, ccc_gains=fixed, record=record, ccc_weights=config.ccc_weights
-        )
+            batch_size=batch, ccc_gains=self.task_kind.fixed_ccc_gains(config), record=record,
+            ccc_weights=config.ccc_weights,
+        )  # fmt: skip
         self.ovr_bounds = np.asarray(config.feedrate_range, dtype=float)
-        self.g_max, self.g_log = self._gain_map()
+        self.gain_map = GainMap.for_env(config, preset, self.g0)
+        self.g_max, self.g_log = self.gain_map.g_max, self.gain_map.g_log
         self.rngs: list[np.random.Generator] = [np.random.default_rng(0)] * batch
         self._sizes = self._observation_sizes()
         ends = np.cumsum(list(self._sizes.values()))
@@ -84,18 +90,10 @@ class ContourTask:
         self._specialise()
 
     # --------------------------------------------------------------- building
-    def _gain_map(self) -> tuple[Array, Array]:
-        # CCC env: g = g_max (R^((a+1)/2) - 1) / (R - 1), R = gain_range^2 (env docstring)
-        kp0 = self.g0[0] if self.g0[0] > 0 else self.preset.ccc_gains.kp
-        ki0 = self.g0[1] if self.g0[1] > 0 else kp0 * 10.0
-        r = self.config.gain_range
-        g_max = np.array([kp0 * r, ki0 * r, kp0 * self.config.kd_scale])
-        return g_max, np.full(3, 2.0 * math.log(r))
-
     def _resolve_reward(self) -> tuple[CompiledReward | Callable[..., Any], Array]:
         spec = self.config.reward
         if spec is None:
-            spec = "ccc" if self.kind == CCC else "feedrate"
+            spec = self.task_kind.default_reward
         if isinstance(spec, str):
             reward: CompiledReward | Callable[..., Any] = REWARDS.get(spec)
             weights = reward.weights.row(**self.config.reward_weights)  # type: ignore[union-attr]
@@ -128,9 +126,12 @@ class ContourTask:
     def _specialise(self) -> None:
         # the env kernel on the loop's run, with this task's reward among the family's; the
         # loop's kernel and this one are chosen together (contour_gym._tiers)
-        uses = {REWARD_FAMILY: [self._compiled_reward()]}
+        uses: dict[Family, list[Any]] = {
+            REWARD_FAMILY: [self._compiled_reward()], TASK_FAMILY: [self.task_kind]
+        }
         slots, codes = _compile.bind(uses)
-        self._econfig[EK.EC.reward] = codes[REWARD_FAMILY.name][0]
+        self._econfig[EC.reward] = codes[REWARD_FAMILY.name][0]
+        self._econfig[EC.task] = codes[TASK_FAMILY.name][0]
         own_loop, builtins_loop = self.loop.kernels()
         if builtins_loop is None or not _compile.is_generic(slots):
             self.kernel = _env_kernel(self.loop.kernel, slots)  # a user's component
@@ -152,7 +153,7 @@ class ContourTask:
         self.step(np.zeros((self.batch, self.n_actions)))
 
     def _step_limit(self) -> int:
-        slowest = float(self.ovr_bounds[0]) if self.kind == FEEDRATE else 1.0
+        slowest = self.task_kind.override_range(self)[0]
         planned = self.loop.planned_time(override=slowest)
         decisions = planned / (self.config.decision_ticks * self.stage.ts)
         return int(math.ceil(EPISODE_MARGIN * decisions)) + 10
@@ -162,7 +163,7 @@ class ContourTask:
         if not isinstance(steps, int) or steps < 1:
             raise ValueError(f"step_limit must be a positive int, got {steps!r}")
         self.max_episode_steps = steps
-        self._econfig[EK.EC.n_max] = steps
+        self._econfig[EC.n_max] = steps
 
     def _build_blob(self, weights: Array) -> None:
         b, n_obs = self.batch, sum(self._sizes.values())
@@ -174,7 +175,7 @@ class ContourTask:
             "comp": (b, COMPONENTS.size), "weights": (max(weights.size, 1),), "steps": (b,),
             "ret": (b,), "track": (b, self.n_axes), "feedrate": (b,),
         }  # fmt: skip
-        self._blob = Blob([(name, shapes[name]) for name in EK.ENV_FLOATS])
+        self._blob = Blob([(name, shapes[name]) for name in ENV_FLOATS])
         self._attach_views()
         v = self._v
         v["g_max"][...], v["g_log"][...] = self.g_max, self.g_log
@@ -182,8 +183,7 @@ class ContourTask:
         v["weights"][: weights.size] = weights
         lo, hi = component_bounds(self.hard_limit / self.tolerance, self._max_progress())
         self.reward_range = reward_range(self._reward, weights, lo, hi)
-        self._econfig = EK.ENV_CONFIG.row(
-            kind=EK.KIND_CCC if self.kind == CCC else EK.KIND_FEEDRATE,
+        self._econfig = ENV_CONFIG.row(
             dovr=self.config.max_feedrate_change, ovr_lo=self.ovr_bounds[0],
             ovr_hi=self.ovr_bounds[1], tol=self.tolerance, hard=self.hard_limit,
             penalty=self.config.failure_penalty, r_lo=min(self.reward_range[0], 0.0),
@@ -196,8 +196,13 @@ class ContourTask:
 
     def _max_progress(self) -> float:
         # the fastest progress per step: the highest feed (rapids included) at the top override
-        top = self.ovr_bounds[1] if self.kind == FEEDRATE else self.scenario.feed_override
+        top = self.task_kind.override_range(self)[1]
         return float(max(top, 1.0) * np.max(self.loop.program.feed) / self.loop.nominal_feedrate)
+
+    @property
+    def arrays(self) -> dict[str, Array]:
+        """The env's per-member arrays by name (``contour_gym._envstate.ENV_FLOATS``), as views."""
+        return self._v
 
     def _attach_views(self) -> None:
         v = self._v = self._blob.views
@@ -222,8 +227,8 @@ class ContourTask:
     # ---------------------------------------------------------------- spaces
     @property
     def n_actions(self) -> int:
-        """Action length: 3 gains per contour, or one feedrate change."""
-        return 3 * self.n_contours if self.kind == CCC else 1
+        """Action length (the task's: 3 gains per contour, one feedrate change, ...)."""
+        return self.task_kind.n_actions(self.n_contours)
 
     def action_space(self) -> spaces.Box:
         """The single-member action space."""
@@ -231,14 +236,13 @@ class ContourTask:
 
     def observation_space(self) -> spaces.Dict:
         """The single-member observation space (see the env docstrings for units)."""
-        lim = EK.OBS_LIMIT
+        lim = OBS_LIMIT
         return spaces.Dict(
             {k: spaces.Box(-lim, lim, (n,), np.float32) for k, n in self._sizes.items()}
         )
 
     def _observation_sizes(self) -> dict[str, int]:
-        # key order is the column order _kernel._observe writes
-        last = ("gains", 3 * self.n_contours) if self.kind == CCC else ("feedrate", 2)
+        # key order is the column order _kernel._observe writes; the task's own key last
         return {
             "contour_error": self.n_contours,
             "contour_error_change": self.n_contours,
@@ -246,16 +250,13 @@ class ContourTask:
             "reference_velocity": self.n_axes,
             "curvature": 1 + len(self.config.lookahead),
             "progress": 1,
-            last[0]: last[1],
+            self.task_kind.tail: self.task_kind.tail_size(self.n_contours),
         }
 
     # ------------------------------------------------------- gains <-> actions
     def action_to_gains(self, action: Array) -> Array:
         """Map actions in [-1, 1], shape (..., 3C), to CCC gains (..., C, 3) (env docstring)."""
-        a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
-        a = a.reshape(*a.shape[:-1], self.n_contours, 3)
-        big_r = np.exp(self.g_log)
-        return self.g_max * (np.exp(0.5 * (a + 1.0) * self.g_log) - 1.0) / (big_r - 1.0)
+        return self.gain_map.to_gains(action, self.n_contours)
 
     def gains_to_action(self, gains: Array) -> Array:
         """Inverse of :meth:`action_to_gains`; gains above the range map above 1.
@@ -263,12 +264,7 @@ class ContourTask:
         Raises:
             ValueError: for negative or non-finite gains.
         """
-        g = np.asarray(gains, dtype=float)
-        if np.any(g < 0) or not np.all(np.isfinite(g)):
-            raise ValueError(f"gains must be finite and >= 0 to have an action, got {g}")
-        big_r = np.exp(self.g_log)
-        a = 2.0 * np.log1p(g * (big_r - 1.0) / self.g_max) / self.g_log - 1.0
-        return a.reshape(*g.shape[:-2], -1)
+        return self.gain_map.to_action(gains)
 
     # ----------------------------------------------------------------- reset
     def reset_members(self, members: NDArray[np.intp], rngs: list[np.random.Generator]) -> None:
@@ -283,13 +279,7 @@ class ContourTask:
         for name in ("eps_prev", "steps", "ret", "reward", "terminated", "truncated", "failure",
                      "comp"):  # fmt: skip
             v[name][members] = 0.0
-        if self.kind == CCC:
-            self.loop.ccc_p[members, :, :3] = self.g0
-            gains = np.broadcast_to(self.g0, (len(members), self.n_contours, 3))
-            start = self.gains_to_action(gains)
-            v["action"][members] = np.clip(start, -1.0, 1.0)
-        else:
-            self.loop.ip_p[members, IP.ovr] = self.scenario.feed_override
+        self.task_kind.reset(self, members)
         with self._compiling():
             self.kernel.observe(*self._kernel_blobs(), np.asarray(members, dtype=np.int64))
 
@@ -415,8 +405,8 @@ class ContourTask:
         # the arrays member b's info reads, made once (the blobs never move)
         loop, v = self.loop, self._v
         # reward, terminated, truncated and failure are consecutive (B,) arrays of the blob
-        start = EK.ENV_FLOATS.index("reward")
-        assert EK.ENV_FLOATS[start : start + len(OUTCOME)] == OUTCOME
+        start = ENV_FLOATS.index("reward")
+        assert ENV_FLOATS[start : start + len(OUTCOME)] == OUTCOME
         first, n = self._blob.layout[self._blob.index["reward"], 0], self.batch
         outcome = self._blob.buffer[first + b : first + 4 * n : n]
         views = (loop.last[b][:, LS.true], loop.last[b][:, LS.est], v["track"][b], loop.ip_s[b], v,
@@ -473,23 +463,6 @@ def _masked(values: dict[str, Any], mask: NDArray[np.bool_]) -> dict[str, Any]:
         out[key] = _masked(val, mask) if isinstance(val, dict) else val
         out[f"_{key}"] = mask.copy()
     return out
-
-
-def _scenario(config: EnvConfig) -> Any:
-    options: dict[str, Any] = {
-        "ideal": config.ideal, "ccc_law": config.ccc_law,
-        "ccc_law_params": config.ccc_law_params, "path_control": config.path_control,
-        "path_tolerance": config.path_tolerance, "settle_time": config.settle_time,
-        "estimator_options": config.estimator_options,
-        "controller_options": config.controller_options,
-    }  # fmt: skip
-    for key in ("ccc_injection", "estimator", "axis_controller"):  # None: the preset's
-        if getattr(config, key) is not None:
-            options[key] = getattr(config, key)
-    return make_scenario(
-        config.plant, config.path, config.feedrate, feedrate_override=config.feedrate_override,
-        laps=config.laps, **options,
-    )  # fmt: skip
 
 
 def _env_kernel(loop_kernel: ModuleType, slots: dict[str, Any]) -> ModuleType:

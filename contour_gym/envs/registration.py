@@ -78,12 +78,11 @@ def scenario_table() -> list[dict[str, Any]]:
     from the scenario the env builds (the preset's paper settings where the id is silent).
     """
     from contour_gym.envs.config import EnvConfig
-    from contour_gym.envs.core import _scenario
 
     rows = []
     for name, (task, kwargs) in SCENARIOS.items():
         config = EnvConfig.from_kwargs(dict(kwargs))
-        sc = _scenario(config)
+        sc = config.scenario()
         rows.append({
             "id": f"contour_gym/{name}", "task": task, "plant": sc.preset.name,
             "path": config.path or sc.preset.path, "laps": sc.laps,

@@ -18,6 +18,7 @@ from contour_gym.paths._geom import HELIX, LINE, POLY5
 from contour_gym.paths._library import NAMES, load
 from contour_gym.paths._path import Path
 from contour_gym.paths._primitives import arc, circle, composite, helix, line, polyline
+from contour_gym.paths._random import PATH_FAMILIES, random_path, random_paths
 from contour_gym.paths._table import PathTable
 from contour_gym.paths._timelaw import TimeLaw
 
@@ -25,6 +26,7 @@ __all__ = [
     "HELIX",
     "LINE",
     "NAMES",
+    "PATH_FAMILIES",
     "POLY5",
     "GcodeError",
     "GcodePath",
@@ -43,4 +45,6 @@ __all__ = [
     "nurbs",
     "parametric",
     "polyline",
+    "random_path",
+    "random_paths",
 ]

@@ -516,9 +516,11 @@ def nearest_hint(kind, s0, data, bound, px, py, pz, s_hint):
 @numba.njit(cache=True)
 def is_closed(kind, s0, data):
     """Whether the path ends where it starts (within ``CLOSED_TOL``, as ``Path.closed``)."""
-    ax, ay, az, _, _, _, _, _, _ = eval_path(kind, s0, data, 0.0)
-    bx, by, bz, _, _, _, _, _, _ = eval_path(kind, s0, data, s0[s0.shape[0] - 1])
-    return math.sqrt((ax - bx) ** 2 + (ay - by) ** 2 + (az - bz) ** 2) <= CLOSED_TOL
+    dx = dy = dz = 0.0
+    for k in range(2):  # start minus end, from one evaluation site (inlined once)
+        sign, r = 1.0 - 2.0 * k, eval_path(kind, s0, data, 0.0 if k == 0 else s0[s0.shape[0] - 1])
+        dx, dy, dz = dx + sign * r[0], dy + sign * r[1], dz + sign * r[2]
+    return math.sqrt(dx**2 + dy**2 + dz**2) <= CLOSED_TOL
 
 
 @numba.njit(cache=True)
@@ -544,6 +546,15 @@ def nearest_window_wrapped(kind, s0, data, bound, px, py, pz, s_lo, s_hi):
 
 
 @numba.njit(cache=True, inline="always")
+def _unit_xy(r):
+    """The unit tangent's x and y from an :func:`eval_segment` result (0 where P' vanishes)."""
+    norm = math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5])
+    if norm == 0.0:
+        return 0.0, 0.0
+    return r[3] / norm, r[4] / norm
+
+
+@numba.njit(cache=True, inline="always")
 def unit_tangent(kind, data, i, t):
     """Unit tangent of segment ``i`` at local arc length ``t`` (zeros where P' vanishes)."""
     r = eval_segment(kind, data, i, t)
@@ -566,18 +577,21 @@ def side_2d(kind, s0, data, closed, s, px, py):
     s = min(max(s, 0.0), total)
     i = find_segment(s0, s)
     t = s - s0[i]
-    x, y, _, _, _, _, _, _, _ = eval_segment(kind, data, i, t)
-    ax, ay, _ = unit_tangent(kind, data, i, t)
-    bx = ax
-    by = ay
+    r = eval_segment(kind, data, i, t)
+    ax, ay = _unit_xy(r)
+    # the tangent just before s, where s is a corner: one evaluation site, inlined once
+    j, tj = -1, 0.0
     if t <= 0.0:
         if i > 0:
-            bx, by, _ = unit_tangent(kind, data, i - 1, s0[i] - s0[i - 1])
+            j, tj = i - 1, s0[i] - s0[i - 1]
         elif closed:
-            bx, by, _ = unit_tangent(kind, data, n - 1, total - s0[n - 1])
+            j, tj = n - 1, total - s0[n - 1]
     elif s >= total and closed:
-        bx, by, _ = unit_tangent(kind, data, 0, 0.0)
-    cross = (ax + bx) * (py - y) - (ay + by) * (px - x)
+        j, tj = 0, 0.0
+    bx, by = ax, ay
+    if j >= 0:
+        bx, by = _unit_xy(eval_segment(kind, data, j, tj))
+    cross = (ax + bx) * (py - r[1]) - (ay + by) * (px - r[0])
     return -1.0 if cross < 0.0 else 1.0
 
 

@@ -1,14 +1,15 @@
 """Per-axis servo controllers, batched and selected by name (:data:`CONTROLLERS`).
 
-=================  ===========================================================================
-``pid``            PID with velocity feed-forward (the presets' baseline).
-``two_dof_pid``    paper 003's 2-DOF PID (eqs. 26-35): main PID plus a feed-forward PD on the
-                   command with set-point weights ``alpha``, ``beta``.
-``smc_dob``        paper 001's sliding-mode control with boundary layer and disturbance
-                   observer (small switching gain).
-``smc``            the same law without observer and with the large switching gain 001 needs.
-``pd_robust``      paper 001's comparison controller: PD plus nominal-model feed-forward.
-=================  ===========================================================================
+| name | controller |
+|---|---|
+| ``pid`` | PID with velocity feed-forward (the presets' baseline). |
+| ``two_dof_pid`` | 003's 2-DOF PID (eqs. 26-35): PID plus a feed-forward PD on the command. |
+| ``smc_dob`` | 001's sliding-mode control, boundary layer, disturbance observer. |
+| ``smc`` | the same law without observer and with the large switching gain 001 needs. |
+| ``pd_robust`` | paper 001's comparison controller: PD plus nominal-model feed-forward. |
+
+``two_dof_pid`` weighs the command by the set-point weights ``alpha``, ``beta``; ``smc_dob``'s
+observer lets its switching gain be small.
 
 Each is one module (:mod:`.pid`, :mod:`.two_dof_pid`, :mod:`.smc`, :mod:`.pd_robust`) with
 its parameter and state schemas, its compiled law and one :func:`register_controller` call;

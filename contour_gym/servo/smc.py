@@ -32,9 +32,9 @@ friction compensation, so the observer estimates what the compensation leaves.
 Defaults (``omega`` the bandwidth of the preset's PID, ``D_max`` :func:`disturbance_bound`):
 ``c = lambda = omega``; ``eta = 0.1 D_max`` with the observer (it only covers the observer's
 residual), ``D_max`` without; ``phi = 0.1 D_max / omega`` (inside the layer the switching term
-is a linear gain ``omega`` with the observer); observer gain ``l = min(8 omega, 0.8 / ts)``.
-Measured on ``xyz_pmlsm``: ``l ts = 0.5`` left the max tracking error ~20 % above ``smc``'s,
-0.8 puts it below. Without the observer the gain on S inside the layer is ``11 omega``; where
+is a linear gain ``omega`` with the observer); observer gain ``l = min(8 omega, 0.8 / ts)``
+(chosen on ``xyz_pmlsm``: the documentation's "Measurements and design notes"). Without the
+observer the gain on S inside the layer is ``11 omega``; where
 ``11 omega ts > 1`` the sampled layer overshoots every tick: 001's chattering.
 """
 

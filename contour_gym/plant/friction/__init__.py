@@ -1,13 +1,11 @@
 """Friction laws by registration: a model dataclass, its parameter schema, its compiled substep.
 
-=============  ====================================  =============================================
-law            model (``AxisParams.friction``)       source
-=============  ====================================  =============================================
-``none``       ``None``                              linear axis
-``coulomb``    :class:`CoulombFriction`               Coulomb with stiction (004 table 4.1)
-``stribeck``   :class:`StribeckFriction`              003 eqs. 7-8, with stiction
-``lugre``      :class:`LuGreFriction`                 002 eq. 1 (dynamic, bristle state)
-=============  ====================================  =============================================
+| law | model (``AxisParams.friction``) | source |
+|---|---|---|
+| ``none`` | ``None`` | linear axis |
+| ``coulomb`` | :class:`CoulombFriction` | Coulomb with stiction (004 table 4.1) |
+| ``stribeck`` | :class:`StribeckFriction` | 003 eqs. 7-8, with stiction |
+| ``lugre`` | :class:`LuGreFriction` | 002 eq. 1 (dynamic, bristle state) |
 
 Add a law in one module of your own::
 

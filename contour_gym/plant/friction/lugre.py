@@ -131,10 +131,10 @@ def lugre_response(theta, v, h, out):
     """Friction of a LuGre model driven by the velocity samples ``v`` (``z(0) = 0``).
 
     Args:
-        theta: (6,) parameters in :data:`PARAMS` order.
-        v: (T,) velocity held over each step of length ``h``, m/s.
-        h: Step, s.
-        out: (T,) friction of each step, written in place, N.
+        theta (numpy.ndarray): (6,) parameters in :data:`PARAMS` order.
+        v (numpy.ndarray): (T,) velocity held over each step of length ``h``, m/s.
+        h (float): Step, s.
+        out (numpy.ndarray): (T,) friction of each step, written in place, N.
     """
     s0, s1, s2 = theta[C.sigma0], theta[C.sigma1], theta[C.sigma2]
     fc, fs, vs = theta[C.fc], theta[C.fs], theta[C.vs]
@@ -150,14 +150,14 @@ def lugre_sse(thetas, v, f_meas, h):
     """Sum of squared friction errors (002 eq. 4, sampled) of each parameter row.
 
     Args:
-        thetas: (n, 6) candidate parameters in :data:`PARAMS` order.
-        v: (T,) measured velocity, m/s.
-        f_meas: (T,) measured friction, N.
-        h: Sample step, s.
+        thetas (numpy.ndarray): (n, 6) candidate parameters in :data:`PARAMS` order.
+        v (numpy.ndarray): (T,) measured velocity, m/s.
+        f_meas (numpy.ndarray): (T,) measured friction, N.
+        h (float): Sample step, s.
 
     Returns:
-        (n,) ``sum_k (f_meas[k] - F_model[k])^2``; ``inf`` for a row whose Stribeck curve is
-        not positive (no valid model).
+        sse (numpy.ndarray): (n,) ``sum_k (f_meas[k] - F_model[k])^2``; ``inf`` for a row whose
+            Stribeck curve is not positive (no valid model).
     """
     n = thetas.shape[0]
     out = np.empty(n)

@@ -1,0 +1,162 @@
+"""Tuning protocols: what to search, on which scenarios, by which fitness, with what budget.
+
+A :class:`Protocol` names the parameters it searches (:class:`TuneParam`, each with its box
+and scale), the registered env ids it runs (its scenarios), its fitness (a key of
+:data:`~agents.tune.fitness.FITNESSES`), how a candidate reaches its batch member (a key of
+:data:`~agents.tune.setters.SETTERS`), and its default optimiser and budget. :data:`PROTOCOLS`
+holds them by name (:func:`register_protocol`, :func:`get_protocol`); the papers' protocols
+are in :mod:`agents.tune.papers`.
+
+**Search scale.** Parameters marked ``log`` are searched in ``log10`` (the optimiser's box is
+``log10`` of theirs; :meth:`Protocol.to_params` maps back), the others linearly. Results are
+always reported in the parameters' own (SI) units.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from agents.optim import OPTIMIZERS
+from agents.tune.fitness import FITNESSES, FloatArray
+from agents.tune.setters import SETTERS
+from contour_gym.params import choice
+from contour_gym.registry import Registry
+
+
+@dataclass(frozen=True)
+class TuneParam:
+    """One searched parameter.
+
+    Attributes:
+        name: The CCC law parameter's name.
+        low: Lower bound, in the parameter's units (> 0 when ``log``).
+        high: Upper bound (> ``low``).
+        log: Search ``log10`` of the parameter.
+        unit: Its unit, for reports.
+    """
+
+    name: str
+    low: float
+    high: float
+    log: bool = False
+    unit: str = ""
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.low) and math.isfinite(self.high) and self.low < self.high):
+            raise ValueError(f"parameter {self.name!r} needs finite low < high, got "
+                             f"[{self.low!r}, {self.high!r}]")  # fmt: skip
+        if self.log and self.low <= 0.0:
+            raise ValueError(f"log-scaled parameter {self.name!r} needs low > 0, got {self.low!r}")
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """A tuning protocol: what to search, on which scenarios, by which fitness, with what budget.
+
+    Attributes:
+        name: Registry key.
+        params: The searched parameters (D of them), CCC law parameters by name.
+        scenarios: Registered env ids (``contour_gym/CCC-...``) the fitness averages over.
+        fitness: A key of :data:`FITNESSES`.
+        ccc_law: The CCC law whose parameters are searched.
+        optimizer: Default optimiser, a key of :data:`agents.optim.OPTIMIZERS`.
+        population: Default population (candidates per generation).
+        iterations: Default generations after the initial one.
+        optimizer_options: Options of the default optimiser.
+        episode_seed: Seed every candidate's episodes are reset from.
+        doc: What the protocol reproduces.
+        setter: How a candidate's parameters reach its batch member, a key of
+            :data:`SETTERS`: ``"ccc_law"`` (the CCC law's parameters by name) or
+            ``"acc2pid"`` (paper 003's 2PID axes and P compensators, :func:`set_acc2pid`).
+        scenario_kwargs: Env id -> env keyword arguments overriding the id's own for this
+            protocol (e.g. a shorter window: ``{"laps": 1}``).
+    """
+
+    name: str
+    params: tuple[TuneParam, ...]
+    scenarios: tuple[str, ...]
+    fitness: str = "cea"
+    ccc_law: str = "fuzzy_pid"
+    optimizer: str = "improved_pso"
+    population: int = 50
+    iterations: int = 100
+    optimizer_options: Mapping[str, Any] = field(default_factory=dict)
+    episode_seed: int = 0
+    doc: str = ""
+    setter: str = "ccc_law"
+    scenario_kwargs: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        choice(self.fitness, "fitness", FITNESSES)
+        choice(self.optimizer, "optimizer", OPTIMIZERS)
+        choice(self.setter, "setter", SETTERS)
+        stray = sorted(set(self.scenario_kwargs) - set(self.scenarios))
+        if stray:
+            raise ValueError(f"scenario_kwargs for env ids not in the scenarios: {stray}")
+        if not self.params or not self.scenarios:
+            raise ValueError(f"protocol {self.name!r} needs parameters and scenarios")
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Parameter names, in search order."""
+        return tuple(p.name for p in self.params)
+
+    @property
+    def bounds(self) -> FloatArray:
+        """(D, 2) box in the parameters' own units."""
+        return np.array([(p.low, p.high) for p in self.params], dtype=np.float64)
+
+    @property
+    def search_bounds(self) -> FloatArray:
+        """(D, 2) box the optimiser searches (``log10`` of the log-scaled parameters)."""
+        b = self.bounds
+        logs = self._logs()
+        b[logs] = np.log10(b[logs])
+        return b
+
+    def _logs(self) -> NDArray[np.bool_]:
+        return np.array([p.log for p in self.params])
+
+    def to_params(self, z: ArrayLike) -> FloatArray:
+        """(n, D) search coordinates -> parameters in their own units, clipped to the box."""
+        x = np.array(np.atleast_2d(np.asarray(z, dtype=np.float64)))
+        logs = self._logs()
+        x[:, logs] = 10.0 ** x[:, logs]
+        b = self.bounds
+        return np.clip(x, b[:, 0], b[:, 1])
+
+    def to_search(self, x: ArrayLike) -> FloatArray:
+        """(n, D) parameters in their own units -> search coordinates."""
+        z = np.array(np.atleast_2d(np.asarray(x, dtype=np.float64)))
+        logs = self._logs()
+        z[:, logs] = np.log10(z[:, logs])
+        return z
+
+
+
+PROTOCOLS: Registry[Protocol] = Registry("tuning protocol")
+
+
+def register_protocol(protocol: Protocol, *, replace: bool = False) -> Protocol:
+    """Add ``protocol`` to :data:`PROTOCOLS` (under its name); returns it.
+
+    Raises:
+        ValueError: for a taken name (unless ``replace``) or an invalid one.
+    """
+    return PROTOCOLS.register(protocol, replace=replace)
+
+
+def get_protocol(protocol: str | Protocol) -> Protocol:
+    """The protocol itself, or the registered one of that name.
+
+    Raises:
+        ValueError: for an unknown name, listing the accepted ones.
+    """
+    return protocol if isinstance(protocol, Protocol) else PROTOCOLS.get(protocol)
+

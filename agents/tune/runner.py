@@ -1,0 +1,376 @@
+"""Tuning runs: :func:`tune` runs a protocol with an optimiser and writes its run folder.
+
+:func:`tune` runs a protocol of :data:`~agents.tune.protocols.PROTOCOLS` with any optimiser of
+:mod:`agents.optim` (``contour-gym tune PROTOCOL`` on the command line); :func:`compare` runs
+several optimisers over several seeds.
+
+**Run folder** (``out``): ``result.json`` (best parameters by name, best fitness, the
+settings, seed, optimiser, wall time and the best-so-far fitness after every generation),
+written atomically after every generation (``"status": "running"``, the history so far),
+once more at the end (``"complete"``; ``"interrupted"`` on Ctrl-C and ``"failed"`` on an
+error, then re-raised); ``convergence.png``; and for the PSO family ``schedules.png``
+(:mod:`agents.tune.plots`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shlex
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents._files import write_atomically
+from agents.optim import OPTIMIZERS, OptimResult, minimize, options_of
+from agents.optim._base import make_rng, positive_int
+from agents.optim.pso import schedules
+from agents.tune.fitness import FloatArray
+from agents.tune.objective import PopulationObjective
+from agents.tune.plots import write_plots
+from agents.tune.protocols import Protocol, get_protocol
+from contour_gym.params import choice
+
+PSO_FAMILY = ("pso", "improved_pso")
+
+
+@dataclass(frozen=True)
+class TuneResult:
+    """Outcome of :func:`tune`.
+
+    Attributes:
+        protocol: Protocol name.
+        optimizer: Optimiser name.
+        seed: The optimiser's seed.
+        params: Best parameters by name, in their own units.
+        fitness: Their fitness, m (the protocol's; :attr:`PopulationObjective.penalty` if
+            every candidate failed).
+        history: Best-so-far fitness after each generation, non-increasing, m.
+        per_scenario: Env id -> the best parameters' fitness there, m.
+        nfev: Candidates evaluated.
+        wall_time: Seconds the search took.
+        settings: Everything else the run was given (budget, box, scales, options, ...).
+        out: The run folder, or None.
+    """
+
+    protocol: str
+    optimizer: str
+    seed: int
+    params: dict[str, float]
+    fitness: float
+    history: list[float]
+    per_scenario: dict[str, float]
+    nfev: int
+    wall_time: float
+    settings: dict[str, Any]
+    out: Path | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``result.json`` content (``"status": "complete"``)."""
+        return {
+            "status": "complete", "protocol": self.protocol, "optimizer": self.optimizer,
+            "seed": self.seed, "params": self.params, "fitness": self.fitness,
+            "fitness_unit": "m", "per_scenario": self.per_scenario, "nfev": self.nfev,
+            "wall_time_s": self.wall_time, "settings": self.settings,
+            "generations": len(self.history), "history": self.history,
+        }  # fmt: skip
+
+
+class _Monitor:
+    """Wraps the objective: counts generations, keeps the best so far, reports each generation.
+
+    Every optimiser evaluates exactly ``population`` candidates per generation (in one or
+    several calls), so generation ``k`` ends when ``population * (k + 1)`` candidates are done;
+    the best so far is kept as :class:`agents.optim._base.Problem` keeps it (first strict
+    minimum; non-finite values count as ``inf``), so the history equals the optimiser's.
+    """
+
+    def __init__(
+        self, objective: PopulationObjective, population: int,
+        on_generation: Callable[[_Monitor], None], bar: Any,
+    ) -> None:  # fmt: skip
+        self.objective, self.population = objective, population
+        self.on_generation, self.bar = on_generation, bar
+        self.nfev, self.best_f = 0, math.inf
+        self.best_z: FloatArray | None = None
+        self.history: list[float] = []
+
+    def __call__(self, z: FloatArray, /) -> FloatArray:
+        f = self.objective(z)
+        for row, value in zip(z, f, strict=True):
+            v = float(value) if math.isfinite(value) else math.inf
+            if self.best_z is None or v < self.best_f:
+                self.best_f, self.best_z = v, np.array(row)
+            self.nfev += 1
+            if self.nfev % self.population == 0 and self.nfev > self.population:
+                self.history.append(self.best_f)
+                self.on_generation(self)
+        if self.bar is not None:
+            self.bar.update(len(f))
+            self.bar.set_postfix_str(f"best {self.best_f * 1e6:.4g} um", refresh=False)
+        return f
+
+
+def tune(
+    protocol: str | Protocol,
+    optimizer: str | None = None,
+    *,
+    seed: int = 0,
+    population: int | None = None,
+    iterations: int | None = None,
+    ideal: bool = False,
+    out: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+    options: Mapping[str, Any] | None = None,
+    command: str | None = None,
+    workers: int | None = None,
+    overwrite: bool = False,
+) -> TuneResult:
+    """Run a tuning protocol with an optimiser.
+
+    Args:
+        protocol: A :data:`~agents.tune.protocols.PROTOCOLS` name or a :class:`Protocol`.
+        optimizer: A key of :data:`agents.optim.OPTIMIZERS` (None: the protocol's).
+        seed: The optimiser's seed (the episodes use the protocol's ``episode_seed``).
+        population: Candidates per generation (None: the protocol's).
+        iterations: Generations after the initial one (None: the protocol's).
+        ideal: Run the scenarios without the rig's encoder, noise and delay.
+        out: Run folder for ``result.json`` and the plots (module docstring); None writes
+            nothing.
+        progress: Show a progress bar (tqdm, on stderr).
+        options: The optimiser's own options (None: the protocol's for its own optimiser,
+            else none).
+        command: The command line to record in ``result.json`` (None: the equivalent
+            ``contour-gym tune`` command).
+        workers: Threads running the population (:class:`PopulationObjective`; None: every
+            CPU). The result does not depend on it.
+        overwrite: Replace a finished result in ``out`` (else refused: :func:`check_run_folder`).
+
+    Returns:
+        The :class:`TuneResult`.
+
+    Raises:
+        ValueError: for an unknown protocol or optimiser (listing the accepted names), or a
+            bad budget, seed or option (naming it).
+    """
+    proto = get_protocol(protocol)
+    name, options = _optimizer_options(proto, optimizer, options)
+    m = proto.population if population is None else population
+    t = proto.iterations if iterations is None else iterations
+    folder = _run_folder(m, t, seed, out, overwrite)
+    settings = _settings(proto, name, options, m, t, ideal,
+                         command or _command(proto.name, name, seed, m, t, ideal, out))  # fmt: skip
+    objective = PopulationObjective(proto, ideal=ideal, workers=workers)
+    settings["penalty"] = objective.penalty
+    run = _Run(proto, name, seed, settings, folder)
+    return run.finish(run.search(objective, m, t, options, progress), objective)
+
+
+def _run_folder(
+    population: Any, iterations: Any, seed: Any, out: str | os.PathLike[str] | None,
+    overwrite: bool,
+) -> Path | None:  # fmt: skip
+    """The run folder (None: write nothing), checked with the budget before anything runs."""
+    _check_budget(population, iterations, seed)
+    folder = None if out is None else Path(out)
+    if folder is not None:
+        check_run_folder(folder, overwrite)
+    return folder
+
+
+def _optimizer_options(
+    proto: Protocol, optimizer: str | None, options: Mapping[str, Any] | None
+) -> tuple[str, Mapping[str, Any]]:
+    """The optimiser's name and options (None: the protocol's for its own optimiser, else none).
+
+    Raises:
+        ValueError: for an unknown optimiser or option, listing the accepted ones.
+    """
+    name = choice(optimizer or proto.optimizer, "optimizer", OPTIMIZERS)
+    if options is None:
+        options = proto.optimizer_options if name == proto.optimizer else {}
+    unknown = sorted(set(options) - set(options_of(name)))
+    if unknown:
+        raise ValueError(f"unknown option(s) {', '.join(unknown)} for {name!r}; accepted: "
+                         f"{', '.join(options_of(name))}")  # fmt: skip
+    return name, options
+
+
+def _settings(
+    proto: Protocol, name: str, options: Mapping[str, Any], m: int, t: int, ideal: bool,
+    command: str,
+) -> dict[str, Any]:  # fmt: skip
+    """The run's settings for ``result.json``; the PSO family's schedules checked and recorded."""
+    settings: dict[str, Any] = {
+        "population": m, "iterations": t, "ideal": bool(ideal), "scenarios": list(proto.scenarios),
+        "fitness": proto.fitness, "ccc_law": proto.ccc_law, "episode_seed": proto.episode_seed,
+        "setter": proto.setter, "scenario_kwargs": {k: dict(v) for k, v in
+                                                    proto.scenario_kwargs.items()},
+        "bounds": {p.name: [p.low, p.high] for p in proto.params},
+        "log_scaled": [p.name for p in proto.params if p.log],
+        "optimizer_options": dict(options),
+        "command": command,
+    }  # fmt: skip
+    if name in PSO_FAMILY:  # checks the budget too, before any simulation
+        settings["schedules"] = schedules(name, t, **options).tolist()
+    return settings
+
+
+class _Run:
+    """One search in progress: its clock, and ``result.json`` after every generation."""
+
+    def __init__(
+        self, proto: Protocol, name: str, seed: int, settings: dict[str, Any],
+        folder: Path | None,
+    ) -> None:  # fmt: skip
+        self.proto, self.name, self.seed = proto, name, seed
+        self.settings, self.folder = settings, folder
+        self.start = time.perf_counter()
+
+    def elapsed(self) -> float:
+        """Seconds since the search started."""
+        return time.perf_counter() - self.start
+
+    def save(self, mon: _Monitor, status: str = "running") -> None:
+        """Write the partial ``result.json`` (when there is a run folder)."""
+        if self.folder is not None:
+            data = _partial_json(self.proto, self.name, self.seed, self.settings, mon,
+                                 self.elapsed(), status)  # fmt: skip
+            _write_json(self.folder / "result.json", data)
+
+    def search(
+        self, objective: PopulationObjective, m: int, t: int, options: Mapping[str, Any],
+        progress: bool,
+    ) -> OptimResult:  # fmt: skip
+        """Run the optimiser; on Ctrl-C or an error save the history so far, then re-raise."""
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=m * (t + 1), desc=f"tune {self.proto.name} ({self.name})", unit="cand",
+                   disable=not progress, dynamic_ncols=True)  # fmt: skip
+        monitor = _Monitor(objective, m, self.save, bar)
+        try:
+            return minimize(self.name, monitor, self.proto.search_bounds, population=m,
+                            iterations=t, seed=self.seed, **options)  # fmt: skip
+        except KeyboardInterrupt:
+            self.save(monitor, "interrupted")
+            raise
+        except BaseException:
+            self.save(monitor, "failed")
+            raise
+        finally:
+            bar.close()
+
+    def finish(self, res: OptimResult, objective: PopulationObjective) -> TuneResult:
+        """The :class:`TuneResult`, written to the run folder with its plots."""
+        result = _result(self.proto, res, objective, self.seed, self.settings, self.elapsed(),
+                         self.folder)  # fmt: skip
+        if self.folder is not None:
+            _write_json(self.folder / "result.json", result.to_json())
+            write_plots(result, self.folder)
+        return result
+
+
+def _result(
+    proto: Protocol, res: OptimResult, objective: PopulationObjective, seed: int,
+    settings: dict[str, Any], wall: float, folder: Path | None,
+) -> TuneResult:  # fmt: skip
+    best = proto.to_params(res.x)
+    per_case, failed = objective.evaluate(best)
+    per = {c.env_id: float(objective.penalty if failed[i, 0] else per_case[i, 0])
+           for i, c in enumerate(objective.cases)}  # fmt: skip
+    return TuneResult(
+        protocol=proto.name, optimizer=res.name, seed=int(seed),
+        params={n: float(v) for n, v in zip(proto.names, best[0], strict=True)},
+        fitness=float(res.fun), history=[float(h) for h in res.history], per_scenario=per,
+        nfev=int(res.nfev), wall_time=float(wall), settings=settings, out=folder,
+    )  # fmt: skip
+
+
+def _partial_json(
+    proto: Protocol, name: str, seed: int, settings: dict[str, Any], mon: _Monitor, wall: float,
+    status: str,
+) -> dict[str, Any]:  # fmt: skip
+    params = None
+    if mon.best_z is not None:
+        best = proto.to_params(mon.best_z)[0]
+        params = {n: float(v) for n, v in zip(proto.names, best, strict=True)}
+    return {
+        "status": status, "protocol": proto.name, "optimizer": name, "seed": int(seed),
+        "params": params, "fitness": mon.best_f if math.isfinite(mon.best_f) else None,
+        "fitness_unit": "m", "nfev": mon.nfev, "wall_time_s": wall, "settings": settings,
+        "generations": len(mon.history), "history": list(mon.history),
+    }  # fmt: skip
+
+
+def _command(
+    proto: str, optimizer: str, seed: int, m: int, t: int, ideal: bool,
+    out: str | os.PathLike[str] | None,
+) -> str:  # fmt: skip
+    args = ["contour-gym", "tune", proto, "--optimizer", optimizer, "--seed", str(seed),
+            "--population", str(m), "--iterations", str(t)]  # fmt: skip
+    if ideal:
+        args.append("--ideal")
+    if out is not None:
+        args += ["--out", os.fspath(out)]
+    return shlex.join(args)
+
+
+def _check_budget(population: Any, iterations: Any, seed: Any) -> None:
+    # before anything runs or is written: a bad budget must not touch a run folder
+    positive_int(population, "population")
+    positive_int(iterations, "iterations")
+    make_rng(seed)
+
+
+def check_run_folder(folder: Path, overwrite: bool) -> None:
+    """Refuse a run folder that is a file or holds a finished result (unless ``overwrite``).
+
+    An unfinished result (``"status"`` running, interrupted or failed) is replaced: a tuning
+    run restarts from its first generation (the optimisers keep no state to resume from).
+
+    Raises:
+        ValueError: naming the folder or file, and how to go on.
+    """
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"--out {folder} is a file, not a folder")
+    target = folder / "result.json"
+    if overwrite or not target.exists():
+        return
+    try:
+        status = json.loads(target.read_text(encoding="utf-8")).get("status")
+    except (OSError, ValueError, AttributeError) as exc:
+        raise ValueError(f"{target} cannot be read ({exc}); pass --overwrite to replace it, "
+                         "or choose another --out") from None  # fmt: skip
+    if status == "complete":
+        raise ValueError(f"{target} holds a finished tuning result; pass --overwrite to "
+                         "replace it, or choose another --out")  # fmt: skip
+
+
+def _write_json(target: Path, data: Mapping[str, Any]) -> None:
+    """Write ``data`` as JSON, whole or not at all (:func:`agents._files.write_atomically`)."""
+    text = json.dumps(data, indent=2) + "\n"
+    write_atomically(target, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+
+
+def compare(
+    protocol: str | Protocol, optimizers: Sequence[str], seeds: Sequence[int], **kwargs: Any
+) -> dict[str, list[float]]:
+    """Best fitness of each optimiser over several seeds (no files, no progress bar).
+
+    Args:
+        protocol: A :data:`~agents.tune.protocols.PROTOCOLS` name or a :class:`Protocol`.
+        optimizers: Keys of :data:`agents.optim.OPTIMIZERS`.
+        seeds: Optimiser seeds.
+        **kwargs: More :func:`tune` arguments (``population``, ``iterations``, ``ideal``).
+
+    Returns:
+        Optimiser -> best fitness per seed, m.
+    """
+    return {name: [tune(protocol, name, seed=s, progress=False, **kwargs).fitness for s in seeds]
+            for name in optimizers}  # fmt: skip
+

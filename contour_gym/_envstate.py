@@ -1,0 +1,68 @@
+"""The env kernel's arrays and configuration columns, by name (shared by the tasks' kernels).
+
+The env blob (:data:`ENV_FLOATS`, viewed as :class:`EnvArrays` by :func:`env_arrays`) holds each
+member's action, observation, reward and bookkeeping; :data:`ENV_CONFIG` is the float row of the
+env's constants (tolerance, limits, the task's and reward's codes, ...), read by column name
+(``ec[EC.tol]``). :func:`put` writes one clipped observation column.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numba
+
+from contour_gym._blob import view1, view2
+from contour_gym._schema import Schema
+
+# reward, terminated, truncated, failure: consecutive (ContourTask.member_result reads them so)
+ENV_FLOATS = (
+    "action", "skip", "g_max", "g_log", "lookahead", "eps_prev", "s_before", "obs", "ref",
+    "vel", "raw", "reward", "terminated", "truncated", "failure", "comp", "weights", "steps",
+    "ret", "track", "feedrate",
+)  # fmt: skip
+ENV_AT = namedtuple("E", ENV_FLOATS)(*range(len(ENV_FLOATS)))
+EnvArrays = namedtuple("EnvArrays", ENV_FLOATS)  # type: ignore[misc]
+ENV_CONFIG = Schema(
+    "env config", task=0.0, dovr=0.1, ovr_lo=0.2, ovr_hi=2.0, tol=1e-5, hard=1e-3,
+    penalty=100.0, r_lo=-1.0, r_hi=0.0, n_max=1000.0, nominal=1.0, f_nom=1.0,
+    python_reward=0.0, dim=2.0, length=1.0, reward=0.0,
+)  # fmt: skip
+EC = ENV_CONFIG.col
+
+OBS_LIMIT = 1e4  # every scaled observation is clipped to +-OBS_LIMIT
+
+
+@numba.njit(cache=True, inline="always")
+def env_arrays(env_floats, env_layout):
+    """The env blob as a named tuple of views."""
+    return EnvArrays(
+        view2(env_floats, env_layout, ENV_AT.action),
+        view1(env_floats, env_layout, ENV_AT.skip),
+        view1(env_floats, env_layout, ENV_AT.g_max),
+        view1(env_floats, env_layout, ENV_AT.g_log),
+        view1(env_floats, env_layout, ENV_AT.lookahead),
+        view2(env_floats, env_layout, ENV_AT.eps_prev),
+        view1(env_floats, env_layout, ENV_AT.s_before),
+        view2(env_floats, env_layout, ENV_AT.obs),
+        view2(env_floats, env_layout, ENV_AT.ref),
+        view2(env_floats, env_layout, ENV_AT.vel),
+        view1(env_floats, env_layout, ENV_AT.raw),
+        view1(env_floats, env_layout, ENV_AT.reward),
+        view1(env_floats, env_layout, ENV_AT.terminated),
+        view1(env_floats, env_layout, ENV_AT.truncated),
+        view1(env_floats, env_layout, ENV_AT.failure),
+        view2(env_floats, env_layout, ENV_AT.comp),
+        view1(env_floats, env_layout, ENV_AT.weights),
+        view1(env_floats, env_layout, ENV_AT.steps),
+        view1(env_floats, env_layout, ENV_AT.ret),
+        view2(env_floats, env_layout, ENV_AT.track),
+        view1(env_floats, env_layout, ENV_AT.feedrate),
+    )
+
+
+@numba.njit(cache=True, inline="always")
+def put(obs, b, col, value):
+    """Write ``value``, clipped to +-OBS_LIMIT, in member ``b``'s column ``col``; next column."""
+    obs[b, col] = min(max(value, -OBS_LIMIT), OBS_LIMIT)
+    return col + 1

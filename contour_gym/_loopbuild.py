@@ -1,0 +1,157 @@
+"""How a servo loop's arrays are sized and first filled: axis rows, state shapes, path, config.
+
+The functions here turn a stage, a path and its program into the arrays of
+:class:`contour_gym.loop.ServoLoop`'s blobs (:mod:`contour_gym._loopstate` names them): the
+per-axis plant rows repeated per member, the shapes of the states and accumulators, the int
+arrays, the path's float blob, and the run's scalar settings row.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from contour_gym import motion
+from contour_gym._blob import Blob
+from contour_gym._loopstate import ACC_A, ACC_C, CONFIG, FOOT, LAST, MEM, PATH_FLOATS, WORK
+from contour_gym.contour._history import HIST_WIDTH
+from contour_gym.paths import Path
+from contour_gym.plant._kernel import STATE
+from contour_gym.plant.friction import law_for
+from contour_gym.plant.stage import (
+    Stage,
+    axis_row,
+    disturbance_row,
+    friction_row,
+    ripple_rows,
+    zoh_matrices,
+)
+from contour_gym.servo.compensation import STATE as COMP_STATE
+
+if TYPE_CHECKING:
+    from contour_gym.loop import LoopOptions
+
+Array = NDArray[np.float64]
+Shape = tuple[int, ...]
+
+
+def axis_arrays(
+    stage: Stage, batch: int, friction_code: Mapping[str, int], ideal: bool
+) -> dict[str, Array]:
+    """The plant's per-axis rows, repeated per member: ax_p, ad, bd, fr_p, rip, dist.
+
+    Args:
+        stage: The machine.
+        batch: Number of members B.
+        friction_code: The loop's code of each friction law, by name.
+        ideal: Drop the rig's encoder and noise from the axis rows.
+    """
+    ax_p = np.stack(
+        [axis_row(x, friction_code[law_for(x.friction).name], ideal=ideal) for x in stage.axes]
+    )
+    ax_p = np.repeat(ax_p[None], batch, axis=0)
+    ad, bd = zoh_matrices(ax_p, stage.ts / stage.substeps)
+    each = {
+        "fr_p": np.stack([friction_row(x) for x in stage.axes]),
+        "rip": np.stack([ripple_rows(x) for x in stage.axes]),
+        "dist": np.stack([disturbance_row(x, stage.ts) for x in stage.axes]),
+    }
+    return {"ax_p": ax_p, "ad": ad, "bd": bd,
+            **{k: np.repeat(v[None], batch, axis=0) for k, v in each.items()}}  # fmt: skip
+
+
+def contour_offsets(stage: Stage) -> Array:
+    """(C, 3) offset of each contour's origin from the axes' (zero past its dimension), m."""
+    out = np.zeros((len(stage.contours), 3))
+    for i, con in enumerate(stage.contours):
+        if con.offset:
+            out[i, : con.dim] = con.offset
+    return out
+
+
+def state_shapes(stage: Stage, batch: int, ctrl_width: int, ccc_width: int) -> dict[str, Shape]:
+    """Shapes of the float blob's states, accumulators and scratch arrays.
+
+    Args:
+        stage: The machine.
+        batch: Number of members B.
+        ctrl_width: The axis controller's state size.
+        ccc_width: The CCC law's state size.
+    """
+    b, c, a = batch, len(stage.contours), stage.n_axes
+    return {
+        "ax_s": (b, a, STATE.size), "ctrl_s": (b, a, ctrl_width),
+        "comp_s": (b, a, COMP_STATE.size), "ccc_s": (b, c, 3, ccc_width),
+        "hist": (b, HIST_WIDTH), "ip_s": (b, motion.IP_STATE.size), "foot": (b, c, FOOT.size),
+        "last": (b, c, LAST.size), "acc_c": (b, c, ACC_C.size), "acc_a": (b, a, ACC_A.size),
+        "ep_c": (b, c, ACC_C.size), "ep_a": (b, a, ACC_A.size), "u_cmd": (b, a),
+        "y_last": (b, a), "mem": (b, MEM.size), "work": (WORK.size, a),
+    }  # fmt: skip
+
+
+def contour_axes(stage: Stage) -> NDArray[np.int64]:
+    """(C, 3) the axis of each contour coordinate (-1 past the contour's dimension)."""
+    c_axes = np.full((len(stage.contours), 3), -1, dtype=np.int64)
+    for i, con in enumerate(stage.contours):
+        c_axes[i, : con.dim] = con.axes
+    return c_axes
+
+
+def filled_blob(names: Sequence[str], values: Mapping[str, NDArray[np.generic]],
+                shapes: Mapping[str, Shape], dtype: type = np.float64) -> Blob:
+    """A blob of the arrays ``names`` in this order: ``values`` copied in, the rest zero.
+
+    Args:
+        names: The blob's arrays, in layout order.
+        values: Initial values of some of them (their shapes are the arrays').
+        shapes: Shapes of the others.
+        dtype: Element type.
+    """
+    every = {**{k: v.shape for k, v in values.items()}, **shapes}
+    blob = Blob([(name, every[name]) for name in names], dtype)
+    for name, value in values.items():
+        blob.views[name][...] = value
+    return blob
+
+
+def path_blob(path: Path, program: motion.Program) -> tuple[Blob, NDArray[np.int64]]:
+    """The path's float blob (table, program, time law) and its segment kinds."""
+    t, law = path.table, path.time_law
+    names = ("feed", "flags", "vcap", "vj", "wait", "dwell")
+    values = dict(zip(names, program.arrays(), strict=True))
+    values.update(s0=t.s0, data=t.data, bound=t.bound)
+    values["law_s"] = law.s if law is not None else np.zeros(1)
+    values["law_v"] = law.v if law is not None else np.zeros(1)
+    blob = filled_blob([name for name, _ in PATH_FLOATS], values, {})
+    return blob, np.ascontiguousarray(t.kind, dtype=np.int64)
+
+
+def config_row(stage: Stage, path: Path, opts: LoopOptions, record: bool, search: bool,
+               codes: Mapping[str, float]) -> Array:
+    """The run's scalar settings row (:data:`contour_gym._loopstate.CONFIG`).
+
+    Args:
+        stage: The machine.
+        path: The contour.
+        opts: The loop's options.
+        record: Whether the kernel writes the per-tick record.
+        search: Whether the estimator searches for the foot point.
+        codes: The component code of each coded config column.
+    """
+    exact = opts.ideal or not any(
+        x.encoder_resolution > 0 or x.noise_std > 0 for x in stage.axes)  # fmt: skip
+    every = 1 if opts.sample_period is None else max(1, round(opts.sample_period / stage.ts))
+    return CONFIG.row(
+        ts=stage.ts, nsub=stage.substeps, dim=path.dim, length=path.length,
+        closed=float(path.closed), meas_exact=float(exact),
+        delay=0.0 if opts.ideal else float(stage.delay_ticks),
+        inj_ref=float(opts.ccc_injection == "reference"), record=float(record),
+        settle_ticks=math.ceil(opts.settle_time / stage.ts), in_band=stage.in_position,
+        in_speed=stage.in_position_speed,
+        law_dt=1.0 if path.time_law is None else path.time_law.dt,
+        sample_every=every, search=float(search), **codes,
+    )  # fmt: skip

@@ -1,0 +1,140 @@
+"""The servo loop's searched parameters: CCC gains and weights, feed, controller, plant scaling.
+
+:class:`LoopParameters` is a base of :class:`contour_gym.loop.ServoLoop`: its setters write
+checked values in place into the loop's parameter arrays (:mod:`contour_gym._loopviews`), per
+batch member where optimisers, agents and domain randomisation need them to differ.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from contour_gym._loopviews import Array, LoopViews
+from contour_gym._validate import as_finite_array
+from contour_gym.ccc import CCCLaw, ccc_params
+from contour_gym.motion import IP, Program
+from contour_gym.plant._kernel import AX, DISTURBANCE
+from contour_gym.plant.friction import law_for
+from contour_gym.plant.stage import zoh_matrices
+
+
+class LoopParameters(LoopViews):
+    """Setters of the parameters optimisers and agents search (a base of ServoLoop)."""
+
+    ccc_law: CCCLaw
+    program: Program
+    _nominal: tuple[Array, Array, Array]  # the stage's ax_p, fr_p, dist before any scaling
+
+    def set_ccc_gains(self, gains: ArrayLike | None) -> None:
+        """Set the CCC gains (kp, ki, kd), broadcastable to (B, C, 3); None switches it off."""
+        rows = ccc_params(gains, self.batch_size, len(self.stage.contours))
+        self.ccc_p[..., :3] = rows[..., :3]
+
+    def set_ccc_params(self, **params: ArrayLike) -> None:
+        """Set the CCC law's named parameters, each broadcastable to (B, C)."""
+        schema = self.ccc_law.params
+        schema.check_names(params)
+        for name, value in params.items():
+            arr = np.broadcast_to(as_finite_array(value, name), self.ccc_p.shape[:2])
+            for x in np.unique(arr):
+                schema.value(name, x)
+            self.ccc_p[..., schema.names.index(name)] = arr
+
+    def set_ccc_weights(self, weights: ArrayLike) -> None:
+        """Set per-member CCC output weights, broadcastable to (B, C, 3).
+
+        ``weights[b, c, i]`` scales what contour ``c``'s CCC adds to coordinate ``i`` of
+        member ``b`` (:mod:`contour_gym.ccc`; e.g. 003's compensator gains K_cix, K_ciy with
+        ``kp = 1``).
+
+        Raises:
+            ValueError: for a NaN or infinite weight or a shape that does not broadcast.
+        """
+        _assign(self.ccc_w, weights, "ccc_weights")
+
+    @property
+    def nominal_feedrate(self) -> float:
+        """The programmed cutting feedrate the override refers to, m/s."""
+        return self.program.nominal
+
+    def set_feedrate(self, feedrate: ArrayLike) -> None:
+        """Command a feedrate (m/s), scalar or (B,): the override ``F / nominal_feedrate``."""
+        f = as_finite_array(feedrate, "feedrate")
+        if np.any(f < 0):
+            raise ValueError(f"feedrate must be >= 0, got {f.min()}")
+        self.set_feed_override(f / self.nominal_feedrate)
+
+    def set_feed_override(self, override: ArrayLike) -> None:
+        """Set the feed override (fraction of the programmed feeds), scalar or (B,)."""
+        o = as_finite_array(override, "feed override")
+        if np.any(o < 0):
+            raise ValueError(f"feed override must be >= 0, got {o.min()}")
+        self.ip_p[:, IP.ovr] = np.broadcast_to(o, (self.batch_size,))
+
+    @property
+    def feedrate(self) -> Array:
+        """(B,) commanded feedrate of the cutting moves, m/s (before the machine's cap)."""
+        return self.ip_p[:, IP.ovr] * self.nominal_feedrate
+
+    def set_controller_params(self, params: ArrayLike) -> None:
+        """Set per-member axis controller parameters, broadcastable to (B, A, P).
+
+        The columns are the controller's schema (``loop.controller.params.col``).
+        """
+        _assign(self.ctrl_p, params, "controller params")
+
+    def set_plant_scaling(
+        self,
+        members: ArrayLike,
+        *,
+        mass: ArrayLike = 1.0,
+        damping: ArrayLike = 1.0,
+        force_constant: ArrayLike = 1.0,
+        friction: ArrayLike = 1.0,
+        disturbance: ArrayLike = 1.0,
+    ) -> None:
+        """Scale members' axis parameters relative to the stage's nominal values.
+
+        Domain randomisation (axis mismatch, friction and disturbance levels; 002 section 4.2
+        analyses gain and time-constant mismatch). Each factor broadcasts to (len(members),
+        n_axes) and must be finite and > 0 (friction/disturbance >= 0); friction scales the
+        parameters each law names in its ``scale``.
+        """
+        idx = np.arange(self.batch_size)[np.asarray(members)].reshape(-1)
+        f = _scale_factors((len(idx), self.stage.n_axes), mass=mass, damping=damping,
+                           force_constant=force_constant, friction=friction,
+                           disturbance=disturbance)  # fmt: skip
+        ax_p, fr_p, dist = (arr[idx].copy() for arr in self._nominal)
+        ax_p[..., AX.m] *= f["mass"]
+        ax_p[..., AX.b] *= f["damping"]
+        ax_p[..., AX.k] *= f["force_constant"]
+        for a, axis in enumerate(self.stage.axes):
+            law = law_for(axis.friction)
+            for name in law.scale:
+                fr_p[:, a, law.params.names.index(name)] *= f["friction"][:, a]
+        for name in ("step_a", "sin_a", "rnd_std"):
+            dist[..., DISTURBANCE.names.index(name)] *= f["disturbance"]
+        self.ax_p[idx], self.fr_p[idx], self.dist[idx] = ax_p, fr_p, dist
+        self.ad[idx], self.bd[idx] = zoh_matrices(ax_p, self.stage.ts / self.stage.substeps)
+
+
+def _scale_factors(shape: tuple[int, int], **factors: ArrayLike) -> dict[str, Array]:
+    """The plant scale factors broadcast to ``shape``, checked (> 0; friction, disturbance >= 0)."""
+    f = {k: np.broadcast_to(as_finite_array(v, k), shape) for k, v in factors.items()}
+    for k in ("mass", "damping", "force_constant"):
+        if np.any(f[k] <= 0):
+            raise ValueError(f"{k} scale must be > 0, got {f[k].min()}")
+    for k in ("friction", "disturbance"):
+        if np.any(f[k] < 0):
+            raise ValueError(f"{k} scale must be >= 0, got {f[k].min()}")
+    return f
+
+
+def _assign(target: Array, value: ArrayLike, name: str) -> None:
+    """Write finite ``value`` into ``target`` in place, broadcast; ValueError naming ``name``."""
+    v = as_finite_array(value, name)
+    try:
+        target[...] = np.broadcast_to(v, target.shape)
+    except ValueError as exc:
+        raise ValueError(f"{name} of shape {v.shape} do not broadcast to {target.shape}") from exc

@@ -1,0 +1,112 @@
+"""The servo loop's per-tick record: the rows the kernel writes, kept per call, as a Trace.
+
+With ``ServoLoop(record=True)`` the kernel writes one row per member and tick (reference arc
+length and speed, reference, positions and command per axis, true and estimated contour error
+per contour) into a buffer from :meth:`Recorder.new`; :meth:`Recorder.keep` keeps it, and
+:meth:`Recorder.trace` joins the calls since the last reset into a batch-first
+:class:`Trace`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+MAX_RECORD_BYTES = 2 * 1024**3  # memory a recorded run() may fill with its trace
+
+
+@dataclass
+class Trace:
+    """Per-tick record of a run, batch-first.
+
+    Attributes:
+        t: (T,) time of each tick, s.
+        s: (B, T) reference arc length, m.
+        v: (B, T) reference path speed, m/s.
+        r: (B, T, A) reference per axis, m.
+        x: (B, T, A) true axis positions, m.
+        u: (B, T, A) saturated control command.
+        eps: (B, T, C) true contour error (signed in 2-D), m.
+        eps_est: (B, T, C) contour error seen by the CCC, m.
+    """
+
+    t: Array
+    s: Array
+    v: Array
+    r: Array
+    x: Array
+    u: Array
+    eps: Array
+    eps_est: Array
+
+
+class Recorder:
+    """The record buffers of one loop's calls since its last reset.
+
+    Args:
+        batch: Number of members B.
+        n_axes: Axes A.
+        n_contours: Contours C.
+    """
+
+    def __init__(self, batch: int, n_axes: int, n_contours: int) -> None:
+        self.batch, self.n_axes, self.n_contours = batch, n_axes, n_contours
+        self.width = 2 + 3 * n_axes + 2 * n_contours  # columns of a row
+        self.empty = np.zeros((batch, 0, self.width))  # what a call without record writes
+        self.calls: list[Array] = []
+
+    def new(self, n_ticks: int) -> Array:
+        """A zero buffer (B, n_ticks, width) for one call."""
+        return np.zeros((self.batch, n_ticks, self.width))
+
+    def clear(self) -> None:
+        """Forget the calls kept so far (a reset of every member)."""
+        self.calls = []
+
+    def keep(self, rec: Array, ended: NDArray[np.bool_], end: Array, local: NDArray[np.int64]
+             ) -> None:  # fmt: skip
+        """Keep a recorded call; rows after a member's end were never written: NaN, not data.
+
+        Args:
+            rec: The call's buffer.
+            ended: (B,) members that arrived or failed.
+            end: (B,) the tick of each ended member's end, on its own clock.
+            local: (B,) each member's own clock at the call's first tick.
+        """
+        for b in np.flatnonzero(ended):
+            first = int(end[b]) - local[b]
+            rec[b, max(first, 0) :] = np.nan
+        self.calls.append(rec)
+
+    def check_size(self, ticks: int, what: str) -> None:
+        """Raise ValueError if recording ``ticks`` ticks would exceed MAX_RECORD_BYTES.
+
+        Args:
+            ticks: Ticks of the run.
+            what: The run's length in words, to start the message.
+        """
+        need = ticks * self.batch * self.width * 8
+        if need > MAX_RECORD_BYTES:
+            raise ValueError(f"{what}: recording it needs {need / 2**30:.3g} GiB, more than "
+                             f"{MAX_RECORD_BYTES / 2**30:.3g} GiB; run without record=True, or "
+                             "a shorter max_time")  # fmt: skip
+
+    def trace(self, ts: float) -> Trace:
+        """The kept calls as one :class:`Trace`, at ``ts`` seconds per tick."""
+        a, c = self.n_axes, self.n_contours
+        rec = (np.concatenate(self.calls, axis=1) if self.calls
+               else np.zeros((self.batch, 0, self.width)))  # fmt: skip
+        base = 2 + 3 * a
+        return Trace(
+            t=np.arange(rec.shape[1], dtype=np.float64) * ts,
+            s=rec[..., 0],
+            v=rec[..., 1],
+            r=rec[..., 2 : 2 + a],
+            x=rec[..., 2 + a : 2 + 2 * a],
+            u=rec[..., 2 + 2 * a : base],
+            eps=rec[..., base : base + 2 * c : 2],
+            eps_est=rec[..., base + 1 : base + 2 * c : 2],
+        )

@@ -1,0 +1,104 @@
+"""The task kind of an env as a strategy: :class:`Task`, the registry and the kernels' slots."""
+
+from __future__ import annotations
+
+import importlib
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from operator import attrgetter
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from contour_gym._compile import Family
+from contour_gym._registry import Registry
+
+if TYPE_CHECKING:
+    from contour_gym.envs.config import EnvConfig
+    from contour_gym.envs.core import ContourTask
+
+
+@dataclass(frozen=True)
+class Task(ABC):
+    """One task kind: what the actions set, and the observation's own last key.
+
+    The env core (:class:`contour_gym.envs.core.ContourTask`) does everything the task kinds
+    share (plant, path, reward components, failure rule, the common observation keys); the
+    task supplies the rest, in Python and in the env's compiled step.
+
+    Attributes:
+        name: Registry name: the env classes' ``kind`` and the suites' ``task``.
+        default_reward: The registered reward used unless the env is given one.
+        tail: The key of the task's own observation columns, last in the observation.
+        apply: Compiled ``apply(loop, env, ec, b)``: member ``b``'s action row
+            ``env.action[b]``, already clipped to [-1, 1], sets what it acts on in the loop's
+            arrays ``loop`` (``contour_gym._loopstate.loop_arrays``). ``env`` is the env's arrays
+            (``contour_gym._envstate.EnvArrays``) and ``ec`` the env's constants (columns
+            :data:`contour_gym.tasks.ENV_COLUMNS`). Bound into the env kernel's ``TASK_APPLY`` slot.
+        observe: Compiled ``observe(loop, path, env, ec, b, col) -> col``: writes member
+            ``b``'s tail columns from ``col`` on with :data:`contour_gym.tasks.put_observation`
+            and returns the column after them; ``path`` is the path's arrays. Slot ``TASK_OBSERVE``.
+    """
+
+    name: str
+    default_reward: str
+    tail: str
+    apply: Any = field(repr=False)
+    observe: Any = field(repr=False)
+
+    @abstractmethod
+    def n_actions(self, n_contours: int) -> int:
+        """Action length on a stage with ``n_contours`` contours."""
+
+    @abstractmethod
+    def tail_size(self, n_contours: int) -> int:
+        """Number of columns of the observation's :attr:`tail`."""
+
+    @abstractmethod
+    def override_range(self, env: ContourTask) -> tuple[float, float]:
+        """The slowest and fastest feed override an episode may run at.
+
+        The slowest sets the default step limit, the fastest the reward's progress bound.
+        """
+
+    @abstractmethod
+    def reset(self, env: ContourTask, members: NDArray[np.intp]) -> None:
+        """Set what the actions act on to its episode start for ``members``.
+
+        Called after the loop's reset; may set the starting actions
+        (``env.arrays["action"]``), which the first observation shows.
+        """
+
+    def fixed_ccc_gains(self, config: EnvConfig) -> Sequence[float] | None:
+        """CCC gains the loop holds through the episode (None: the preset's, or the task's)."""
+        return None
+
+
+def _load_builtins() -> None:
+    for module in ("ccc", "feedrate"):
+        importlib.import_module(f"contour_gym.tasks.{module}")
+
+
+TASKS: Registry[Task] = Registry("task", loader=_load_builtins)
+
+# the env kernel's slots of a task (contour_gym._slots)
+TASK_FAMILY = Family(
+    "task", {"TASK_APPLY": attrgetter("apply"), "TASK_OBSERVE": attrgetter("observe")},
+    TASKS.components,
+)  # fmt: skip
+
+
+def register_task(task: Task, *, replace: bool = False) -> Task:
+    """Register a task kind; returns it."""
+    return TASKS.register(task, replace=replace)
+
+
+def task_named(task: str | Task) -> Task:
+    """The task itself, or the registered task of that name.
+
+    Raises:
+        ValueError: for an unknown name, listing the accepted ones.
+    """
+    return task if isinstance(task, Task) else TASKS.get(task)

@@ -1,0 +1,71 @@
+"""The feedrate task (``"feedrate"``): each action changes the feed override.
+
+``action[0]`` in [-1, 1] changes the override by ``action * max_feedrate_change``, kept within
+``feedrate_range``; the observation ends with ``feedrate``: the override in force and the
+machine's speed along the path over the block's programmed feed. CCC gains stay fixed (the
+env's ``ccc_gains``, or none).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from contour_gym._envstate import EC, put
+from contour_gym.motion import IP, IS
+from contour_gym.tasks.base import Task, register_task
+
+if TYPE_CHECKING:
+    from contour_gym.envs.config import EnvConfig
+    from contour_gym.envs.core import ContourTask
+
+
+@numba.njit(cache=True, inline="always")
+def apply_override(loop, env, ec, b):
+    """Member ``b``'s feed override moved by its action, within the env's range."""
+    ovr = loop.ip_p[b, IP.ovr] + env.action[b, 0] * ec[EC.dovr]
+    loop.ip_p[b, IP.ovr] = min(max(ovr, ec[EC.ovr_lo]), ec[EC.ovr_hi])
+
+
+@numba.njit(cache=True, inline="always")
+def observe_feedrate(loop, path, env, ec, b, col):
+    """The ``feedrate`` columns: override, and speed over the block's programmed feed."""
+    f_block = path.feed[int(loop.ip_s[b, IS.seg])]
+    col = put(env.obs, b, col, loop.ip_p[b, IP.ovr])
+    return put(env.obs, b, col, loop.ip_s[b, IS.v] / f_block)
+
+
+@dataclass(frozen=True)
+class FeedrateOverride(Task):
+    """The feedrate task: one action, the override's change; ``feedrate`` ends the observation."""
+
+    def n_actions(self, n_contours: int) -> int:
+        """One feed override change."""
+        return 1
+
+    def tail_size(self, n_contours: int) -> int:
+        """The override, and the speed over the programmed feed."""
+        return 2
+
+    def override_range(self, env: ContourTask) -> tuple[float, float]:
+        """The env's ``feedrate_range``."""
+        low, high = env.ovr_bounds
+        return float(low), float(high)
+
+    def reset(self, env: ContourTask, members: NDArray[np.intp]) -> None:
+        """The scenario's feed override."""
+        env.loop.ip_p[members, IP.ovr] = env.scenario.feed_override
+
+    def fixed_ccc_gains(self, config: EnvConfig) -> Sequence[float] | None:
+        """The env's ``ccc_gains`` if given (the loop then runs CCC), else none."""
+        return config.ccc_gains
+
+
+FEEDRATE_OVERRIDE = register_task(
+    FeedrateOverride("feedrate", "feedrate", "feedrate", apply_override, observe_feedrate)
+)

@@ -1,0 +1,67 @@
+"""RL algorithms by name (agents.rl.algorithms): SB3's, sb3-contrib's, and a user's."""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+from agents.rl.algorithms import ALGORITHMS, Algorithm, register_algorithm  # noqa: E402
+from agents.rl.config import algo_class, default_config_file  # noqa: E402
+
+
+def test_sb3_and_contrib_algorithms_are_usable_by_name():
+    import stable_baselines3
+
+    assert algo_class("ppo") is stable_baselines3.PPO and algo_class("sac") is stable_baselines3.SAC
+    contrib = pytest.importorskip("sb3_contrib")
+    assert algo_class("tqc") is contrib.TQC and algo_class("ppo_lstm") is contrib.RecurrentPPO
+    assert ALGORITHMS.get("ppo_lstm").recurrent and ALGORITHMS.get("tqc").off_policy
+    with pytest.raises(ValueError, match="unknown RL algorithm 'dqn2'; accepted: a2c, "):
+        algo_class("dqn2")
+
+
+def test_a_registered_algorithm_trains_by_name_and_a_missing_package_says_how_to_install():
+    import stable_baselines3
+
+    register_algorithm(Algorithm("my_a2c", "stable_baselines3", "A2C", off_policy=False))
+    register_algorithm(Algorithm("absent", "no_such_rl_package", "X", off_policy=False,
+                                 install="pip install no-such-rl-package"))  # fmt: skip
+    try:
+        assert algo_class("my_a2c") is stable_baselines3.A2C
+        with pytest.raises(ValueError, match="pip install no-such-rl-package"):
+            algo_class("absent")
+        with pytest.raises(ValueError, match="no shipped config for algo 'my_a2c'"):
+            default_config_file("my_a2c")
+    finally:
+        ALGORITHMS.unregister("my_a2c")
+        ALGORITHMS.unregister("absent")
+
+
+def test_a_recurrent_agent_carries_its_state_through_an_episode():
+    """sb3-contrib's RecurrentPPO as a batch-first policy: the state is kept between act calls
+    and started afresh at reset (same actions again)."""
+    import gymnasium as gym
+
+    contrib = pytest.importorskip("sb3_contrib")
+    from agents.rl.saved import SB3Policy
+
+    env = gym.make_vec("contour_gym/CCC-Circle-v0", num_envs=2, decision_ticks=100)
+    flat = gym.wrappers.FlattenObservation(gym.make("contour_gym/CCC-Circle-v0"))
+    model = contrib.RecurrentPPO("MlpLstmPolicy", flat, n_steps=8, batch_size=16, seed=0,
+                                 policy_kwargs={"lstm_hidden_size": 8}, device="cpu")  # fmt: skip
+    policy = SB3Policy(model, recurrent=True)
+
+    def run():
+        policy.reset(env)
+        obs, _ = env.reset(seed=0)
+        out = []
+        for _ in range(3):
+            actions = policy.act(obs)
+            out.append(actions)
+            obs, *_ = env.step(actions)
+        return np.array(out)
+
+    first, again = run(), run()
+    np.testing.assert_array_equal(first, again)
+    assert policy._state is not None
+    env.close()
