@@ -3,15 +3,13 @@
 Every env step computes the same *components* per member (:data:`COMPONENTS`; each also lands in
 ``info["reward_components"]``, as Gymnasium's MuJoCo envs do):
 
-==========  ======================================================================  ==========
-component   meaning                                                                 range
-==========  ======================================================================  ==========
-contour     mean |true contour error| over the decision's ticks / tolerance         [0, H]
-peak        max |true contour error| over the decision's ticks / tolerance          [0, H]
-chatter     mean over ticks and axes of |u_k - u_(k-1)| / u_max                     [0, 2]
-progress    arc length advanced / (nominal feedrate x decision time)                [0, P]
-excess      max(0, peak - 1): how far the decision's peak broke the tolerance       [0, H - 1]
-==========  ======================================================================  ==========
+| component | meaning | range |
+|---|---|---|
+| contour | mean abs(true contour error) over the decision's ticks / tolerance | [0, H] |
+| peak | max abs(true contour error) over the decision's ticks / tolerance | [0, H] |
+| chatter | mean over ticks and axes of abs(u_k - u_(k-1)) / u_max | [0, 2] |
+| progress | arc length advanced / (nominal feedrate x decision time) | [0, P] |
+| excess | max(0, peak - 1): how far the decision's peak broke the tolerance | [0, H - 1] |
 
 with ``H = hard_limit / tolerance`` (beyond it the episode fails) and ``P`` the fastest progress
 the feedrate range allows. A reward maps them to a number:

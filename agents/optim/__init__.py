@@ -4,16 +4,16 @@ Every optimiser takes a batch objective (``(n, dim) -> (n,)``, lower is better),
 budget, and returns an :class:`OptimResult`. Use :func:`minimize` with a name from
 :data:`OPTIMIZERS`, or call the functions directly:
 
-========================  ==========================================================
-``pso``                   standard PSO, linearly decreasing inertia (paper 000 eq. 12)
-``improved_pso``          paper 000 improved PSO (eqs. 12-14, 13-14 reconstructed)
-``abc``                   Karaboga's bee colony (paper 003 sec. 4), 1/(1+rank) fitness
-``improved_abc``          paper 003 IABC (eqs. 22-25), 1/(1+rank) fitness
-``foa``                   Pan's fruit-fly optimisation, box-bounded form
-``improved_foa``          paper 002 improved FOA (eqs. 5-11)
-``de``                    ``scipy.optimize.differential_evolution``
-``cma``                   ``cma.CMAEvolutionStrategy`` (ask/tell)
-========================  ==========================================================
+| name | optimiser |
+|---|---|
+| ``pso`` | standard PSO, linearly decreasing inertia (paper 000 eq. 12) |
+| ``improved_pso`` | paper 000 improved PSO (eqs. 12-14, 13-14 reconstructed) |
+| ``abc`` | Karaboga's bee colony (paper 003 sec. 4), 1/(1+rank) fitness |
+| ``improved_abc`` | paper 003 IABC (eqs. 22-25), 1/(1+rank) fitness |
+| ``foa`` | Pan's fruit-fly optimisation, box-bounded form |
+| ``improved_foa`` | paper 002 improved FOA (eqs. 5-11) |
+| ``de`` | ``scipy.optimize.differential_evolution`` |
+| ``cma`` | ``cma.CMAEvolutionStrategy`` (ask/tell) |
 
 Units: every optimiser takes the same path on ``f`` and on ``c * f`` (``c > 0``; all but
 ``improved_foa`` also on ``f + d``), so an objective in SI units, e.g. contour errors of

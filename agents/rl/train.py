@@ -6,19 +6,20 @@
 in ``VecMonitor`` and, when the config says ``normalize``, ``VecNormalize``. A run folder
 ``<out_dir>/<Id>_<algo>_seed<N>`` holds:
 
-=====================  ==========================================================
-``config.yml``         the resolved block (rl-zoo format, overrides applied)
-``args.yml``           the call's arguments and the command that reproduces the run
-``model.zip``          the model when training ends (or is interrupted)
-``vecnormalize.pkl``   its VecNormalize statistics (normalised runs)
-``tensorboard/``       TensorBoard logs (SB3's, and ``eval/*``)
-``eval.csv``, ``.png`` the evaluation curve: every ``eval_every`` steps, one episode per
-                       member of a separate native vector env (nominal machine: no
-                       ``randomize``), deterministic actions; mean max and mean contour
-                       error (um), cycle time (s), failed fraction, mean return
-``checkpoints/``       ``model_<steps>_steps.zip`` with its ``vecnormalize`` and, for
-                       SAC and TD3, ``replay_buffer`` files of the same step count
-=====================  ==========================================================
+| file | holds |
+|---|---|
+| ``config.yml`` | the resolved block (rl-zoo format, overrides applied) |
+| ``args.yml`` | the call's arguments and the command that reproduces the run |
+| ``model.zip`` | the model when training ends (or is interrupted) |
+| ``vecnormalize.pkl`` | its VecNormalize statistics (normalised runs) |
+| ``tensorboard/`` | TensorBoard logs (SB3's, and ``eval/*``) |
+| ``eval.csv``, ``.png`` | the evaluation curve (every ``eval_every`` steps; below) |
+| ``checkpoints/`` | ``model_<steps>_steps.zip``, its ``vecnormalize`` and ``replay_buffer`` |
+
+The evaluation runs one episode per member of a separate native vector env (the nominal
+machine: no ``randomize``) with deterministic actions, and records the mean max and mean
+contour error (um), the cycle time (s), the failed fraction and the mean return. Checkpoints of
+off-policy algorithms keep their replay buffer (same step count).
 
 A progress bar (tqdm, on stderr) shows the steps and the latest evaluation. Ctrl-C
 (KeyboardInterrupt) saves the model, its statistics and a checkpoint, then re-raises;
