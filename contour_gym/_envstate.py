@@ -26,8 +26,11 @@ EnvArrays = namedtuple("EnvArrays", ENV_FLOATS)  # type: ignore[misc]
 ENV_CONFIG = Schema(
     "env config", task=0.0, dovr=0.1, ovr_lo=0.2, ovr_hi=2.0, tol=1e-5, hard=1e-3,
     penalty=100.0, r_lo=-1.0, r_hi=0.0, n_max=1000.0, nominal=1.0, f_nom=1.0,
-    python_reward=0.0, dim=2.0, length=1.0, reward=0.0,
+    python_reward=0.0, dim=2.0, length=1.0, reward=0.0, observation=1.0, f_max=1.0,
+    horizon=0.02, progress_obs=0.0,
 )  # fmt: skip
+OBSERVATIONS = ("v0", "v1")  # ENV_CONFIG.observation is the index: v0 0, v1 1
+OBSERVATION_V0 = 0.0
 EC = ENV_CONFIG.col
 
 OBS_LIMIT = 1e4  # every scaled observation is clipped to +-OBS_LIMIT

@@ -15,11 +15,7 @@ import math
 import numba
 
 from contour_gym._blob import borrow
-from contour_gym._envstate import (
-    EC,
-    env_arrays,
-    put,
-)
+from contour_gym._envstate import EC, OBSERVATION_V0, env_arrays, put
 from contour_gym._loopstate import (
     AA,
     AC,
@@ -33,12 +29,13 @@ from contour_gym._loopstate import (
 )
 from contour_gym._slots import REWARD, RUN_MEMBERS, TASK_APPLY, TASK_OBSERVE
 from contour_gym.motion import IP, IS
-from contour_gym.paths._geom import eval_path
+from contour_gym.paths._geom import eval_path, eval_segment, find_segment
 from contour_gym.plant._kernel import AX, ST
 from contour_gym.rewards import RC
 
-TRACKING_SCALE = 1e-3  # m: tracking errors are observed in mm
+TRACKING_SCALE = 1e-3  # m: v0 observes tracking errors in mm (v1: in tolerances)
 CURVATURE_SCALE = 0.01  # m: curvature is observed as kappa x 1 cm
+CORNER_ANGLE = 0.02  # rad: a segment join turning more than this is a corner (v1)
 
 
 @numba.njit(cache=True, inline="always")
@@ -127,6 +124,86 @@ def _curvature(path, s, dim):
     return math.sqrt(kx * kx + ky * ky + kz * kz)
 
 
+@numba.njit(cache=True)
+def _tangent(kind, data, i, t):
+    # called, not inlined: segment i's unit tangent at local arc length t
+    r = eval_segment(kind, data, i, t)
+    norm = max(math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5]), 1e-300)
+    return r[3] / norm, r[4] / norm, r[5] / norm
+
+
+@numba.njit(cache=True, inline="always")
+def _turn(ax, ay, az, bx, by, bz, dim):
+    # the angle from unit tangent a to unit tangent b, rad (signed in 2-D, + = left)
+    dot = min(max(ax * bx + ay * by + az * bz, -1.0), 1.0)
+    if dim == 2:
+        return math.atan2(ax * by - ay * bx, dot)
+    return math.acos(dot)
+
+
+@numba.njit(cache=True, inline="always")
+def _next_corner(path, s, horizon, dim):
+    # (distance, turning angle) of the first segment join within ``horizon`` ahead of s whose
+    # tangent turns by more than CORNER_ANGLE; (horizon, 0) when there is none
+    n = path.kind.shape[0]
+    j = find_segment(path.s0, s) + 1
+    while j < n and path.s0[j] <= s + horizon:
+        if path.s0[j] > s:
+            ax, ay, az = _tangent(path.kind, path.data, j - 1, path.s0[j] - path.s0[j - 1])
+            bx, by, bz = _tangent(path.kind, path.data, j, 0.0)
+            angle = _turn(ax, ay, az, bx, by, bz, dim)
+            if abs(angle) > CORNER_ANGLE:
+                return path.s0[j] - s, angle
+        j += 1
+    return horizon, 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _observe_general(loop, path, env, ec, b, col, s, length, dim):
+    # the v1 observation after the contour errors (the env docstrings' table): nothing that
+    # names the path or the place on it, only what lies ahead
+    n_a, tol, obs = loop.work.shape[1], ec[EC.tol], env.obs
+    for a in range(n_a):
+        col = put(obs, b, col, (env.ref[b, a] - loop.y_last[b, a]) / tol)
+    v = loop.ip_s[b, IS.v]
+    col = put(obs, b, col, v / path.feed[int(loop.ip_s[b, IS.seg])])
+    col = put(obs, b, col, v / ec[EC.f_max])
+    col = put(obs, b, col, loop.ip_p[b, IP.ovr])
+    _, _, _, ax, ay, az, _, _, _ = _point(path.kind, path.s0, path.data, s)
+    col = put(obs, b, col, _curvature(path, s, dim) * CURVATURE_SCALE)
+    for i in range(env.lookahead.shape[0]):
+        col = put(obs, b, col, _curvature(path, min(s + env.lookahead[i], length), dim)
+                  * CURVATURE_SCALE)  # fmt: skip
+    for i in range(env.lookahead.shape[0]):
+        _, _, _, bx, by, bz, _, _, _ = _point(path.kind, path.s0, path.data,
+                                              min(s + env.lookahead[i], length))  # fmt: skip
+        col = put(obs, b, col, _turn(ax, ay, az, bx, by, bz, dim) / math.pi)
+    horizon = ec[EC.horizon]
+    distance, angle = _next_corner(path, s, horizon, dim)
+    col = put(obs, b, col, distance / horizon)
+    col = put(obs, b, col, angle / math.pi)
+    col = put(obs, b, col, min(length - s, horizon) / horizon)
+    if ec[EC.progress_obs] != 0.0:
+        n_c = loop.c_axes.shape[0]
+        col = put(obs, b, col, min(loop.foot[b * n_c, FT.progress], length) / length)
+    return col
+
+
+@numba.njit(cache=True, inline="always")
+def _observe_v0(loop, path, env, ec, b, col, s, length, dim):
+    # the v0 observation after the contour errors (the v0 ids' table)
+    n_c, n_a, obs = loop.c_axes.shape[0], loop.work.shape[1], env.obs
+    for a in range(n_a):
+        col = put(obs, b, col, (env.ref[b, a] - loop.y_last[b, a]) / TRACKING_SCALE)
+    for a in range(n_a):
+        col = put(obs, b, col, env.vel[b, a] / ec[EC.f_nom])
+    col = put(obs, b, col, _curvature(path, s, dim) * CURVATURE_SCALE)
+    for i in range(env.lookahead.shape[0]):
+        ahead = min(s + env.lookahead[i], length)
+        col = put(obs, b, col, _curvature(path, ahead, dim) * CURVATURE_SCALE)
+    return put(obs, b, col, min(loop.foot[b * n_c, FT.progress], length) / length)
+
+
 @numba.njit(cache=True, inline="always")
 def _references(loop, path, env, b, dim):
     s, v = loop.ip_s[b, IS.s], loop.ip_s[b, IS.v]
@@ -148,22 +225,17 @@ def _observe(loop, path, env, ec, b):
     for a in range(n_a):
         env.track[b, a] = env.ref[b, a] - loop.ax_s[b * n_a + a, ST.x]
     env.feedrate[b] = loop.ip_p[b, IP.ovr] * path.feed[int(loop.ip_s[b, IS.seg])]
-    tol, f_nom, obs = ec[EC.tol], ec[EC.f_nom], env.obs
+    tol, obs = ec[EC.tol], env.obs
     s = loop.ip_s[b, IS.s]
     col = 0
     for c in range(n_c):
         col = put(obs, b, col, loop.last[b * n_c + c, LS.est] / tol)
     for c in range(n_c):
         col = put(obs, b, col, (loop.last[b * n_c + c, LS.est] - env.eps_prev[b, c]) / tol)
-    for a in range(n_a):
-        col = put(obs, b, col, (env.ref[b, a] - loop.y_last[b, a]) / TRACKING_SCALE)
-    for a in range(n_a):
-        col = put(obs, b, col, env.vel[b, a] / f_nom)
-    col = put(obs, b, col, _curvature(path, s, dim) * CURVATURE_SCALE)
-    for i in range(env.lookahead.shape[0]):
-        ahead = min(s + env.lookahead[i], length)
-        col = put(obs, b, col, _curvature(path, ahead, dim) * CURVATURE_SCALE)
-    col = put(obs, b, col, min(loop.foot[b * n_c, FT.progress], length) / length)
+    if ec[EC.observation] == OBSERVATION_V0:
+        col = _observe_v0(loop, path, env, ec, b, col, s, length, dim)
+    else:
+        col = _observe_general(loop, path, env, ec, b, col, s, length, dim)
     TASK_OBSERVE(int(ec[EC.task]), loop, path, env, ec, b, col)
 
 

@@ -7,7 +7,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from contour_gym._validate import as_finite_array, non_negative, positive
+import numpy as np
+
+from contour_gym._envstate import OBSERVATIONS
+from contour_gym._validate import as_finite_array, choice, non_negative, positive
 from contour_gym.api import Scenario, make_scenario
 from contour_gym.ccc import INJECTIONS
 from contour_gym.motion import PATH_CONTROLS
@@ -59,7 +62,15 @@ class EnvConfig:
             the env kind's default (``"ccc"`` or ``"feedrate"``; ``contour_gym.rewards``).
         reward_weights: Weights of a compiled reward, by name.
         randomize: False, True (default ranges) or a dict overriding some ranges.
-        lookahead: Arc lengths ahead of the reference where curvature is observed, m.
+        lookahead: v0 observation: arc lengths ahead of the reference where curvature is
+            observed, m.
+        observation: ``"v1"`` (the ``-v1`` ids: what a controller can know on any path) or
+            ``"v0"`` (the ``-v0`` ids: v0's keys, ``progress`` and the reference velocity per
+            axis among them); see the env docstrings.
+        preview: v1 observation: arc lengths ahead of the reference where curvature and the
+            turning angle are observed, m; the largest is the horizon of the next corner.
+        observe_progress: v1 observation: add ``progress`` (the fraction of the path done),
+            which lets an agent learn a path's schedule instead of a control law.
         ccc_weights: Per-contour, per-coordinate weights of the CCC output, broadcastable to
             (C, 3) (None: the preset's ``ccc_weights``; e.g. 003's compensator gains).
         ccc_gains: CCC env: the gains the action map is centred on (None: the preset's).
@@ -99,6 +110,9 @@ class EnvConfig:
     reward_weights: dict[str, float] = field(default_factory=dict)
     randomize: bool | dict[str, Any] = False
     lookahead: tuple[float, ...] = (0.002, 0.005, 0.01)
+    observation: str = "v1"
+    preview: tuple[float, ...] = (0.001, 0.002, 0.005, 0.01, 0.02)
+    observe_progress: bool = False
     ccc_weights: Any = None
     ccc_gains: tuple[float, float, float] | None = None
     gain_range: float = 30.0
@@ -120,6 +134,7 @@ class EnvConfig:
             raise ValueError(f"gain_range must be > 1, got {self.gain_range!r}")
         positive(self.kd_scale, "kd_scale")
         as_finite_array(self.lookahead, "lookahead", ndim=1)
+        self._check_observation()
         lo, hi = as_finite_array(self.feedrate_range, "feedrate_range", shape=(2,))
         if not 0 < lo < 1 < hi:
             raise ValueError(
@@ -146,6 +161,14 @@ class EnvConfig:
         ):
             raise ValueError(f"step_limit must be a positive int, got {self.step_limit!r}")
         self.randomization()  # validates
+
+    def _check_observation(self) -> None:
+        choice(self.observation, "observation", OBSERVATIONS)
+        preview = as_finite_array(self.preview, "preview", ndim=1)
+        if preview.size == 0 or np.any(preview <= 0):
+            raise ValueError(f"preview must be positive arc lengths, m, got {self.preview!r}")
+        if not isinstance(self.observe_progress, bool):
+            raise ValueError(f"observe_progress must be a bool, got {self.observe_progress!r}")
 
     @classmethod
     def from_kwargs(cls, kwargs: dict[str, Any]) -> EnvConfig:

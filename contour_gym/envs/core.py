@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from contour_gym import _compile, _precompile, _tiers
 from contour_gym._blob import Blob
 from contour_gym._compile import Family
-from contour_gym._envstate import EC, ENV_CONFIG, ENV_FLOATS, OBS_LIMIT
+from contour_gym._envstate import EC, ENV_CONFIG, ENV_FLOATS, OBS_LIMIT, OBSERVATIONS
 from contour_gym._loopstate import LS, REASON_HARD_LIMIT, STATUS_ARRIVED
 from contour_gym._validate import seed_value
 from contour_gym.envs.config import EnvConfig
@@ -169,7 +169,7 @@ class ContourTask:
         b, n_obs = self.batch, sum(self._sizes.values())
         shapes = {
             "action": (b, self.n_actions), "skip": (b,), "g_max": (3,), "g_log": (3,),
-            "lookahead": (len(self.config.lookahead),), "eps_prev": (b, self.n_contours),
+            "lookahead": (len(self._ahead()),), "eps_prev": (b, self.n_contours),
             "s_before": (b,), "obs": (b, n_obs), "ref": (b, self.n_axes), "vel": (b, self.n_axes),
             "raw": (b,), "reward": (b,), "terminated": (b,), "truncated": (b,), "failure": (b,),
             "comp": (b, COMPONENTS.size), "weights": (max(weights.size, 1),), "steps": (b,),
@@ -179,7 +179,7 @@ class ContourTask:
         self._attach_views()
         v = self._v
         v["g_max"][...], v["g_log"][...] = self.g_max, self.g_log
-        v["lookahead"][...] = self.config.lookahead
+        v["lookahead"][...] = self._ahead()
         v["weights"][: weights.size] = weights
         lo, hi = component_bounds(self.hard_limit / self.tolerance, self._max_progress())
         self.reward_range = reward_range(self._reward, weights, lo, hi)
@@ -192,7 +192,20 @@ class ContourTask:
             f_nom=self.loop.nominal_feedrate,
             python_reward=float(not isinstance(self._reward, CompiledReward)),
             dim=self.path.dim, length=self.path.length,
+            observation=OBSERVATIONS.index(self.config.observation),
+            f_max=self._machine_feedrate(), horizon=max(self.config.preview),
+            progress_obs=float(self.config.observe_progress),
         )  # fmt: skip
+
+    def _machine_feedrate(self) -> float:
+        # the machine's feedrate limit (the v1 observation's speed scale); without one, the
+        # nominal feedrate
+        limit = float(self.preset.max_feedrate)
+        return limit if math.isfinite(limit) else float(self.loop.nominal_feedrate)
+
+    def _ahead(self) -> tuple[float, ...]:
+        # the arc lengths ahead the observation looks at (the kernel's "lookahead" array)
+        return self.config.lookahead if self.config.observation == "v0" else self.config.preview
 
     def _max_progress(self) -> float:
         # the fastest progress per step: the highest feed (rapids included) at the top override
@@ -243,15 +256,17 @@ class ContourTask:
 
     def _observation_sizes(self) -> dict[str, int]:
         # key order is the column order _kernel._observe writes; the task's own key last
-        return {
-            "contour_error": self.n_contours,
-            "contour_error_change": self.n_contours,
-            "tracking_error": self.n_axes,
-            "reference_velocity": self.n_axes,
-            "curvature": 1 + len(self.config.lookahead),
-            "progress": 1,
-            self.task_kind.tail: self.task_kind.tail_size(self.n_contours),
-        }
+        errors = {"contour_error": self.n_contours, "contour_error_change": self.n_contours,
+                  "tracking_error": self.n_axes}  # fmt: skip
+        if self.config.observation == "v0":
+            middle = {"reference_velocity": self.n_axes,
+                      "curvature": 1 + len(self.config.lookahead), "progress": 1}  # fmt: skip
+        else:
+            n = len(self.config.preview)
+            middle = {"speed": 3, "curvature": 1 + n, "turning": n, "corner": 2, "path_end": 1,
+                      **({"progress": 1} if self.config.observe_progress else {})}  # fmt: skip
+        return {**errors, **middle,
+                self.task_kind.tail: self.task_kind.tail_size(self.n_contours)}  # fmt: skip
 
     # ------------------------------------------------------- gains <-> actions
     def action_to_gains(self, action: Array) -> Array:

@@ -27,6 +27,30 @@ _SPEC = """
     ## Observation space
     ``Dict`` of float32 ``Box(-1e4, 1e4)`` (scaled values clipped; ``tol`` = ``tolerance``):
 
+    ``-v1`` ids (and the classes' default, ``observation="v1"``): what a controller can know on
+    any path, and nothing that names the path or the place on it (``progress`` only with
+    ``observe_progress=True``):
+
+    | key | shape | meaning | unit and scale |
+    |---|---|---|---|
+    | contour_error | (C,) | estimated contour error, signed in 2-D | m / tol |
+    | contour_error_change | (C,) | its change over the last decision | m / tol |
+    | tracking_error | (A,) | reference minus encoder reading per axis | m / tol |
+    | speed | (3,) | v / programmed feed, v / feed limit, feed override | - |
+    | curvature | (1+P,) | curvature at s_ref and ``preview`` ahead | 1/m x 1 cm |
+    | turning | (P,) | the tangent's turn from s_ref to each ``preview`` | rad / pi |
+    | corner | (2,) | the next corner within H: distance, turn | m / H, rad / pi |
+    | path_end | (1,) | distance to the path's end, capped at H | m / H |
+    | feedrate | (2,) | the override F / F_nom, actual path speed / F_nom | - |
+
+    ``v`` is the reference's speed along the path, the feed limit the machine's
+    (``max_feedrate``; the nominal feedrate where the preset has none); curvature and the turn
+    are signed in 2-D (+ = left). H = max(``preview``) is the horizon: a *corner* is a segment
+    join whose tangent turns by more than 0.02 rad, observed as (1, 0) when none lies within
+    H.
+
+    ``-v0`` ids (``observation="v0"``; the shipped agents were trained on it):
+
     | key | shape | meaning | unit and scale |
     |---|---|---|---|
     | contour_error | (C,) | estimated contour error, signed in 2-D | m / tol |
@@ -70,7 +94,9 @@ _SPEC = """
     As the CCC env, plus ``ccc_gains``, ``feedrate_range``, ``max_feedrate_change``.
 
     ## Version history
-    v0: initial release.
+    v1: the observation fit to generalise over paths (tracking errors in tolerances, speed
+    relative to the programmed feed and the machine's limit, the geometry ahead by arc length;
+    no ``progress``). v0: initial release.
 """
 
 

@@ -54,21 +54,19 @@ _ENTRY = {
 
 
 def register_envs() -> None:
-    """Register every id (idempotent)."""
+    """Register every id (idempotent): each scenario as ``-v0`` (v0's observation) and ``-v1``."""
     for name, (task, kwargs) in SCENARIOS.items():
-        env_id = f"contour_gym/{name}"
-        if env_id in gym.registry:
-            continue
         single, vector = _ENTRY[task]
-        gym.register(
-            id=env_id,
-            entry_point=single,
-            vector_entry_point=vector,
-            kwargs=dict(kwargs),
-        )
+        for version, extra in (("v0", {"observation": "v0"}), ("v1", {})):
+            env_id = f"contour_gym/{name.removesuffix('-v0')}-{version}"
+            if env_id not in gym.registry:
+                gym.register(id=env_id, entry_point=single, vector_entry_point=vector,
+                             kwargs={**kwargs, **extra})  # fmt: skip
 
 
-ENV_IDS = tuple(f"contour_gym/{name}" for name in SCENARIOS)
+# every scenario with v0's observation, then with v1's
+ENV_IDS = tuple(f"contour_gym/{name.removesuffix('-v0')}-{version}"
+                for version in ("v0", "v1") for name in SCENARIOS)  # fmt: skip
 
 
 def scenario_table() -> list[dict[str, Any]]:
