@@ -68,6 +68,32 @@ class GainsMap:
         return self.task.gains_to_action(g)
 
 
+# the v1 observation table (up to the task's own key) and its notes: both env specs' text
+OBSERVATION_V1 = """\
+    ``-v1`` ids (and the classes' default, ``observation="v1"``): what a controller can know on
+    any path, and nothing that names the path or the place on it (``progress`` only with
+    ``observe_progress=True``):
+
+    | key | shape | meaning | unit and scale |
+    |---|---|---|---|
+    | contour_error | (C,) | estimated contour error, signed in 2-D | m / tol |
+    | contour_error_change | (C,) | its change over the last decision | m / tol |
+    | tracking_error | (A,) | reference minus encoder reading per axis | m / tol |
+    | speed | (3,) | v / programmed feed, v / feed limit, feed override | - |
+    | curvature | (1+P,) | curvature at s_ref and ``preview`` ahead | 1/m x 1 cm |
+    | turning | (P,) | the tangent's turn from s_ref to each ``preview`` | rad / pi |
+    | corner | (2,) | the next corner within H: distance, turn | m / H, rad / pi |
+    | path_end | (1,) | distance to the path's end, capped at H | m / H |
+"""
+OBSERVATION_V1_NOTES = """\
+    ``v`` is the reference's speed along the path, the feed limit the machine's
+    (``max_feedrate``; the nominal feedrate where the preset has none); curvature and the turn
+    are signed in 2-D (+ = left). H = max(``preview``) is the horizon: a *corner* is a segment
+    join whose tangent turns by more than 0.02 rad, observed as (1, 0) when none lies within
+    H.
+"""
+
+
 class ContourEnv(GainsMap, gym.Env):
     """Base of the single envs; subclasses set ``kind`` and document the spec."""
 

@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
-from contour_gym.envs.base import ContourEnv, ContourVectorEnv
+from contour_gym.envs.base import (
+    OBSERVATION_V1,
+    OBSERVATION_V1_NOTES,
+    ContourEnv,
+    ContourVectorEnv,
+)
 from contour_gym.envs.core import FEEDRATE
 
-_SPEC = """
+_SPEC = (
+    """
     ## Description
     Paper 004's adaptive feedrate task: traverse the path as fast as possible while the
     contour error stays within ``tolerance``. No CCC runs (004 has none) unless
@@ -27,28 +33,13 @@ _SPEC = """
     ## Observation space
     ``Dict`` of float32 ``Box(-1e4, 1e4)`` (scaled values clipped; ``tol`` = ``tolerance``):
 
-    ``-v1`` ids (and the classes' default, ``observation="v1"``): what a controller can know on
-    any path, and nothing that names the path or the place on it (``progress`` only with
-    ``observe_progress=True``):
+"""
+    + OBSERVATION_V1
+    + """    | feedrate | (2,) | the override F / F_nom, actual path speed / F_nom | - |
 
-    | key | shape | meaning | unit and scale |
-    |---|---|---|---|
-    | contour_error | (C,) | estimated contour error, signed in 2-D | m / tol |
-    | contour_error_change | (C,) | its change over the last decision | m / tol |
-    | tracking_error | (A,) | reference minus encoder reading per axis | m / tol |
-    | speed | (3,) | v / programmed feed, v / feed limit, feed override | - |
-    | curvature | (1+P,) | curvature at s_ref and ``preview`` ahead | 1/m x 1 cm |
-    | turning | (P,) | the tangent's turn from s_ref to each ``preview`` | rad / pi |
-    | corner | (2,) | the next corner within H: distance, turn | m / H, rad / pi |
-    | path_end | (1,) | distance to the path's end, capped at H | m / H |
-    | feedrate | (2,) | the override F / F_nom, actual path speed / F_nom | - |
-
-    ``v`` is the reference's speed along the path, the feed limit the machine's
-    (``max_feedrate``; the nominal feedrate where the preset has none); curvature and the turn
-    are signed in 2-D (+ = left). H = max(``preview``) is the horizon: a *corner* is a segment
-    join whose tangent turns by more than 0.02 rad, observed as (1, 0) when none lies within
-    H.
-
+"""
+    + OBSERVATION_V1_NOTES
+    + """
     ``-v0`` ids (``observation="v0"``; the shipped agents were trained on it):
 
     | key | shape | meaning | unit and scale |
@@ -98,6 +89,7 @@ _SPEC = """
     relative to the programmed feed and the machine's limit, the geometry ahead by arc length;
     no ``progress``). v0: initial release.
 """
+)
 
 
 class FeedrateEnv(ContourEnv):  # noqa: D101 (the spec is assigned to __doc__)
