@@ -225,7 +225,8 @@ def run_policy(
 
 
 def evaluate(
-    policy: Policy | str, env: EnvSpec, n_episodes: int = 1, seed: int = 0
+    policy: Policy | str, env: EnvSpec | gym.Env[Any, Any] | gym.vector.VectorEnv,
+    n_episodes: int = 1, seed: int = 0,
 ) -> dict[str, Any]:
     """Run ``n_episodes`` episodes of ``policy`` to their ends and average their metrics.
 
@@ -235,7 +236,11 @@ def evaluate(
     Args:
         policy: A policy, or a registered policy's name (made with its default parameters
             by :func:`agents.policies.make`).
-        env: A registered id, or a dict ``{"id": id, **env kwargs}``.
+        env: A registered id, or a dict ``{"id": id, **env kwargs}``; or an env you made
+            (as stable-baselines3's ``evaluate_policy`` takes one): a contour_gym env, single
+            (wrappers allowed) or native vector, built with the arguments the policy needs
+            (its ``env_kwargs``). A single env runs the episodes one after another, a vector
+            env in rounds of its members; episode i is seeded ``seed + i`` either way.
         n_episodes: Episodes (members), >= 1.
         seed: Seed of the first episode.
 
@@ -248,7 +253,8 @@ def evaluate(
         episodes' own dicts, as :func:`run_policy` returns them.
 
     Raises:
-        ValueError: for ``n_episodes`` < 1, an unknown policy name; see :func:`env_arguments`.
+        ValueError: for ``n_episodes`` < 1, an unknown policy name, an env that is not
+            built as the policy needs (naming the argument); see :func:`env_arguments`.
 
     >>> m = evaluate("constant_feedrate", "contour_gym/Feedrate-Corner-v0", n_episodes=2)
     >>> len(m["episodes"]), m["finished"], m["max_contour_error"] <= m["tolerance"]
@@ -258,10 +264,69 @@ def evaluate(
         raise ValueError(f"n_episodes must be a positive int, got {n_episodes!r}")
     if isinstance(policy, str):
         policy = make(policy)
-    batch = run_policy_batch(env, policy, num_envs=n_episodes, seed=seed)
+    if isinstance(env, (gym.Env, gym.vector.VectorEnv)):
+        batch = _run_on_instance(env, policy, n_episodes, seed)
+    else:
+        batch = run_policy_batch(env, policy, num_envs=n_episodes, seed=seed)
     out: dict[str, Any] = {key: float(np.mean(value)) for key, value in batch.items()}
     out["episodes"] = [_episode(batch, i) for i in range(n_episodes)]
     return out
+
+
+def _run_on_instance(
+    env: gym.Env[Any, Any] | gym.vector.VectorEnv, policy: Policy, n: int, seed: int
+) -> dict[str, NDArray[Any]]:
+    # n episodes on a user's env: a native vector env in rounds of its members, a single env
+    # as a vector env of one (both seeded seed + i for episode i)
+    unwrapped: Any = env.unwrapped
+    config = getattr(unwrapped, "config", None)
+    if config is None:
+        raise ValueError(f"expected a contour_gym env, got {type(unwrapped).__name__}")
+    for key, value in policy.env_kwargs.items():
+        have = getattr(config, key)
+        if have is None and key == "feedrate_override":  # None: the scenario's
+            have = unwrapped.task.scenario.feed_override
+        if not _same(have, value):
+            raise ValueError(f"policy {policy.name!r} needs the env built with {key}={value!r}; "
+                             f"the env has {key}={have!r}")  # fmt: skip
+    venv = env if isinstance(env, gym.vector.VectorEnv) else _OneMember(env)
+    rounds = []
+    for first in range(0, n, venv.num_envs):
+        batch, _ = run_episodes(venv, policy, seed=seed + first)
+        rounds.append(batch)
+    return {key: np.concatenate([r[key] for r in rounds])[:n] for key in rounds[0]}
+
+
+class _OneMember(gym.vector.VectorEnv):
+    """A single contour_gym env seen as a vector env of one member (batched arrays)."""
+
+    def __init__(self, env: gym.Env[Any, Any]) -> None:
+        self.env, self.num_envs = env, 1
+        self.single_observation_space = env.observation_space
+        self.single_action_space = env.action_space
+        self.task = cast(Any, env.unwrapped).task  # what run_episodes reads (its loop, ...)
+
+    @property
+    def unwrapped(self) -> Any:
+        return self
+
+    def reset(self, *, seed: Any = None, options: Any = None) -> tuple[Any, dict[str, Any]]:
+        obs, info = self.env.reset(seed=seed, options=options)
+        return _batched(obs), info
+
+    def step(self, actions: Any) -> tuple[Any, ...]:
+        obs, reward, terminated, truncated, info = self.env.step(np.asarray(actions)[0])
+        if terminated or truncated:  # the vector env's info of an ending member
+            info = {**info, "metrics": _batched(info["metrics"])}
+        batched = {**info, "failure": np.array([info["failure"]])}
+        return (_batched(obs), np.array([reward]), np.array([terminated]),
+                np.array([truncated]), batched)  # fmt: skip
+
+
+def _batched(values: Mapping[str, Any]) -> dict[str, Any]:
+    # one member's values with a leading batch axis of 1
+    return {k: _batched(v) if isinstance(v, Mapping) else np.asarray(v)[None]
+            for k, v in values.items()}  # fmt: skip
 
 
 def _episode(batch: Mapping[str, NDArray[Any]], i: int) -> dict[str, Any]:

@@ -125,3 +125,21 @@ def test_run_policy_is_deterministic_and_members_equal_single_runs():
     assert {"cycle_time", "max_contour_error", "finished", "return", "failed"} <= set(first)
     batch = run_policy_batch(CORNER, policy, num_envs=2, seed=2)
     assert {k: v[1].item() for k, v in batch.items()} == first
+
+
+@pytest.mark.parametrize("make_env", [
+    lambda: gym.make("contour_gym/Feedrate-Corner-v0"),
+    lambda: gym.make_vec("contour_gym/Feedrate-Corner-v0", num_envs=2),
+], ids=["single", "vector"])  # fmt: skip
+def test_evaluate_takes_an_env_instance_as_sb3_does(make_env):
+    """An env the user made gives what the id gives: episode i seeded seed + i, bit for bit
+    (three episodes: a single env one by one, a vector env of two in two rounds)."""
+    from agents.evaluate import evaluate
+
+    by_id = evaluate("constant_feedrate", "contour_gym/Feedrate-Corner-v0", n_episodes=3, seed=4)
+    env = make_env()
+    mine = evaluate("constant_feedrate", env, n_episodes=3, seed=4)
+    assert mine["episodes"] == by_id["episodes"]
+    with pytest.raises(ValueError, match="needs the env built with ccc_law='fuzzy_pid'"):
+        evaluate("fuzzy_pid_ccc", gym.make("contour_gym/CCC-Circle-v0"))
+    env.close()
