@@ -129,7 +129,7 @@ def filled_blob(names: Sequence[str], values: Mapping[str, NDArray[np.generic]],
 
 
 def path_bank(
-    paths: Sequence[Path], programs: Sequence[motion.Program], slots: Sequence[int]
+    paths: Sequence[Path], programs: Sequence[motion.Program], slots: NDArray[np.int64]
 ) -> tuple[Blob, NDArray[np.int64], NDArray[np.int64]]:
     """The path bank: float blob, segment kinds, and each member's row of ``p_at``.
 

@@ -61,10 +61,9 @@ MP = MEMBER_PATH.col
 P_AT = state_schema("path at", "seg", "n", "s0")  # columns of p_at
 PA = P_AT.col
 # one member's path: its table (kind, s0, data, bound), program, the time law, its scalars
-PathArrays = namedtuple(  # type: ignore[misc]
-    "PathArrays", ("kind",) + PATH_NAMES[:-1] + ("length", "closed"))
+PathArrays = namedtuple("PathArrays", ("kind",) + PATH_NAMES[:-1] + ("length", "closed"))  # type: ignore[misc]
 # the whole bank, as the kernels take it (read-only): kinds, floats and the float layout
-PathBank = namedtuple("PathBank", ("kinds", "floats", "layout"))  # type: ignore[misc]
+PathBank = namedtuple("PathBank", ("kinds", "floats", "layout"))
 
 # the run's scalars, passed as one float row (a tuple argument costs the dispatcher ~2 us)
 CONFIG = Schema(
