@@ -206,7 +206,8 @@ class ContourTask:
             "s_before": (b,), "obs": (b, n_obs), "ref": (b, self.n_axes), "vel": (b, self.n_axes),
             "raw": (b,), "reward": (b,), "terminated": (b,), "truncated": (b,), "failure": (b,),
             "comp": (b, COMPONENTS.size), "weights": (max(weights.size, 1),), "steps": (b,),
-            "ret": (b,), "track": (b, self.n_axes), "feedrate": (b,),
+            "ret": (b,), "track": (b, self.n_axes), "feedrate": (b,), "nominal": (b,),
+            "f_nom": (b,), "n_max": (b,),
         }  # fmt: skip
         self._blob = Blob([(name, shapes[name]) for name in ENV_FLOATS])
         self._attach_views()
