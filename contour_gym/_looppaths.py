@@ -39,6 +39,7 @@ class LoopPaths(LoopViews):
     _programs: list[motion.Program]  # member b's program (the same object for a shared path)
     _slot: NDArray[np.int64]  # member b's path in the bank (index into _bank_paths)
     _bank_paths: list[Path]
+    _firsts: Array  # (paths in the bank, dim) each bank path's first point, m
     _starts: Array  # (paths in the bank, A) axis positions at each bank path's start, m
 
     # ------------------------------------------------------------- the paths
@@ -100,8 +101,9 @@ class LoopPaths(LoopViews):
                 left on different paths where one of them carries a time law (a time-law
                 path may only be shared by all members).
         """
-        idx = np.arange(self.batch_size)[np.asarray(slice(None) if members is None else members)]
-        idx = idx.reshape(-1)
+        idx = np.arange(self.batch_size)
+        if members is not None:
+            idx = idx[np.asarray(members)].reshape(-1)
         given = [paths] * len(idx) if isinstance(paths, Path) else list(paths)
         if len(given) != len(idx):
             raise ValueError(f"need one path or {len(idx)} paths (one per member), got "
@@ -125,6 +127,7 @@ class LoopPaths(LoopViews):
 
     def _build_bank(self) -> None:
         # the bank of the distinct member paths, p_at, the config's time law step, the starts
+        # (each bank path's first point, and the axis positions there)
         slots: dict[int, int] = {}
         for path in self._paths:
             slots.setdefault(id(path), len(slots))
@@ -136,12 +139,12 @@ class LoopPaths(LoopViews):
         self.p_at[...] = p_at
         law = self._bank_paths[0].time_law
         self._config[CF.law_dt] = 1.0 if law is None else law.dt
-        self._starts = np.stack([self._start_of(p) for p in self._bank_paths])
+        self._firsts = np.stack([p.point(0.0) for p in self._bank_paths])
+        self._starts = np.stack([self._start_of(q) for q in self._firsts])
 
-    def _start_of(self, path: Path) -> Array:
-        # (A,) axis positions at the start of ``path`` (contour offsets included), m
+    def _start_of(self, start: Array) -> Array:
+        # (A,) axis positions at a path's first point ``start`` (contour offsets included), m
         out = np.zeros(self.stage.n_axes)
-        start = path.point(0.0)
         for i, con in enumerate(self.stage.contours):
             for j in range(con.dim):
                 out[con.axes[j]] = start[j] + self.c_off[i, j]
@@ -153,8 +156,7 @@ class LoopPaths(LoopViews):
 
     def _start_points(self, idx: NDArray[np.intp]) -> Array:
         # (len(idx), dim) the start points of members idx's paths
-        firsts = np.stack([p.point(0.0) for p in self._bank_paths])
-        return firsts[self._slot[idx]]
+        return self._firsts[self._slot[idx]]
 
     # ------------------------------------------------------------- planning
     def planned_time(self, override: float | None = None, member: int | None = None) -> float:

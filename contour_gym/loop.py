@@ -286,7 +286,7 @@ class ServoLoop(LoopPaths, LoopParameters):
         # components are pickled by name (and the estimator with its option row) and looked
         # up in their registries again on load; the views are made again from the blobs
         names = set(self._fblob.views) | set(self._iblob.views) | {"sums", "_kernel"}
-        names |= {"_pblob", "_kind", "_slot", "_bank_paths", "_starts"}  # built again
+        names |= {"_pblob", "_kind", "_slot", "_bank_paths", "_firsts", "_starts"}  # built again
         state = {k: v for k, v in self.__dict__.items() if k not in names}
         state["controller"] = self.controller.name
         state["ccc_law"] = self.ccc_law.name

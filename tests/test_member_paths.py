@@ -172,7 +172,7 @@ def test_vector_env_members_equal_single_envs_on_random_paths():
 
 def test_feedrate_env_random_paths_are_programmed_within_the_default_range():
     env = gym.make("contour_gym/Feedrate-v0", path="random", path_options=SHORT)
-    top = get_preset(PRESET).max_feedrate
+    top = env.unwrapped.task.preset.max_feedrate
     for seed in range(3):
         env.reset(seed=seed)
         loop = env.unwrapped.task.loop
