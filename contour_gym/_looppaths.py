@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from contour_gym import motion
 from contour_gym._loopbuild import path_bank
-from contour_gym._loopstate import CF
+from contour_gym._loopstate import CF, MP
 from contour_gym._loopviews import Array, LoopViews
 from contour_gym.motion import IP, build_program
 from contour_gym.paths import Path
@@ -66,6 +66,11 @@ class LoopPaths(LoopViews):
     def programs(self) -> tuple[motion.Program, ...]:
         """(B,) each member's program (:func:`contour_gym.motion.build_program` of its path)."""
         return tuple(self._programs)
+
+    @property
+    def path_lengths(self) -> Array:
+        """(B,) each member's path length, m (metrics of members on different paths)."""
+        return self._pblob.views["member"][:, MP.length].copy()
 
     @property
     def shares_path(self) -> bool:

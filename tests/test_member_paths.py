@@ -45,6 +45,7 @@ def test_two_members_on_two_paths_equal_two_single_loops_bit_for_bit():
     pair = _loop(a, 2)
     pair.set_paths([a, b])
     assert pair.paths == (a, b) and not pair.shares_path
+    np.testing.assert_array_equal(pair.path_lengths, [a.length, b.length])
     pair.reset([11, 12])
     both = pair.run(max_time=4.0)
     singles = []
