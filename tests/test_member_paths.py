@@ -20,6 +20,9 @@ from contour_gym.presets import get_preset
 
 PRESET = "xy_dc_servo"
 SHORT = {"length": (0.015, 0.03)}  # short paths: short episodes
+# the rig with encoder noise: each member's noise stream must follow it onto its own path
+NOISY = {"preset": PRESET, "stage": {"axes": {"x": {"noise_std": 2e-7},
+                                              "y": {"noise_std": 2e-7}}}}  # fmt: skip
 
 
 def _paths() -> tuple[Path, Path]:
@@ -30,7 +33,7 @@ def _paths() -> tuple[Path, Path]:
 
 
 def _loop(path: Path, batch: int) -> ServoLoop:
-    sc = make_scenario(PRESET, path)
+    sc = make_scenario(NOISY, path)
     return sc.loop(batch_size=batch, ccc_gains=sc.preset.ccc_gains.as_tuple(), record=True)
 
 
@@ -47,6 +50,7 @@ def test_two_members_on_two_paths_equal_two_single_loops_bit_for_bit():
     assert pair.paths == (a, b) and not pair.shares_path
     np.testing.assert_array_equal(pair.path_lengths, [a.length, b.length])
     pair.reset([11, 12])
+    assert pair.stage.is_random  # rig noise drawn
     both = pair.run(max_time=4.0)
     singles = []
     for path, seed in ((a, 11), (b, 12)):
