@@ -368,12 +368,11 @@ _NO_REFCOUNT: dict[str, Any] = {"cache": True, "_nrt": False}
 
 
 @numba.njit(**_NO_REFCOUNT)
-def member_run(b, n, k0, cfg, loop, bank, noise, rec):
+def member_run(b, n, k0, cfg, loop, path, noise, rec):
     """Run ``n`` servo ticks of member ``b`` from its local tick ``k0``; returns its status.
 
-    The member runs its own path: its views of the path ``bank``, made once per call.
+    ``path`` is the member's own path (:func:`contour_gym._loopstate.member_path`).
     """
-    path = member_path(bank, loop.p_at, b)
     n_axes = loop.work.shape[1]
     has_noise = noise.shape[1] > 0
     row = loop.noise_at[b]  # the member's noise row of tick k0
@@ -446,5 +445,8 @@ def run_members(n, k0, cfg, loop, bank, noise, rec):
     for b in range(loop.ip_s.shape[0]):
         if loop.status[b] != STATUS_OK:
             continue
-        loop.status[b] = member_run(b, n, k0 - loop.k_start[b], cfg, loop, bank, noise, rec)
+        # the member's views of its own path, carved here: carved inside member_run (compiled
+        # without reference counting) they cost ~0.5 us a call (measured at B = 1024, n = 1)
+        path = member_path(bank, loop.p_at, b)
+        loop.status[b] = member_run(b, n, k0 - loop.k_start[b], cfg, loop, path, noise, rec)
         loop.noise_at[b] += n  # the member consumed n rows of its stream, whenever it stopped
