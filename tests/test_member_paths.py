@@ -43,17 +43,17 @@ def _compiles(fn: Any) -> list[str]:
     return [ev.data["dispatcher"].py_func.__qualname__ for _, ev in rec.buffer if ev.is_start]
 
 
-def test_two_members_on_two_paths_equal_two_single_loops_bit_for_bit():
+def test_members_on_different_paths_equal_single_loops_bit_for_bit():
     a, b = _paths()
-    pair = _loop(a, 2)
-    pair.set_paths([a, b])
-    assert pair.paths == (a, b) and not pair.shares_path
-    np.testing.assert_array_equal(pair.path_lengths, [a.length, b.length])
-    pair.reset([11, 12])
+    pair = _loop(a, 3)
+    pair.set_paths([a, b, a])  # the kernel carves a, then b, then a again
+    assert pair.paths == (a, b, a) and not pair.shares_path
+    np.testing.assert_array_equal(pair.path_lengths, [a.length, b.length, a.length])
+    pair.reset([11, 12, 13])
     assert pair.stage.is_random  # rig noise drawn
     both = pair.run(max_time=4.0)
     singles = []
-    for path, seed in ((a, 11), (b, 12)):
+    for path, seed in ((a, 11), (b, 12), (a, 13)):
         one = _loop(path, 1)
         one.reset([seed])
         singles.append((one.run(max_time=4.0), one.trace()))
@@ -67,7 +67,7 @@ def test_two_members_on_two_paths_equal_two_single_loops_bit_for_bit():
             np.testing.assert_array_equal(getattr(trace, field)[i, :n], getattr(tr, field)[0],
                                           err_msg=field)  # fmt: skip
         assert np.all(np.isnan(trace.x[i, n:]))  # nothing recorded after its end
-    assert pair.planned_time() == max(pair.planned_time(member=m) for m in (0, 1))
+    assert pair.planned_time() == max(pair.planned_time(member=m) for m in (0, 1, 2))
 
 
 def test_set_paths_compiles_nothing():
