@@ -39,7 +39,6 @@ from contour_gym._loopstate import (
     FT,
     LS,
     MEM_COL,
-    PA,
     REASON_DIVERGED,
     REASON_NOT_IN_POSITION,
     REASON_OVER_LIMIT,
@@ -51,6 +50,7 @@ from contour_gym._loopstate import (
     config,
     loop_arrays,
     member_path,
+    next_path,
     path_bank,
 )
 from contour_gym._slots import (
@@ -446,14 +446,10 @@ def run_members(n, k0, cfg, loop, bank, noise, rec):
     # each member's views of its own path, carved here (carved inside member_run, compiled
     # without reference counting, they cost ~0.5 us a call at n = 1), and only when its path is
     # another than the last one carved (members sharing a path carve it once)
-    at = loop.p_at
-    path = member_path(bank, at, 0)
-    carved = 0  # the member whose path ``path`` views
+    path, carved = member_path(bank, loop.p_at, 0), 0
     for b in range(loop.ip_s.shape[0]):
         if loop.status[b] != STATUS_OK:
             continue
-        if at[b, PA.seg] != at[carved, PA.seg]:
-            path = member_path(bank, at, b)
-            carved = b
+        path, carved = next_path(bank, loop.p_at, path, carved, b)
         loop.status[b] = member_run(b, n, k0 - loop.k_start[b], cfg, loop, path, noise, rec)
         loop.noise_at[b] += n  # the member consumed n rows of its stream, whenever it stopped

@@ -187,6 +187,18 @@ def member_path(bank, p_at, b):
 
 
 @numba.njit(cache=True, inline="always")
+def next_path(bank, p_at, path, carved, b):
+    """Member ``b``'s :data:`PathArrays`, and the member they were carved for.
+
+    ``path`` (carved for member ``carved``) when ``b`` runs the same path, else carved anew
+    (:func:`member_path`): members sharing a path carve it once per call.
+    """
+    if p_at[b, PA.seg] == p_at[carved, PA.seg]:
+        return path, carved
+    return member_path(bank, p_at, b), b
+
+
+@numba.njit(cache=True, inline="always")
 def config(c):
     """The :data:`CONFIG` row as a named tuple with the right types."""
     return Config(

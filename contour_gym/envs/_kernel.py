@@ -30,6 +30,7 @@ from contour_gym._loopstate import (
     config,
     loop_arrays,
     member_path,
+    next_path,
     path_bank,
 )
 from contour_gym._slots import REWARD, RUN_MEMBERS, TASK_APPLY, TASK_OBSERVE
@@ -140,10 +141,9 @@ def _references(loop, path, env, b, dim):
 
 
 @numba.njit(cache=True, inline="always")
-def _observe(loop, bank, env, ec, b):
-    # member b's observation row (the env docstrings' table, in key order) on its own path;
-    # the info's tracking errors and feedrate
-    path = member_path(bank, loop.p_at, b)
+def _observe(loop, path, env, ec, b):
+    # member b's observation row (the env docstrings' table, in key order) on its own path
+    # ``path``; the info's tracking errors and feedrate
     dim, length = int(ec[EC.dim]), path.length
     _references(loop, path, env, b, dim)
     n_c, n_a = loop.c_axes.shape[0], loop.work.shape[1]
@@ -189,13 +189,17 @@ def observe(
     """Write the observation rows of ``members`` (after a reset and after every step)."""
     loop, bank, env = _views(env_floats, env_layout, floats, float_layout, ints, int_layout,
                              path_kinds, path_floats, path_layout)  # fmt: skip
+    path, carved = member_path(bank, loop.p_at, 0), 0
     for b in members:
-        _observe(loop, bank, env, ec, b)
+        path, carved = next_path(bank, loop.p_at, path, carved, b)
+        _observe(loop, path, env, ec, b)
 
 
 @numba.njit(cache=True, inline="always")
 def _finish(loop, bank, env, ec):
-    # components, failure flags and (compiled reward) raw rewards; observations
+    # components, failure flags and (compiled reward) raw rewards; observations (each member on
+    # its own path: contour_gym._loopstate.next_path)
+    path, carved = member_path(bank, loop.p_at, 0), 0
     for b in range(env.reward.shape[0]):
         if env.skip[b] == 0.0:
             failed = _components(loop, env, ec, b)
@@ -204,7 +208,8 @@ def _finish(loop, bank, env, ec):
                 env.raw[b] = REWARD(int(ec[EC.reward]), env.comp[b], env.weights)
         else:
             env.failure[b] = 0.0
-        _observe(loop, bank, env, ec, b)
+        path, carved = next_path(bank, loop.p_at, path, carved, b)
+        _observe(loop, path, env, ec, b)
 
 
 @numba.njit(cache=True)
