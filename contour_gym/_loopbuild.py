@@ -17,7 +17,17 @@ from numpy.typing import NDArray
 
 from contour_gym import motion
 from contour_gym._blob import Blob
-from contour_gym._loopstate import ACC_A, ACC_C, CONFIG, FOOT, LAST, MEM, PATH_FLOATS, WORK
+from contour_gym._loopstate import (
+    ACC_A,
+    ACC_C,
+    CONFIG,
+    FOOT,
+    LAST,
+    MEM,
+    MEMBER_PATH,
+    PATH_FLOATS,
+    WORK,
+)
 from contour_gym.contour._history import HIST_WIDTH
 from contour_gym.paths import Path
 from contour_gym.plant._kernel import STATE
@@ -118,16 +128,40 @@ def filled_blob(names: Sequence[str], values: Mapping[str, NDArray[np.generic]],
     return blob
 
 
-def path_blob(path: Path, program: motion.Program) -> tuple[Blob, NDArray[np.int64]]:
-    """The path's float blob (table, program, time law) and its segment kinds."""
-    t, law = path.table, path.time_law
+def path_bank(
+    paths: Sequence[Path], programs: Sequence[motion.Program], slots: NDArray[np.int64]
+) -> tuple[Blob, NDArray[np.int64], NDArray[np.int64]]:
+    """The path bank: float blob, segment kinds, and each member's row of ``p_at``.
+
+    Args:
+        paths: The distinct paths the members run (each stored once, in this order).
+        programs: Their programs.
+        slots: Member ``b`` runs ``paths[slots[b]]``.
+
+    Returns:
+        The float blob (:data:`contour_gym._loopstate.PATH_FLOATS`: the tables and programs one
+        after the other, the time law of ``paths[0]``, every member's path scalars), the
+        segment kinds, and ``p_at`` (B, 3): each member's first segment, its number of
+        segments and its first ``s0`` entry (:data:`contour_gym._loopstate.P_AT`).
+    """
+    tables = [p.table for p in paths]
+    count = np.array([t.n_segments for t in tables], dtype=np.int64)
+    first = np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int64)
     names = ("feed", "flags", "vcap", "vj", "wait", "dwell")
-    values = dict(zip(names, program.arrays(), strict=True))
-    values.update(s0=t.s0, data=t.data, bound=t.bound)
+    each = [dict(zip(names, prog.arrays(), strict=True)) for prog in programs]
+    values = {name: np.concatenate([e[name] for e in each]) for name in names}
+    for name in ("s0", "data", "bound"):
+        values[name] = np.concatenate([getattr(t, name) for t in tables])
+    law = paths[0].time_law
     values["law_s"] = law.s if law is not None else np.zeros(1)
     values["law_v"] = law.v if law is not None else np.zeros(1)
+    slot = np.asarray(slots, dtype=np.int64)
+    scalars = [MEMBER_PATH.row(length=p.length, closed=float(p.closed)) for p in paths]
+    values["member"] = np.stack(scalars)[slot]
     blob = filled_blob([name for name, _ in PATH_FLOATS], values, {})
-    return blob, np.ascontiguousarray(t.kind, dtype=np.int64)
+    kinds = np.ascontiguousarray(np.concatenate([t.kind for t in tables]), dtype=np.int64)
+    p_at = np.stack([first[slot], count[slot], first[slot] + slot], axis=1)
+    return blob, kinds, p_at
 
 
 def config_row(stage: Stage, path: Path, opts: LoopOptions, record: bool, search: bool,
@@ -146,8 +180,7 @@ def config_row(stage: Stage, path: Path, opts: LoopOptions, record: bool, search
         x.encoder_resolution > 0 or x.noise_std > 0 for x in stage.axes)  # fmt: skip
     every = 1 if opts.sample_period is None else max(1, round(opts.sample_period / stage.ts))
     return CONFIG.row(
-        ts=stage.ts, nsub=stage.substeps, dim=path.dim, length=path.length,
-        closed=float(path.closed), meas_exact=float(exact),
+        ts=stage.ts, nsub=stage.substeps, dim=path.dim, meas_exact=float(exact),
         delay=0.0 if opts.ideal else float(stage.delay_ticks),
         inj_ref=float(opts.ccc_injection == "reference"), record=float(record),
         settle_ticks=math.ceil(opts.settle_time / stage.ts), in_band=stage.in_position,

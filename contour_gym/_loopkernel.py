@@ -49,7 +49,9 @@ from contour_gym._loopstate import (
     WORK_ROW,
     config,
     loop_arrays,
-    path_arrays,
+    member_path,
+    next_path,
+    path_bank,
 )
 from contour_gym._slots import (
     CCC_COMMIT,
@@ -137,10 +139,10 @@ def _track_foot(loop, path, cfg, q, p0, p1, p2):
         foot[q, FT.qx], foot[q, FT.qy], foot[q, FT.qz],
     )  # fmt: skip
     step = sf - sf_prev
-    if cfg.closed and step < -0.5 * cfg.length:
-        step += cfg.length
-    elif cfg.closed and step > 0.5 * cfg.length:
-        step -= cfg.length
+    if path.closed and step < -0.5 * path.length:
+        step += path.length
+    elif path.closed and step > 0.5 * path.length:
+        step -= path.length
     foot[q, FT.progress] += step
     foot[q, FT.s], foot[q, FT.qx], foot[q, FT.qy], foot[q, FT.qz] = sf, qx, qy, qz
     foot[q, FT.seg] = find_segment(path.s0, sf)
@@ -338,11 +340,11 @@ def _arrived(loop, path, cfg, b, inpos):
     band = 2.0 * cfg.in_band
     for c in range(n_c):
         f = b * n_c + c
-        if loop.foot[f, FT.progress] >= cfg.length - band - 1e-9:
+        if loop.foot[f, FT.progress] >= path.length - band - 1e-9:
             continue
         # a part whose moves retrace each other (a retract, then the return over the same
         # line): the foot may lie on the earlier pass, at the end point all the same
-        ex, ey, ez = eval_path(path.kind, path.s0, path.data, cfg.length)[:3]
+        ex, ey, ez = eval_path(path.kind, path.s0, path.data, path.length)[:3]
         dx, dy, dz = loop.foot[f, FT.qx] - ex, loop.foot[f, FT.qy] - ey, loop.foot[f, FT.qz] - ez
         if dx * dx + dy * dy + dz * dz > band * band:
             return False
@@ -368,7 +370,10 @@ _NO_REFCOUNT: dict[str, Any] = {"cache": True, "_nrt": False}
 
 @numba.njit(**_NO_REFCOUNT)
 def member_run(b, n, k0, cfg, loop, path, noise, rec):
-    """Run ``n`` servo ticks of member ``b`` from its local tick ``k0``; returns its status."""
+    """Run ``n`` servo ticks of member ``b`` from its local tick ``k0``; returns its status.
+
+    ``path`` is the member's own path (:func:`contour_gym._loopstate.member_path`).
+    """
     n_axes = loop.work.shape[1]
     has_noise = noise.shape[1] > 0
     row = loop.noise_at[b]  # the member's noise row of tick k0
@@ -415,18 +420,18 @@ def run_ticks(
 
     ``config_row`` is the run's :data:`~contour_gym._loopstate.CONFIG` row; ``floats`` and
     ``ints`` the loop's float and int blobs with their layouts; ``path_kinds``, ``path_floats``
-    and ``path_layout`` the path's segment kinds and float blob
-    (:mod:`contour_gym._loopstate`). The blobs' views are made here and handed to
+    and ``path_layout`` the path bank's segment kinds and float blob (every member's path:
+    :mod:`contour_gym._loopstate`). The blobs' views are made here and handed to
     :func:`run_members`.
     """
     # borrowed: the views made here and in the callees carry no owner to count
-    path = path_arrays(borrow(path_kinds), borrow(path_floats), path_layout)
+    bank = path_bank(borrow(path_kinds), borrow(path_floats), path_layout)
     loop = loop_arrays(borrow(floats), float_layout, borrow(ints), int_layout)
-    run_members(n, k0, config(config_row), loop, path, borrow(noise), borrow(rec))
+    run_members(n, k0, config(config_row), loop, bank, borrow(noise), borrow(rec))
 
 
 @numba.njit(cache=True, nogil=True)
-def run_members(n, k0, cfg, loop, path, noise, rec):
+def run_members(n, k0, cfg, loop, bank, noise, rec):
     """:func:`run_ticks` on the blobs' views (the env kernel calls this with its own).
 
     ``acc_*`` receive the sums of just these ticks, ``ep_*`` the episode's running sums (kept
@@ -438,8 +443,13 @@ def run_members(n, k0, cfg, loop, path, noise, rec):
     """
     loop.acc_c[:] = 0.0  # the window sums start at zero
     loop.acc_a[:] = 0.0
+    # each member's views of its own path, carved here (carved inside member_run, compiled
+    # without reference counting, they cost ~0.5 us a call at n = 1), and only when its path is
+    # another than the last one carved (members sharing a path carve it once)
+    path, carved = member_path(bank, loop.p_at, 0), 0
     for b in range(loop.ip_s.shape[0]):
         if loop.status[b] != STATUS_OK:
             continue
+        path, carved = next_path(bank, loop.p_at, path, carved, b)
         loop.status[b] = member_run(b, n, k0 - loop.k_start[b], cfg, loop, path, noise, rec)
         loop.noise_at[b] += n  # the member consumed n rows of its stream, whenever it stopped

@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike
 from contour_gym._loopviews import Array, LoopViews
 from contour_gym._validate import as_finite_array
 from contour_gym.ccc import CCCLaw, ccc_params
-from contour_gym.motion import IP, Program
+from contour_gym.motion import IP, Interpolator
 from contour_gym.plant._kernel import AX, DISTURBANCE
 from contour_gym.plant.friction import law_for
 from contour_gym.plant.stage import zoh_matrices
@@ -23,7 +23,7 @@ class LoopParameters(LoopViews):
     """Setters of the parameters optimisers and agents search (a base of ServoLoop)."""
 
     ccc_law: CCCLaw
-    program: Program
+    interpolator: Interpolator
     _nominal: tuple[Array, Array, Array]  # the stage's ax_p, fr_p, dist before any scaling
 
     def set_ccc_gains(self, gains: ArrayLike | None) -> None:
@@ -56,7 +56,7 @@ class LoopParameters(LoopViews):
     @property
     def nominal_feedrate(self) -> float:
         """The programmed cutting feedrate the override refers to, m/s."""
-        return self.program.nominal
+        return float(self.interpolator.feedrate)  # every member's program's nominal
 
     def set_feedrate(self, feedrate: ArrayLike) -> None:
         """Command a feedrate (m/s), scalar or (B,): the override ``F / nominal_feedrate``."""

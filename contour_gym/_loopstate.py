@@ -4,7 +4,8 @@ A :class:`~contour_gym.loop.ServoLoop` keeps every per-member array in two blobs
 (:mod:`contour_gym._blob`): floats in the order of :data:`FLOATS`, ints in :data:`INTS`. The
 compiled side rebuilds them as one named tuple of views (:func:`loop_arrays`), indexed by name
 (``FLOAT_AT.ip_s`` is the blob index of ``ip_s``): the kernels take a handful of grouped
-arguments (this tuple as ``loop``, the path's :data:`PathArrays` as ``path``, the scalar
+arguments (this tuple as ``loop``, the path bank as ``bank`` and each member's :data:`PathArrays` as
+``path``, the scalar
 settings :data:`Config` as ``cfg``) instead of dozens of positional arrays.
 
 Per-axis and per-contour arrays are *row tables* (all but the last dimension merged: row
@@ -19,7 +20,7 @@ from collections import namedtuple
 
 import numba
 
-from contour_gym._blob import readonly, rows2, rows3, view1, view2
+from contour_gym._blob import carve, readonly, rows2, rows3, view1, view2
 from contour_gym._schema import Param, Schema, state_schema
 from contour_gym._validate import number
 
@@ -35,26 +36,38 @@ FLOATS = (
     ("work", "view2"), ("c_off", "view2"),
 )  # fmt: skip
 # noise_at: each member's row in the noise buffer of its next tick (the kernel advances it)
-INTS = (("c_axes", "view2"), ("status", "view1"), ("k_start", "view1"), ("noise_at", "view1"))
+# p_at: each member's path in the path bank, row (first segment, segments, first s0 entry)
+INTS = (("c_axes", "view2"), ("status", "view1"), ("k_start", "view1"), ("noise_at", "view1"),
+        ("p_at", "view2"))  # fmt: skip
 FLOAT_NAMES = tuple(n for n, _ in FLOATS)
 INT_NAMES = tuple(n for n, _ in INTS)
 FLOAT_AT = namedtuple("F", FLOAT_NAMES)(*range(len(FLOATS)))
 INT_AT = namedtuple("I", INT_NAMES)(*range(len(INTS)))  # noqa: E741
 
 LoopArrays = namedtuple("LoopArrays", FLOAT_NAMES + INT_NAMES)  # type: ignore[misc]
-# the path's arrays (its table, program and time law) in one float blob; ``kind`` apart (ints)
+# The path bank: the members' paths (their tables and programs, each distinct path once, one
+# after the other) and the shared time law in one float blob; the segment kinds apart (ints).
+# ``member``: each member's path scalars (columns MEMBER_PATH). A member's PathArrays are
+# views of its own part (member_path; where it lies: the int blob's p_at).
 PATH_FLOATS = (
     ("s0", "view1"), ("data", "view2"), ("bound", "view2"), ("feed", "view1"),
     ("flags", "view1"), ("vcap", "view1"), ("vj", "view1"), ("wait", "view1"),
-    ("dwell", "view1"), ("law_s", "view1"), ("law_v", "view1"),
+    ("dwell", "view1"), ("law_s", "view1"), ("law_v", "view1"), ("member", "view2"),
 )  # fmt: skip
 PATH_NAMES = tuple(n for n, _ in PATH_FLOATS)
 PATH_AT = namedtuple("PF", PATH_NAMES)(*range(len(PATH_FLOATS)))
-PathArrays = namedtuple("PathArrays", ("kind",) + PATH_NAMES)  # type: ignore[misc]
+MEMBER_PATH = Schema("member path", length=1.0, closed=0.0)  # a member's path scalars
+MP = MEMBER_PATH.col
+P_AT = state_schema("path at", "seg", "n", "s0")  # columns of p_at
+PA = P_AT.col
+# one member's path: its table (kind, s0, data, bound), program, the time law, its scalars
+PathArrays = namedtuple("PathArrays", ("kind",) + PATH_NAMES[:-1] + ("length", "closed"))  # type: ignore[misc]
+# the whole bank, as the kernels take it (read-only): kinds, floats and the float layout
+PathBank = namedtuple("PathBank", ("kinds", "floats", "layout"))
 
 # the run's scalars, passed as one float row (a tuple argument costs the dispatcher ~2 us)
 CONFIG = Schema(
-    "loop config", ts=1e-3, nsub=1.0, dim=2.0, length=1.0, closed=0.0, meas_exact=1.0,
+    "loop config", ts=1e-3, nsub=1.0, dim=2.0, meas_exact=1.0,
     delay=0.0, inj_ref=0.0, record=0.0, settle_ticks=1000.0, in_band=1e-6, in_speed=1e-3,
     law_dt=1.0, sample_every=1.0, stop_above=Param(math.inf, number), ctrl=0.0, est=0.0,
     search=0.0, ccc=0.0, comp=0.0,
@@ -131,39 +144,67 @@ def loop_arrays(floats, float_layout, ints, int_layout):
         view1(ints, int_layout, INT_AT.status),
         view1(ints, int_layout, INT_AT.k_start),
         view1(ints, int_layout, INT_AT.noise_at),
+        view2(ints, int_layout, INT_AT.p_at),
     )
 
 
 @numba.njit(cache=True, inline="always")
-def path_arrays(path_kinds, path_floats, path_layout):
-    """The path's arrays (kind, then the float blob ``pb`` in :data:`PATH_FLOATS` order).
+def path_bank(path_kinds, path_floats, path_layout):
+    """The path bank (segment kinds, the float blob in :data:`PATH_FLOATS` order, its layout).
 
     Typed read-only, as the path tables of the Python API are (:func:`_blob.readonly`).
     """
-    path_kinds, path_floats = readonly(path_kinds), readonly(path_floats)
+    return PathBank(readonly(path_kinds), readonly(path_floats), path_layout)
+
+
+@numba.njit(cache=True, inline="always")
+def member_path(bank, p_at, b):
+    """Member ``b``'s :data:`PathArrays`: views of its part of the bank (row ``p_at[b]``).
+
+    Carved (:func:`_blob.carve`): C-contiguous and read-only, the types of the whole path's
+    views, so the path searches compile once for every bank.
+    """
+    buf, lay = bank.floats, bank.layout
+    o, n, o0 = p_at[b, PA.seg], p_at[b, PA.n], p_at[b, PA.s0]
+    w = lay[PATH_AT.data, 3]
+    m = lay[PATH_AT.member, 0] + b * lay[PATH_AT.member, 3]
     return PathArrays(
-        path_kinds,
-        view1(path_floats, path_layout, PATH_AT.s0),
-        view2(path_floats, path_layout, PATH_AT.data),
-        view2(path_floats, path_layout, PATH_AT.bound),
-        view1(path_floats, path_layout, PATH_AT.feed),
-        view1(path_floats, path_layout, PATH_AT.flags),
-        view1(path_floats, path_layout, PATH_AT.vcap),
-        view1(path_floats, path_layout, PATH_AT.vj),
-        view1(path_floats, path_layout, PATH_AT.wait),
-        view1(path_floats, path_layout, PATH_AT.dwell),
-        view1(path_floats, path_layout, PATH_AT.law_s),
-        view1(path_floats, path_layout, PATH_AT.law_v),
+        carve(bank.kinds, o, (n,)),
+        carve(buf, lay[PATH_AT.s0, 0] + o0, (n + 1,)),
+        carve(buf, lay[PATH_AT.data, 0] + o * w, (n, w)),
+        carve(buf, lay[PATH_AT.bound, 0] + o * lay[PATH_AT.bound, 3], (n, lay[PATH_AT.bound, 3])),
+        carve(buf, lay[PATH_AT.feed, 0] + o, (n,)),
+        carve(buf, lay[PATH_AT.flags, 0] + o, (n,)),
+        carve(buf, lay[PATH_AT.vcap, 0] + o, (n,)),
+        carve(buf, lay[PATH_AT.vj, 0] + o, (n,)),
+        carve(buf, lay[PATH_AT.wait, 0] + o, (n,)),
+        carve(buf, lay[PATH_AT.dwell, 0] + o, (n,)),
+        view1(buf, lay, PATH_AT.law_s),
+        view1(buf, lay, PATH_AT.law_v),
+        buf[m + MP.length],
+        buf[m + MP.closed] != 0.0,
     )
+
+
+@numba.njit(cache=True, inline="always")
+def next_path(bank, p_at, path, carved, b):
+    """Member ``b``'s :data:`PathArrays`, and the member they were carved for.
+
+    ``path`` (carved for member ``carved``) when ``b`` runs the same path, else carved anew
+    (:func:`member_path`): members sharing a path carve it once per call.
+    """
+    if p_at[b, PA.seg] == p_at[carved, PA.seg]:
+        return path, carved
+    return member_path(bank, p_at, b), b
 
 
 @numba.njit(cache=True, inline="always")
 def config(c):
     """The :data:`CONFIG` row as a named tuple with the right types."""
     return Config(
-        c[CF.ts], int(c[CF.nsub]), int(c[CF.dim]), c[CF.length], c[CF.closed] != 0.0,
-        c[CF.meas_exact] != 0.0, c[CF.delay] != 0.0, c[CF.inj_ref] != 0.0, c[CF.record] != 0.0,
-        c[CF.settle_ticks], c[CF.in_band], c[CF.in_speed], c[CF.law_dt], int(c[CF.sample_every]),
+        c[CF.ts], int(c[CF.nsub]), int(c[CF.dim]), c[CF.meas_exact] != 0.0, c[CF.delay] != 0.0,
+        c[CF.inj_ref] != 0.0, c[CF.record] != 0.0, c[CF.settle_ticks], c[CF.in_band],
+        c[CF.in_speed], c[CF.law_dt], int(c[CF.sample_every]),
         c[CF.stop_above], int(c[CF.ctrl]), int(c[CF.est]), c[CF.search] != 0.0, int(c[CF.ccc]),
         int(c[CF.comp]),
     )  # fmt: skip

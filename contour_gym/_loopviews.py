@@ -133,6 +133,7 @@ class LoopViews:
     status = _int()
     k_start = _int()
     noise_at = _int()
+    p_at = _int()
 
     @classmethod
     def view_names(cls) -> tuple[set[str], set[str]]:
@@ -210,10 +211,6 @@ class LoopViews:
     def blobs(self) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any], NDArray[Any]]:
         """The float and int blobs and their layouts (what compiled callers take)."""
         return self._fblob.buffer, self._fblob.layout, self._iblob.buffer, self._iblob.layout
-
-    def path_blobs(self) -> tuple[NDArray[np.int64], NDArray[Any], NDArray[np.int64]]:
-        """The path's segment kinds, float blob and its layout (what compiled callers take)."""
-        return self._kind, self._pblob.buffer, self._pblob.layout
 
 
 def _check_declared() -> None:

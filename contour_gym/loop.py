@@ -38,12 +38,12 @@ from contour_gym._loopbuild import (
     contour_axes,
     contour_offsets,
     filled_blob,
-    path_blob,
     state_shapes,
 )
 from contour_gym._loopnoise import NOISE_CHUNK as NOISE_CHUNK  # re-exported
 from contour_gym._loopnoise import NoiseSource, draws_noise, member_generators
 from contour_gym._loopparams import LoopParameters
+from contour_gym._looppaths import LoopPaths
 from contour_gym._looprecord import MAX_RECORD_BYTES, Recorder, Trace
 from contour_gym._loopstate import (
     CF,
@@ -63,7 +63,6 @@ from contour_gym.ccc import CCC_FAMILY, CCC_LAWS, INJECTIONS, ccc_params
 from contour_gym.contour import ESTIMATORS, Estimator, get_estimator
 from contour_gym.contour.base import ESTIMATOR_FAMILY
 from contour_gym.metrics import ErrorSums, metrics_from_sums
-from contour_gym.motion import IP, build_program
 from contour_gym.paths import Path
 from contour_gym.plant._kernel import ST, STATE
 from contour_gym.plant.friction import FRICTION_FAMILY, FRICTION_LAWS, law_for
@@ -126,14 +125,16 @@ class LoopOptions:
     sample_period: float | None = None
 
 
-class ServoLoop(LoopParameters):
-    """Batched closed loop over one stage and one path.
+class ServoLoop(LoopPaths, LoopParameters):
+    """Batched closed loop over one stage; its members on one path, or each on its own.
 
     The arrays of its blobs are attributes (``loop.ax_s``, ``loop.status``, ...: views written
     in place, declared in :class:`contour_gym._loopviews.LoopViews` with the state read-outs
     ``done``, ``failed``, ``cycle_time`` ...); the parameter setters (``set_ccc_gains``,
     ``set_feedrate``, ``set_plant_scaling`` ...) are those of
-    :class:`contour_gym._loopparams.LoopParameters`.
+    :class:`contour_gym._loopparams.LoopParameters`; members get paths of their own with
+    ``set_paths`` (:class:`contour_gym._looppaths.LoopPaths`: ``path``, ``paths``,
+    ``programs``, ``planned_time`` ...).
 
     Args:
         stage: The machine.
@@ -166,7 +167,7 @@ class ServoLoop(LoopParameters):
         _check_sizes(stage, path, axis_gains, batch_size)
         stage.check_travel(path)  # before any array is sized
         self.opts = _options(options)
-        self.stage, self.path, self.batch_size, self.record = stage, path, int(batch_size), record
+        self.stage, self.batch_size, self.record = stage, int(batch_size), record
         self.axis_gains = tuple(
             as_pid_gains(g, f"axis_gains[{i}]") for i, g in enumerate(axis_gains)
         )
@@ -179,15 +180,11 @@ class ServoLoop(LoopParameters):
         self.estimator = get_estimator(self.opts.estimator, **(self.opts.estimator_options or {}))
         self.ccc_law = CCC_LAWS.get(self.opts.ccc_law)
         self.law_names = friction_laws(stage)
-        self.program = build_program(
-            path, interpolator, stage.ts, path_control=self.opts.path_control,
-            path_tolerance=self.opts.path_tolerance,
-            use_program_feeds=self.opts.use_program_feeds,
-        )  # fmt: skip
+        self._init_paths(path)
         self._bind(bool(np.any(comp_p[..., compensation.C.mode] != compensation.NONE)))
         self._build_blobs(self._parameter_arrays(ctrl_p, comp_p, ccc_gains, ccc_weights))
-        self._pblob, self._kind = path_blob(path, self.program)
         self._config = self._config_row()
+        self._build_bank()
         self._kernel: ModuleType | None = None  # chosen on first use (kernel)
         self._recorder = Recorder(b, stage.n_axes, len(stage.contours))
         self._marked = False  # mark_compiled done (advance)
@@ -221,7 +218,7 @@ class ServoLoop(LoopParameters):
         self._fblob = filled_blob(FLOAT_NAMES, params, shapes)
         self._iblob = filled_blob(
             INT_NAMES, {"c_axes": contour_axes(self.stage)},
-            {"status": (b,), "k_start": (b,), "noise_at": (b,)}, np.int64,
+            {"status": (b,), "k_start": (b,), "noise_at": (b,), "p_at": (b, 3)}, np.int64,
         )  # fmt: skip
         self.sums = ErrorSums(self.ep_c, self.ep_a)
 
@@ -289,6 +286,7 @@ class ServoLoop(LoopParameters):
         # components are pickled by name (and the estimator with its option row) and looked
         # up in their registries again on load; the views are made again from the blobs
         names = set(self._fblob.views) | set(self._iblob.views) | {"sums", "_kernel"}
+        names |= {"_pblob", "_kind", "_slot", "_bank_paths", "_firsts", "_starts"}  # built again
         state = {k: v for k, v in self.__dict__.items() if k not in names}
         state["controller"] = self.controller.name
         state["ccc_law"] = self.ccc_law.name
@@ -310,6 +308,7 @@ class ServoLoop(LoopParameters):
                              f"{self.codes}")
         self._kernel = None
         self._marked = False
+        self._build_bank()
 
     # ----------------------------------------------------------------- state
     def _restart_clock(self) -> None:
@@ -318,19 +317,10 @@ class ServoLoop(LoopParameters):
         active = draws_noise(self.stage, self.opts.ideal)
         self._noise = NoiseSource(self.batch_size, 2 * self.stage.n_axes, active)
 
-    def start_positions(self) -> Array:
-        """(A,) axis positions at the path start (contour offsets included), m."""
-        out = np.zeros(self.stage.n_axes)
-        start = self.path.point(0.0)
-        for i, con in enumerate(self.stage.contours):
-            for j in range(con.dim):
-                out[con.axes[j]] = start[j] + self.c_off[i, j]
-        return out
-
     def reset(
         self, seed: int | Sequence[int] | None = None, members: ArrayLike | None = None
     ) -> None:
-        """Put members at rest at the start of the path.
+        """Put members at rest at the start of their paths.
 
         Args:
             seed: An int (member ``i`` of the reset ones uses child ``i`` of
@@ -343,15 +333,15 @@ class ServoLoop(LoopParameters):
             idx = np.arange(self.batch_size)
         else:
             idx = np.arange(self.batch_size)[np.asarray(members)].reshape(-1)
-        start = self.start_positions()
+        start = self._starts[self._slot[idx]]  # each member at its own path's start
         for arr in (self.ctrl_s, self.comp_s, self.ccc_s, self.hist, self.last, self.u_cmd,
                     self.mem, self.ax_s, self.foot):  # fmt: skip
             arr[idx] = 0.0
         self.ax_s[idx, :, ST.x] = start
         self.y_last[idx] = start
-        q0 = self.path.point(0.0)
-        self.foot[idx, :, FT.qx : FT.qx + self.path.dim] = q0
-        self.foot[idx, :, FT.e_qx : FT.e_qx + self.path.dim] = q0
+        q0, dim = self._start_points(idx)[:, None, :], self.stage.dim
+        self.foot[idx, :, FT.qx : FT.qx + dim] = q0
+        self.foot[idx, :, FT.e_qx : FT.e_qx + dim] = q0
         self.ip_s[idx] = motion.initial_state(len(idx))
         self.status[idx] = STATUS_OK
         self.k_start[idx] = self.tick
@@ -437,24 +427,6 @@ class ServoLoop(LoopParameters):
         # paused members run again, their local clocks n_ticks behind the loop's
         self.status[paused] = STATUS_OK
         self.k_start[paused] += n_ticks
-
-    def planned_time(self, override: float | None = None) -> float:
-        """A generous estimate of one contour's duration, s.
-
-        Args:
-            override: Feed override to plan at (default: the slowest member's).
-        """
-        ovr = float(self.ip_p[:, IP.ovr].min()) if override is None else override
-        slowest = max(ovr, 1e-9)
-        if self.path.time_law is not None:
-            return self.path.time_law.duration / slowest + self.opts.settle_time
-        feed = np.minimum(self.program.feed, self.program.vcap)
-        scale = np.where((self.program.flags.astype(int) & motion.RAPID) != 0, 1.0, slowest)
-        speed = np.maximum(np.minimum(feed * scale, float(self.ip_p[:, IP.f_max].min())), 1e-9)
-        move = float(np.sum(np.diff(self.path.table.s0) / speed))
-        dwell = float(self.program.dwell.sum()) * self.stage.ts
-        stops = float(self.program.wait.sum()) * self.opts.settle_time
-        return move + dwell + stops + self.opts.settle_time
 
     def run(
         self,

@@ -25,7 +25,9 @@ from contour_gym._loopstate import (
     STATUS_FAILED,
     config,
     loop_arrays,
-    path_arrays,
+    member_path,
+    next_path,
+    path_bank,
 )
 from contour_gym._slots import REWARD, RUN_MEMBERS, TASK_APPLY, TASK_OBSERVE
 from contour_gym.motion import IP, IS
@@ -73,7 +75,7 @@ def _components(loop, env, ec, b):
     comp[b, RC.contour] = total / max(count, 1.0) / tol
     comp[b, RC.peak] = worst / tol
     comp[b, RC.chatter] = chatter / n_a
-    comp[b, RC.progress] = (loop.ip_s[b, IS.s] - env.s_before[b]) / ec[EC.nominal]
+    comp[b, RC.progress] = (loop.ip_s[b, IS.s] - env.s_before[b]) / env.nominal[b]
     comp[b, RC.excess] = max(worst / tol - 1.0, 0.0)
     return loop.status[b] == STATUS_FAILED or worst > ec[EC.hard]
 
@@ -101,13 +103,13 @@ def _rewards(loop, env, ec):
             continue
         r = min(max(env.raw[b], r_lo), r_hi)
         if env.failure[b] != 0.0:
-            r = ec[EC.n_max] * r_lo - ec[EC.penalty] - env.ret[b]
+            r = env.n_max[b] * r_lo - ec[EC.penalty] - env.ret[b]
         env.reward[b] = r
         env.ret[b] += r
         env.steps[b] += 1.0
         ended = env.failure[b] != 0.0 or loop.status[b] == STATUS_ARRIVED
         env.terminated[b] = 1.0 if ended else 0.0
-        env.truncated[b] = 1.0 if (not ended and env.steps[b] >= ec[EC.n_max]) else 0.0
+        env.truncated[b] = 1.0 if (not ended and env.steps[b] >= env.n_max[b]) else 0.0
 
 
 @numba.njit(cache=True)
@@ -196,7 +198,7 @@ def _observe_v0(loop, path, env, ec, b, col, s, length, dim):
     for a in range(n_a):
         col = put(obs, b, col, (env.ref[b, a] - loop.y_last[b, a]) / TRACKING_SCALE)
     for a in range(n_a):
-        col = put(obs, b, col, env.vel[b, a] / ec[EC.f_nom])
+        col = put(obs, b, col, env.vel[b, a] / env.f_nom[b])
     col = put(obs, b, col, _curvature(path, s, dim) * CURVATURE_SCALE)
     for i in range(env.lookahead.shape[0]):
         ahead = min(s + env.lookahead[i], length)
@@ -217,9 +219,9 @@ def _references(loop, path, env, b, dim):
 
 @numba.njit(cache=True, inline="always")
 def _observe(loop, path, env, ec, b):
-    # member b's observation row (the env docstrings' table, in key order); the info's
-    # tracking errors and feedrate
-    dim, length = int(ec[EC.dim]), ec[EC.length]
+    # member b's observation row (the env docstrings' table, in key order) on its own path
+    # ``path``; the info's tracking errors and feedrate
+    dim, length = int(ec[EC.dim]), path.length
     _references(loop, path, env, b, dim)
     n_c, n_a = loop.c_axes.shape[0], loop.work.shape[1]
     for a in range(n_a):
@@ -244,11 +246,11 @@ def _views(
     env_floats, env_layout, floats, float_layout, ints, int_layout, path_kinds, path_floats,
     path_layout,
 ):  # fmt: skip
-    # the loop's, the path's and the env's arrays, borrowed (the caller keeps the blobs alive:
-    # views of a borrowed blob count no references, contour_gym._blob.borrow)
+    # the loop's, the path bank's and the env's arrays, borrowed (the caller keeps the blobs
+    # alive: views of a borrowed blob count no references, contour_gym._blob.borrow)
     loop = loop_arrays(borrow(floats), float_layout, borrow(ints), int_layout)
-    path = path_arrays(borrow(path_kinds), borrow(path_floats), path_layout)
-    return loop, path, env_arrays(borrow(env_floats), env_layout)
+    bank = path_bank(borrow(path_kinds), borrow(path_floats), path_layout)
+    return loop, bank, env_arrays(borrow(env_floats), env_layout)
 
 
 @numba.njit(cache=True)
@@ -257,15 +259,19 @@ def observe(
     path_layout, ec, members,
 ):  # fmt: skip
     """Write the observation rows of ``members`` (after a reset and after every step)."""
-    loop, path, env = _views(env_floats, env_layout, floats, float_layout, ints, int_layout,
+    loop, bank, env = _views(env_floats, env_layout, floats, float_layout, ints, int_layout,
                              path_kinds, path_floats, path_layout)  # fmt: skip
+    path, carved = member_path(bank, loop.p_at, 0), 0
     for b in members:
+        path, carved = next_path(bank, loop.p_at, path, carved, b)
         _observe(loop, path, env, ec, b)
 
 
 @numba.njit(cache=True, inline="always")
-def _finish(loop, path, env, ec):
-    # components, failure flags and (compiled reward) raw rewards; observations
+def _finish(loop, bank, env, ec):
+    # components, failure flags and (compiled reward) raw rewards; observations (each member on
+    # its own path: contour_gym._loopstate.next_path)
+    path, carved = member_path(bank, loop.p_at, 0), 0
     for b in range(env.reward.shape[0]):
         if env.skip[b] == 0.0:
             failed = _components(loop, env, ec, b)
@@ -274,6 +280,7 @@ def _finish(loop, path, env, ec):
                 env.raw[b] = REWARD(int(ec[EC.reward]), env.comp[b], env.weights)
         else:
             env.failure[b] = 0.0
+        path, carved = next_path(bank, loop.p_at, path, carved, b)
         _observe(loop, path, env, ec, b)
 
 
@@ -289,15 +296,15 @@ def env_step(
     Returns False, having changed nothing, when an action is NaN or infinite.
     """
     # the views, made once for the whole decision
-    loop, path, env = _views(env_floats, env_layout, floats, float_layout, ints, int_layout,
+    loop, bank, env = _views(env_floats, env_layout, floats, float_layout, ints, int_layout,
                              path_kinds, path_floats, path_layout)  # fmt: skip
     for b in range(env.action.shape[0]):
         for j in range(env.action.shape[1]):
             if not math.isfinite(env.action[b, j]):
                 return False
     _apply(loop, env, ec)
-    RUN_MEMBERS(n, k0, config(config_row), loop, path, borrow(noise), borrow(rec))
-    _finish(loop, path, env, ec)
+    RUN_MEMBERS(n, k0, config(config_row), loop, bank, borrow(noise), borrow(rec))
+    _finish(loop, bank, env, ec)
     if ec[EC.python_reward] == 0.0:
         _rewards(loop, env, ec)
     return True

@@ -47,7 +47,7 @@ def _figure(task: ContourTask, kind: str, member: int = 0) -> NDArray[np.uint8]:
 
     contour = task.stage.contours[0]
     fig = contour_figure(
-        task.path, {kind: task.loop.trace()}, axes=contour.axes[:2],
+        task.loop.paths[member], {kind: task.loop.trace()}, axes=contour.axes[:2],
         offset=(contour.offset or (0.0, 0.0))[:2], member=member,
     )  # fmt: skip
     return figure_to_array(fig)

@@ -83,8 +83,8 @@ _SPEC = (
     ``hard_limit`` (default 100 tolerances), a diverged state, or not in position
     ``settle_time`` after the reference ended (``info["failure"] = True``). Truncated at the
     env's own step limit N (``step_limit``; default twice the planned decisions of its
-    path at its feedrate, plus 10). Stepping after the end without ``reset`` raises
-    ``gymnasium.error.ResetNeeded``.
+    path at its feedrate, plus 10; on random paths, of each episode's path). Stepping after
+    the end without ``reset`` raises ``gymnasium.error.ResetNeeded``.
 
     ## Info
     Every step: ``contour_error`` (true, m, signed in 2-D), ``contour_error_estimate``,
@@ -96,7 +96,8 @@ _SPEC = (
     ``_key`` mask.
 
     ## Arguments
-    ``plant`` (name or ``{"preset": name, **overrides}``), ``path`` (name or Path),
+    ``plant`` (name or ``{"preset": name, **overrides}``), ``path`` (name, Path or
+    ``"random"``: each episode its own path, ``path_options``),
     ``feedrate``, ``feedrate_override``, ``laps``, ``ideal``, ``estimator``,
     ``estimator_options``, ``axis_controller``, ``controller_options``, ``ccc_law``,
     ``ccc_law_params``, ``ccc_injection``, ``path_control``, ``path_tolerance``, ``decision_ticks``,

@@ -13,9 +13,10 @@ from contour_gym._envstate import OBSERVATIONS
 from contour_gym._validate import as_finite_array, choice, non_negative, positive
 from contour_gym.api import Scenario, make_scenario
 from contour_gym.ccc import INJECTIONS
+from contour_gym.envs._paths import RANDOM, check_path_options, draw_path, path_options
 from contour_gym.motion import PATH_CONTROLS
 from contour_gym.paths import Path
-from contour_gym.presets import Preset
+from contour_gym.presets import Preset, resolve_preset
 
 # Default domain randomisation (``randomize=True``): relative +- spread of mass, damping and
 # force constant per axis and episode, and [low, high] scale ranges of friction and
@@ -37,7 +38,15 @@ class EnvConfig:
 
     Attributes:
         plant: Preset name, or ``{"preset": name, **overrides}`` (``contour_gym.presets``).
-        path: Library path name or :class:`Path` (None: the preset's paper path).
+        path: Library path name or :class:`Path` (None: the preset's paper path), or
+            ``"random"``: each member draws a path of its own at each reset
+            (:func:`contour_gym.paths.random_path`, from the member's generator after its
+            other draws), within the machine's travel (:mod:`contour_gym.envs._paths`).
+        path_options: With ``path="random"``: arguments of :func:`contour_gym.paths.random_path`
+            (``family``, ``within``, ``length``, ``feed_range``, ``margin``); the defaults are
+            the machine's travel box less 5 % at each end, and for the feedrate task
+            ``feed_range`` 0.3 to 1 times the preset's ``max_feedrate`` (its ``feedrate``
+            where the machine has no limit).
         feedrate: Nominal feedrate, m/s (None: the preset's, or a G-code part's F words).
         feedrate_override: Fraction of the programmed feeds (a CNC panel's override).
         laps: Times to trace a closed path (None: the preset's on its own path, else 1).
@@ -89,6 +98,7 @@ class EnvConfig:
 
     plant: str | Mapping[str, Any] = "xy_dc_servo"
     path: str | Path | None = None
+    path_options: dict[str, Any] = field(default_factory=dict)
     feedrate: float | None = None
     feedrate_override: float | None = None
     laps: int | None = None
@@ -160,6 +170,9 @@ class EnvConfig:
             not isinstance(self.step_limit, int) or self.step_limit < 1
         ):
             raise ValueError(f"step_limit must be a positive int, got {self.step_limit!r}")
+        check_path_options(self.path, self.path_options)
+        if self.path == RANDOM and self.laps is not None:
+            raise ValueError("laps do not apply to path='random' (each draw is one path)")
         self.randomization()  # validates
 
     def _check_observation(self) -> None:
@@ -187,8 +200,26 @@ class EnvConfig:
         """The contour error that fails an episode: ``hard_limit``, else 100 tolerances."""
         return self.hard_limit or HARD_LIMIT_TOLERANCES * self.tolerance_for(preset)
 
-    def scenario(self) -> Scenario:
-        """The scenario (machine, path, loop options) these arguments describe."""
+    @property
+    def random_paths(self) -> bool:
+        """Whether each member draws its own path at each reset (``path="random"``)."""
+        return isinstance(self.path, str) and self.path == RANDOM
+
+    def path_options_for(self, preset: Preset, defaults: Mapping[str, Any]) -> dict[str, Any]:
+        """The arguments of each random path draw on ``preset``, with the task's ``defaults``."""
+        return path_options(preset.stage, defaults, self.path_options)
+
+    def scenario(self, path: Path | None = None) -> Scenario:
+        """The scenario (machine, path, loop options) these arguments describe.
+
+        Args:
+            path: The path to run instead of ``self.path`` (an env on random paths gives its
+                first draw; else, with ``path="random"``, a draw from ``default_rng(0)``).
+        """
+        if path is None and self.random_paths:
+            preset = resolve_preset(self.plant)
+            rng = np.random.default_rng(0)
+            path = draw_path(rng, preset.stage, self.path_options_for(preset, {}))
         options: dict[str, Any] = {
             "ideal": self.ideal, "ccc_law": self.ccc_law, "ccc_law_params": self.ccc_law_params,
             "path_control": self.path_control, "path_tolerance": self.path_tolerance,
@@ -199,7 +230,8 @@ class EnvConfig:
             if getattr(self, key) is not None:
                 options[key] = getattr(self, key)
         return make_scenario(
-            self.plant, self.path, self.feedrate, feedrate_override=self.feedrate_override,
+            self.plant, self.path if path is None else path, self.feedrate,
+            feedrate_override=self.feedrate_override,
             laps=self.laps, **options,
         )  # fmt: skip
 

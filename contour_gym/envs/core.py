@@ -26,9 +26,13 @@ from contour_gym._compile import Family
 from contour_gym._envstate import EC, ENV_CONFIG, ENV_FLOATS, OBS_LIMIT, OBSERVATIONS
 from contour_gym._loopstate import LS, REASON_HARD_LIMIT, STATUS_ARRIVED
 from contour_gym._validate import seed_value
+from contour_gym.api import Scenario
+from contour_gym.envs._paths import draw_path
 from contour_gym.envs.config import EnvConfig
 from contour_gym.metrics import member_metrics
 from contour_gym.motion import IS
+from contour_gym.paths import Path
+from contour_gym.presets import resolve_preset
 from contour_gym.rewards import (
     COMPONENTS,
     REWARD_FAMILY,
@@ -63,9 +67,9 @@ class ContourTask:
     ) -> None:
         self.task_kind: Task = task_named(kind)
         self.config, self.batch, self.kind = config, batch, self.task_kind.name
-        self.scenario = config.scenario()
-        preset, path = self.scenario.preset, self.scenario.path
-        self.path, self.stage, self.preset = path, preset.stage, preset
+        self.scenario = self._make_scenario()
+        preset = self.scenario.preset
+        self.stage, self.preset = preset.stage, preset
         self.n_contours, self.n_axes = len(self.stage.contours), self.stage.n_axes
         self.tolerance = config.tolerance_for(preset)
         self.hard_limit = config.hard_limit_for(preset)
@@ -85,11 +89,28 @@ class ContourTask:
         self._obs_cols = [(key, slice(end - n, end))
                           for (key, n), end in zip(self._sizes.items(), ends, strict=True)]
         self._reward, weights = self._resolve_reward()
+        self._fixed_limit = config.step_limit
         self.max_episode_steps = config.step_limit or self._step_limit()
         self._build_blob(weights)
         self._specialise()
 
     # --------------------------------------------------------------- building
+    def _make_scenario(self) -> Scenario:
+        # the scenario; on random paths (path_options set), on a first draw from default_rng(0)
+        config = self.config
+        self.path_options: dict[str, Any] | None = None
+        if not config.random_paths:
+            return config.scenario()
+        preset = resolve_preset(config.plant)
+        self.path_options = config.path_options_for(preset, self.task_kind.path_defaults(preset))
+        first = draw_path(np.random.default_rng(0), preset.stage, self.path_options)
+        return config.scenario(path=first)
+
+    @property
+    def path(self) -> Path:
+        """The env's path: member 0's (every member's on a fixed path; ``loop.paths``: each)."""
+        return self.loop.path
+
     def _resolve_reward(self) -> tuple[CompiledReward | Callable[..., Any], Array]:
         spec = self.config.reward
         if spec is None:
@@ -152,9 +173,10 @@ class ContourTask:
         self.reset_members(np.array([0]), [np.random.default_rng(0)])
         self.step(np.zeros((self.batch, self.n_actions)))
 
-    def _step_limit(self) -> int:
+    def _step_limit(self, member: int | None = None) -> int:
+        # the step limit of member's path (default: of the longest of the members' paths)
         slowest = self.task_kind.override_range(self)[0]
-        planned = self.loop.planned_time(override=slowest)
+        planned = self.loop.planned_time(override=slowest, member=member)
         decisions = planned / (self.config.decision_ticks * self.stage.ts)
         return int(math.ceil(EPISODE_MARGIN * decisions)) + 10
 
@@ -162,8 +184,19 @@ class ContourTask:
         """Truncate episodes after ``steps`` decisions (the failure rule follows it)."""
         if not isinstance(steps, int) or steps < 1:
             raise ValueError(f"step_limit must be a positive int, got {steps!r}")
-        self.max_episode_steps = steps
-        self._econfig[EC.n_max] = steps
+        self.max_episode_steps = self._fixed_limit = steps
+        self._v["n_max"][...] = steps
+
+    def _member_constants(self, members: NDArray[np.intp]) -> None:
+        # each member's nominal feedrate, progress scale and step limit (from its own path on
+        # random paths: its highest programmed feed and its planned time)
+        v, own = self._v, self.path_options is not None
+        for b in members:
+            nominal = self.loop.programmed_feedrate(b) if own else self.loop.nominal_feedrate
+            v["f_nom"][b] = nominal
+            v["nominal"][b] = nominal * self.config.decision_ticks * self.stage.ts
+            limit = self._fixed_limit or (self._step_limit(b) if own else None)
+            v["n_max"][b] = limit or self.max_episode_steps
 
     def _build_blob(self, weights: Array) -> None:
         b, n_obs = self.batch, sum(self._sizes.values())
@@ -173,7 +206,8 @@ class ContourTask:
             "s_before": (b,), "obs": (b, n_obs), "ref": (b, self.n_axes), "vel": (b, self.n_axes),
             "raw": (b,), "reward": (b,), "terminated": (b,), "truncated": (b,), "failure": (b,),
             "comp": (b, COMPONENTS.size), "weights": (max(weights.size, 1),), "steps": (b,),
-            "ret": (b,), "track": (b, self.n_axes), "feedrate": (b,),
+            "ret": (b,), "track": (b, self.n_axes), "feedrate": (b,), "nominal": (b,),
+            "f_nom": (b,), "n_max": (b,),
         }  # fmt: skip
         self._blob = Blob([(name, shapes[name]) for name in ENV_FLOATS])
         self._attach_views()
@@ -187,15 +221,13 @@ class ContourTask:
             dovr=self.config.max_feedrate_change, ovr_lo=self.ovr_bounds[0],
             ovr_hi=self.ovr_bounds[1], tol=self.tolerance, hard=self.hard_limit,
             penalty=self.config.failure_penalty, r_lo=min(self.reward_range[0], 0.0),
-            r_hi=self.reward_range[1], n_max=self.max_episode_steps,
-            nominal=self.loop.nominal_feedrate * self.config.decision_ticks * self.stage.ts,
-            f_nom=self.loop.nominal_feedrate,
+            r_hi=self.reward_range[1], dim=self.stage.dim,
             python_reward=float(not isinstance(self._reward, CompiledReward)),
-            dim=self.path.dim, length=self.path.length,
             observation=OBSERVATIONS.index(self.config.observation),
             f_max=self._machine_feedrate(), horizon=max(self.config.preview),
             progress_obs=float(self.config.observe_progress),
         )  # fmt: skip
+        self._member_constants(np.arange(b))
 
     def _machine_feedrate(self) -> float:
         # the machine's feedrate limit (the v1 observation's speed scale); without one, the
@@ -210,7 +242,9 @@ class ContourTask:
     def _max_progress(self) -> float:
         # the fastest progress per step: the highest feed (rapids included) at the top override
         top = self.task_kind.override_range(self)[1]
-        return float(max(top, 1.0) * np.max(self.loop.program.feed) / self.loop.nominal_feedrate)
+        own = self.path_options is not None  # on random paths, the first's own nominal
+        nominal = self.loop.programmed_feedrate(0) if own else self.loop.nominal_feedrate
+        return float(max(top, 1.0) * np.max(self.loop.program.feed) / nominal)
 
     @property
     def arrays(self) -> dict[str, Array]:
@@ -284,11 +318,16 @@ class ContourTask:
     # ----------------------------------------------------------------- reset
     def reset_members(self, members: NDArray[np.intp], rngs: list[np.random.Generator]) -> None:
         """Start new episodes for ``members`` with their generators ``rngs``."""
-        seeds = []
+        seeds, paths = [], []
         for b, rng in zip(members, rngs, strict=True):
             self.rngs[b] = rng
             self._randomize(int(b), rng)
             seeds.append(int(rng.integers(2**63 - 1)))
+            if self.path_options is not None:  # drawn last: fixed-path streams stay as they were
+                paths.append(draw_path(rng, self.stage, self.path_options))
+        if paths:
+            self.loop.set_paths(paths, members=members)
+            self._member_constants(members)
         self.loop.reset(seeds, members=members)
         v = self._v
         for name in ("eps_prev", "steps", "ret", "reward", "terminated", "truncated", "failure",

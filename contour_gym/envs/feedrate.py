@@ -82,7 +82,10 @@ _SPEC = (
     time until in position at the end, and ``finished``) at every episode end.
 
     ## Arguments
-    As the CCC env, plus ``ccc_gains``, ``feedrate_range``, ``max_feedrate_change``.
+    As the CCC env, plus ``ccc_gains``, ``feedrate_range``, ``max_feedrate_change``. On
+    ``path="random"`` each part is programmed at feeds drawn from 0.3 to 1 times the machine's
+    ``max_feedrate`` (``path_options={"feed_range": ...}`` to change it), and its highest
+    feed is the episode's nominal feedrate.
 
     ## Version history
     v1: the observation fit to generalise over paths (tracking errors in tolerances, speed

@@ -18,6 +18,7 @@ from contour_gym._registry import Registry
 if TYPE_CHECKING:
     from contour_gym.envs.config import EnvConfig
     from contour_gym.envs.core import ContourTask
+    from contour_gym.presets import Preset
 
 
 @dataclass(frozen=True)
@@ -70,6 +71,14 @@ class Task(ABC):
         Called after the loop's reset; may set the starting actions
         (``env.arrays["action"]``), which the first observation shows.
         """
+
+    def path_defaults(self, preset: Preset) -> dict[str, Any]:
+        """Defaults of the random path draws on ``preset`` (``EnvConfig.path="random"``).
+
+        Arguments of :func:`contour_gym.paths.random_path` the env's ``path_options`` override;
+        none by default.
+        """
+        return {}
 
     def fixed_ccc_gains(self, config: EnvConfig) -> Sequence[float] | None:
         """CCC gains the loop holds through the episode (None: the preset's, or the task's)."""

@@ -8,9 +8,10 @@ env's ``ccc_gains``, or none).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numba
 import numpy as np
@@ -23,6 +24,9 @@ from contour_gym.tasks.base import Task, register_task
 if TYPE_CHECKING:
     from contour_gym.envs.config import EnvConfig
     from contour_gym.envs.core import ContourTask
+    from contour_gym.presets import Preset
+
+FEED_RANGE = (0.3, 1.0)  # random paths' programmed feeds, times the machine's feed limit
 
 
 @numba.njit(cache=True, inline="always")
@@ -60,6 +64,16 @@ class FeedrateOverride(Task):
     def reset(self, env: ContourTask, members: NDArray[np.intp]) -> None:
         """The scenario's feed override."""
         env.loop.ip_p[members, IP.ovr] = env.scenario.feed_override
+
+    def path_defaults(self, preset: Preset) -> dict[str, Any]:
+        """Random paths carry programmed feeds: ``feed_range`` 0.3 to 1 times the feed limit.
+
+        The limit is the machine's ``max_feedrate`` (the preset's ``feedrate`` where it has
+        none): the agent meets parts programmed at many feeds, none beyond what the machine
+        can run.
+        """
+        top = preset.max_feedrate if math.isfinite(preset.max_feedrate) else preset.feedrate
+        return {"feed_range": (FEED_RANGE[0] * top, FEED_RANGE[1] * top)}
 
     def fixed_ccc_gains(self, config: EnvConfig) -> Sequence[float] | None:
         """The env's ``ccc_gains`` if given (the loop then runs CCC), else none."""

@@ -1,0 +1,73 @@
+"""Random paths of an env (``EnvConfig.path = "random"``): the options of its draws.
+
+Each member draws its path at each reset with :func:`contour_gym.paths.random_path` from its
+own generator, with these keyword arguments: ``within`` defaults to the machine's travel box
+(:func:`travel_box`), the task may add its defaults (the feedrate task: ``feed_range``,
+:meth:`contour_gym.tasks.Task.path_defaults`), and the env's ``path_options`` override both.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from contour_gym.paths import random_path
+from contour_gym.paths._random import DEFAULT_WITHIN
+from contour_gym.plant.stage import Stage
+
+RANDOM = "random"  # EnvConfig.path of an env whose members draw their paths
+# random_path's keyword arguments an env may set (rng and dim are the env's)
+PATH_OPTIONS = ("family", "within", "length", "feed_range", "margin")
+TRAVEL_MARGIN = 0.05  # the default box: each axis' travel less this fraction of it at each end
+
+
+def check_path_options(path: Any, options: Any) -> None:
+    """Raise ValueError for bad ``path_options``.
+
+    They must be a dict of :data:`PATH_OPTIONS` keys, given only with ``path="random"``; the
+    error names the unknown keys.
+    """
+    if not isinstance(options, Mapping):
+        raise ValueError(f"path_options must be a dict, got {options!r}")
+    unknown = sorted(set(options) - set(PATH_OPTIONS))
+    if unknown:
+        raise ValueError(f"unknown path_options key(s) {unknown}; accepted: "
+                         f"{', '.join(PATH_OPTIONS)}")  # fmt: skip
+    if options and path != RANDOM:
+        raise ValueError(f"path_options apply to path='random', got path={path!r}")
+
+
+def travel_box(stage: Stage, margin: float = TRAVEL_MARGIN) -> tuple[tuple[float, float], ...]:
+    """The x-y box, m, where a path keeps every contour's axes within their travel.
+
+    Each contour's coordinate ``j`` may span its axis' travel less the contour's offset; the
+    box is the intersection over the contours, shrunk by ``margin`` of its width at each end.
+    An axis without a travel leaves the coordinate at random_path's default (+-50 mm).
+    """
+    box = np.array(DEFAULT_WITHIN, dtype=float)
+    limited = np.zeros(2, dtype=bool)
+    for con in stage.contours:
+        offset = con.offset or (0.0,) * con.dim
+        for j in range(2):
+            travel = stage.axes[con.axes[j]].travel
+            if travel is None:
+                continue
+            lo, hi = travel[0] - offset[j], travel[1] - offset[j]
+            box[j] = (lo, hi) if not limited[j] else (max(box[j, 0], lo), min(box[j, 1], hi))
+            limited[j] = True
+    width = box[:, 1] - box[:, 0]
+    box[limited] += np.outer(width[limited] * margin, [1.0, -1.0])
+    return tuple((float(lo), float(hi)) for lo, hi in box)
+
+
+def path_options(stage: Stage, defaults: Mapping[str, Any], given: Mapping[str, Any]
+                 ) -> dict[str, Any]:
+    """The keyword arguments of each draw: travel box, the task's ``defaults``, ``given``."""
+    return {"within": travel_box(stage), **defaults, **given}
+
+
+def draw_path(rng: np.random.Generator, stage: Stage, options: Mapping[str, Any]) -> Any:
+    """One random path on ``stage`` from ``rng`` (:func:`contour_gym.paths.random_path`)."""
+    return random_path(rng, dim=stage.dim, **options)
