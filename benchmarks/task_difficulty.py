@@ -16,6 +16,12 @@ alike), run together as one native vector env (member i holds action i, seed 0):
 
 Prints one table; ``--ids`` restricts it. Not a test: ``tests/test_tasks.py`` checks the same
 properties on two ids with smaller budgets.
+
+``--random N`` sweeps the same actions over N random paths instead (``path="random"`` on the
+given ids, e.g. ``contour_gym/CCC-v1``; path seeds 1000 to 1000 + N - 1, every action on the
+same path: the members share the seed): one row per path with its family, length, the returns,
+the best action and each action's peak contour error. A task fit for a general agent has no
+single best constant action across paths.
 """
 
 from __future__ import annotations
@@ -56,10 +62,51 @@ def feedrate_peaks(task: object) -> tuple[float, float]:
     return out[0], out[1]
 
 
+def random_sweep(env_id: str, seed: int) -> dict[str, object]:
+    """One episode per constant action on one random path (every member seeded ``seed``)."""
+    venv = gym.make_vec(env_id, num_envs=len(ACTIONS), path="random", decision_ticks=20)
+    n = len(ACTIONS)
+    actions = np.repeat(np.asarray(ACTIONS)[:, None], venv.single_action_space.shape[0], axis=1)
+    venv.reset(seed=[seed] * n)
+    ret, failed, peak, live = np.zeros(n), np.zeros(n, bool), np.zeros(n), np.ones(n, bool)
+    while live.any():
+        _, reward, terminated, truncated, info = venv.step(actions)
+        ret[live] += reward[live]
+        failed |= live & info["failure"]
+        ended = live & (terminated | truncated)
+        if ended.any():
+            peak[ended] = info["metrics"]["max_contour_error"][ended]
+        live &= ~ended
+    path = venv.unwrapped.task.loop.paths[0]
+    venv.close()
+    return {"returns": ret, "failed": failed, "peak": peak, "path": path}
+
+
+def random_main(ids: list[str], count: int) -> None:
+    """The ``--random`` table (module docstring)."""
+    for env_id in ids:
+        print(f"{env_id}, path=random (decision_ticks 20): return, F failed, peak um")
+        best = []
+        for k in range(count):
+            res = random_sweep(env_id, 1000 + k)
+            r, failed, peak, path = res["returns"], res["failed"], res["peak"], res["path"]
+            best.append(ACTIONS[int(np.argmax(r))])
+            cells = " ".join(f"{x:>9.4g}{'F' if f else ' '}{p * 1e6:>7.1f}"
+                             for x, f, p in zip(r, failed, peak, strict=True))  # fmt: skip
+            print(f"  {1000 + k} {path.name:<17} {path.length * 1e3:>5.0f} mm {cells} "
+                  f"best {best[-1]:+.1f}")  # fmt: skip
+        print(f"  best action per path: {best}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ids", nargs="*", default=list(contour_gym.ENV_IDS))
+    parser.add_argument("--random", type=int, default=0, metavar="N",
+                        help="sweep N random paths on --ids instead")  # fmt: skip
     args = parser.parse_args()
+    if args.random:
+        random_main(args.ids, args.random)
+        return
     head = "returns at a = " + " / ".join(f"{a:+.1f}" for a in ACTIONS)
     print(f"{'id':<34} {head:<58} {'best':>5} {'ones vs best':>12} {'fail margin':>11} "
           f"{'slow/tol':>8} {'fast/tol':>8} {'s':>5}")  # fmt: skip
