@@ -398,6 +398,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _show_warning
+            # the -v0 ids stay supported beside -v1 (the shipped agents were trained on them)
+            warnings.filterwarnings("ignore", message=r".*contour_gym/\S+-v0 is out of date")
             return command(args)
     except InputFileError as exc:
         print(exc, file=sys.stderr)

@@ -19,13 +19,14 @@ reference policy; ``tiny`` is for tests). A suite::
         params: {gain: 2.0}
     scenarios:                                 # name -> scenario (names the plots)
       000-circle:
-        env: contour_gym/CCC-Circle-v0         # a registered id (contour_gym/ optional) ...
+        env: contour_gym/CCC-Circle-v0         # a registered id, -v0 or -v1 (prefix optional)
         baseline: no_ccc                       # the paper's baseline policy (a label)
         policies: [no_ccc, pid_ccc]            # optional: default every policy that fits
       my-part:
         task: ccc                              # ... or task + plant + path (CCC-v0 / Feedrate-v0)
         plant: xy_servo_coulomb                # a preset name or {preset: ..., stage: ...}
-        path: corner                           # a library path name
+        path: corner                           # a library path name, or random (a new
+                                               # path per seed; env_kwargs.path_options)
         estimator: ground_truth                # optional, as are axis_controller, ideal
         ideal: true                            # the papers' pure model (default: the rig)
         seeds: [0, 1, 2]                       # a count n (seeds 0..n-1) or a list
@@ -78,6 +79,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, cast
 
+import gymnasium as gym
 import numpy as np
 import yaml
 
@@ -86,7 +88,7 @@ from agents.policies import Actions, Observation, Policy, available, make_policy
 from contour_gym.contour.base import ESTIMATORS
 from contour_gym.envs.config import EnvConfig
 from contour_gym.envs.core import CCC, FEEDRATE
-from contour_gym.envs.registration import SCENARIOS
+from contour_gym.envs.registration import ENV_IDS, SCENARIOS
 from contour_gym.paths import NAMES as PATH_NAMES
 from contour_gym.presets import resolve_preset
 from contour_gym.servo.base import CONTROLLERS
@@ -97,6 +99,7 @@ SUITES_DIR = Path(__file__).resolve().parent / "configs" / "suites"
 TASKS = {"ccc": CCC, "feedrate": FEEDRATE}  # suite spelling -> env kind
 GENERIC_IDS = {CCC: "CCC-v0", FEEDRATE: "Feedrate-v0"}  # task + plant + path runs on these
 ID_PREFIX = "contour_gym/"
+RANDOM_PATH = "random"  # a scenario path drawn per episode (contour_gym.paths.random_path)
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]*$")  # labels and scenario names (file names)
 
 
@@ -438,15 +441,17 @@ class _SuiteReader:
             task = TASKS[spelled]
         if "env" in body:
             given = self.typed(body["env"], f"{where}.env", str, "a registered env id")
-            key = given.removeprefix(ID_PREFIX)
-            if key not in SCENARIOS:
+            env_id = ID_PREFIX + given.removeprefix(ID_PREFIX)
+            if env_id not in ENV_IDS:
                 raise self.error(f"{where}.env", f"unknown env {given!r}; accepted: "
-                                 f"{', '.join(ID_PREFIX + k for k in SCENARIOS)}")  # fmt: skip
-            kind = SCENARIOS[key][0].lower()
+                                 f"{', '.join(ENV_IDS)}")  # fmt: skip
+            # the scenario of a -v0 or -v1 id (the registry names its -v0 id)
+            scenario = env_id.removeprefix(ID_PREFIX).rsplit("-v", 1)[0] + "-v0"
+            kind = SCENARIOS[scenario][0].lower()
             if task is not None and task != kind:
                 raise self.error(f"{where}.task", f"{body['task']!r} contradicts env {given!r} "
                                  f"(a {kind} env)")  # fmt: skip
-            return ID_PREFIX + key, kind, dict(SCENARIOS[key][1])
+            return env_id, kind, dict(gym.spec(env_id).kwargs)
         if task is None:
             raise self.error(where, "give 'env' (a registered id) or 'task' (with plant, path)")
         key = GENERIC_IDS[task]
@@ -479,8 +484,9 @@ class _SuiteReader:
             return value
         self.typed(value, where, str, f"a {key} name")
         if key == "path":
-            if value not in PATH_NAMES:
-                raise self.error(where, f"unknown path {value!r}; accepted: "
+            if value != RANDOM_PATH and value not in PATH_NAMES:
+                raise self.error(where, f"unknown path {value!r}; accepted: {RANDOM_PATH!r} "
+                                 f"(random paths; env_kwargs.path_options) or one of "
                                  f"{', '.join(PATH_NAMES)}")  # fmt: skip
         else:
             self.registered(ESTIMATORS.get if key == "estimator" else CONTROLLERS.get, value,

@@ -320,3 +320,30 @@ def test_the_cli_reports_a_bad_suite_without_a_traceback(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("contour-gym: error: unknown suite 'nope'; shipped: ")
     assert "Traceback" not in err
+
+
+def test_a_suite_takes_v1_ids_and_random_paths(tmp_path):
+    path = _bad(tmp_path, """\
+        policies:
+          no_ccc:
+          pid_ccc:
+        scenarios:
+          circle-v1:
+            env: CCC-Circle-v1
+            baseline: no_ccc
+          random-paths:
+            task: ccc
+            plant: xy_dc_servo
+            path: random
+            env_kwargs: {path_options: {family: spline}}
+            seeds: [5000, 5001]
+            baseline: no_ccc
+        """)
+    suite = load_suite(path)
+    circle, randoms = suite.scenarios
+    assert circle.env_id == "contour_gym/CCC-Circle-v1"
+    assert randoms.kwargs["path"] == "random" and tuple(randoms.seeds) == (5000, 5001)
+    assert set(plan(suite).values()) == {""}
+    with pytest.raises(ValueError, match=r"unknown path 'randomly'; accepted: 'random'"):
+        load_suite(_bad(tmp_path, SUITE.replace("env: contour_gym/CCC-Circle-v0",
+                                                "task: ccc\n    path: randomly")))
