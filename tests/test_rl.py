@@ -337,3 +337,19 @@ def test_every_shipped_agent_loads_by_name_and_runs_a_user_path(name):
     m = run_policy(spec, agent)
     assert m["finished"] and not m["failed"] and not m["truncated"]
     assert np.isfinite(m["max_contour_error"])
+
+
+def test_an_agent_trained_flat_on_random_paths_acts_on_the_v1_observation(tmp_path):
+    """Trained on -v1 with a new random path per episode, the flat agent acts on any path's
+    observation (issue 26), single and batched."""
+    run = train("contour_gym/CCC-Circle-v1", "ppo", 128, seed=0, out_dir=tmp_path,
+                progress=False, eval_episodes=2, eval_every=128,
+                **{**TINY_PPO, "env_kwargs": {"decision_ticks": 50, "path": "random"}})  # fmt: skip
+    agent = SavedAgent(export_agent(run, tmp_path / "general", "test"))
+    venv = gym.make_vec("contour_gym/CCC-v1", num_envs=2, decision_ticks=50, path="random")
+    agent.reset(venv)
+    obs, _ = venv.reset(seed=7)
+    assert "progress" not in obs and "corner" in obs
+    actions, _ = agent.predict(obs)
+    assert actions.shape == (2, 3) and np.all(np.abs(actions) <= 1.0)
+    venv.close()
