@@ -48,15 +48,12 @@ def travel_box(stage: Stage, margin: float = TRAVEL_MARGIN) -> tuple[tuple[float
     """
     box = np.array(DEFAULT_WITHIN, dtype=float)
     limited = np.zeros(2, dtype=bool)
-    for con in stage.contours:
-        offset = con.offset or (0.0,) * con.dim
-        for j in range(2):
-            travel = stage.axes[con.axes[j]].travel
-            if travel is None:
-                continue
-            lo, hi = travel[0] - offset[j], travel[1] - offset[j]
-            box[j] = (lo, hi) if not limited[j] else (max(box[j, 0], lo), min(box[j, 1], hi))
-            limited[j] = True
+    for j, _, offset, travel in stage.limited_coordinates():
+        if j >= 2:
+            continue
+        lo, hi = travel[0] - offset, travel[1] - offset
+        box[j] = (lo, hi) if not limited[j] else (max(box[j, 0], lo), min(box[j, 1], hi))
+        limited[j] = True
     width = box[:, 1] - box[:, 0]
     box[limited] += np.outer(width[limited] * margin, [1.0, -1.0])
     return tuple((float(lo), float(hi)) for lo, hi in box)

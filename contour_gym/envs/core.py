@@ -82,7 +82,6 @@ class ContourTask:
         )  # fmt: skip
         self.ovr_bounds = np.asarray(config.feedrate_range, dtype=float)
         self.gain_map = GainMap.for_env(config, preset, self.g0)
-        self.g_max, self.g_log = self.gain_map.g_max, self.gain_map.g_log
         self.rngs: list[np.random.Generator] = [np.random.default_rng(0)] * batch
         self._sizes = self._observation_sizes()
         ends = np.cumsum(list(self._sizes.values()))
@@ -212,7 +211,7 @@ class ContourTask:
         self._blob = Blob([(name, shapes[name]) for name in ENV_FLOATS])
         self._attach_views()
         v = self._v
-        v["g_max"][...], v["g_log"][...] = self.g_max, self.g_log
+        v["g_max"][...], v["g_log"][...] = self.gain_map.g_max, self.gain_map.g_log
         v["lookahead"][...] = self._ahead()
         v["weights"][: weights.size] = weights
         lo, hi = component_bounds(self.hard_limit / self.tolerance, self._max_progress())
@@ -245,6 +244,11 @@ class ContourTask:
         own = self.path_options is not None  # on random paths, the first's own nominal
         nominal = self.loop.programmed_feedrate(0) if own else self.loop.nominal_feedrate
         return float(max(top, 1.0) * np.max(self.loop.program.feed) / nominal)
+
+    @property
+    def g_max(self) -> Array:
+        """The largest CCC gains (kp, ki, kd) of the action map (:class:`GainMap`)."""
+        return self.gain_map.g_max
 
     @property
     def arrays(self) -> dict[str, Array]:

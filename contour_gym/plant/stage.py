@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -114,30 +115,34 @@ class Stage:
         s0 = np.asarray(path.table.s0, dtype=float)
         s = (s0[:-1, None] + np.diff(s0)[:, None] * np.linspace(0.0, 1.0, 9)).ravel()
         points = np.asarray(path.point(s)).reshape(len(s), -1)
+        for j, a, offset, travel in self.limited_coordinates():
+            reach = points[:, j] + offset
+            out = np.flatnonzero((reach < travel[0]) | (reach > travel[1]))
+            if out.size:
+                self._beyond(path, a, float(reach[out[0]]), float(s[out[0]]))
+
+    def limited_coordinates(self) -> Iterator[tuple[int, int, float, tuple[float, float]]]:
+        """Every contour coordinate whose axis has a travel.
+
+        Yields:
+            ``(j, a, offset, travel)``: the contour's coordinate ``j``, its axis ``a``, the
+            contour's offset along ``j`` (m) and the axis' ``(low, high)`` travel (m).
+        """
         for c in self.contours:
-            offset = np.asarray(c.offset or (0.0,) * c.dim)
+            offset = c.offset or (0.0,) * c.dim
             for j, a in enumerate(c.axes):
                 travel = self.axes[a].travel
-                if travel is None:
-                    continue
-                reach = points[:, j] + offset[j]
-                out = np.flatnonzero((reach < travel[0]) | (reach > travel[1]))
-                if out.size:
-                    self._beyond(path, a, float(reach[out[0]]), float(s[out[0]]))
+                if travel is not None:
+                    yield j, a, float(offset[j]), travel
 
     def _spheres_inside(self, path: Any) -> bool:
         # every segment's bounding sphere (path.table.bound) within every limited axis' travel
         bound = np.asarray(path.table.bound, dtype=float)
-        for c in self.contours:
-            offset = np.asarray(c.offset or (0.0,) * c.dim)
-            for j, a in enumerate(c.axes):
-                travel = self.axes[a].travel
-                if travel is None:
-                    continue
-                low = bound[:, j] + offset[j] - bound[:, 3]
-                high = bound[:, j] + offset[j] + bound[:, 3]
-                if np.any(low < travel[0]) or np.any(high > travel[1]):
-                    return False
+        for j, _, offset, travel in self.limited_coordinates():
+            low = bound[:, j] + offset - bound[:, 3]
+            high = bound[:, j] + offset + bound[:, 3]
+            if np.any(low < travel[0]) or np.any(high > travel[1]):
+                return False
         return True
 
     def _beyond(self, path: Any, a: int, reach: float, s: float) -> None:
