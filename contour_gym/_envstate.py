@@ -19,11 +19,11 @@ from contour_gym._schema import Schema
 ENV_FLOATS = (
     "action", "skip", "g_max", "g_log", "lookahead", "eps_prev", "s_before", "obs", "ref",
     "vel", "raw", "reward", "terminated", "truncated", "failure", "comp", "weights", "steps",
-    "ret", "track", "feedrate", "nominal", "f_nom", "n_max",
+    "ret", "track", "feedrate", "nominal", "f_nom", "n_max", "peak",
 )  # fmt: skip
 # nominal: each member's progress scale (its nominal feedrate x decision time, m); f_nom: its
 # nominal feedrate (reference velocity scale, m/s); n_max: its step limit (members run their
-# own paths)
+# own paths); peak: the episode's peak true contour error so far, m (the ``record`` component)
 ENV_AT = namedtuple("E", ENV_FLOATS)(*range(len(ENV_FLOATS)))
 EnvArrays = namedtuple("EnvArrays", ENV_FLOATS)  # type: ignore[misc]
 ENV_CONFIG = Schema(
@@ -66,6 +66,7 @@ def env_arrays(env_floats, env_layout):
         view1(env_floats, env_layout, ENV_AT.nominal),
         view1(env_floats, env_layout, ENV_AT.f_nom),
         view1(env_floats, env_layout, ENV_AT.n_max),
+        view1(env_floats, env_layout, ENV_AT.peak),
     )
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from contour_gym._validate import positive
@@ -112,7 +112,8 @@ def make_scenario(
     Args:
         plant: Preset name, :class:`Preset`, or ``{"preset": name, **overrides}``.
         path: Library path name, a :class:`Path` (G-code parts are mapped onto the machine's
-            axes), or None for the preset's paper path.
+            axes; a Path runs at the preset's ``part_accel`` where it has one), or None for
+            the preset's paper path.
         feedrate: m/s; None for a G-code part's own F words (the highest cutting one is the
             nominal), else the preset's feedrate. Given for a G-code part, it replaces its
             F words; given for a path with a time law, it scales the law's time so that its
@@ -129,7 +130,7 @@ def make_scenario(
         ValueError: for unknown names or options, a path whose dimension does not match the
             machine, a non-positive feedrate, or laps of an open path.
     """
-    preset = resolve_preset(plant)
+    preset = _for_path(resolve_preset(plant), path)
     resolved, laps = _scenario_path(preset, path, laps)
     override = 1.0
     if feedrate_override is not None:
@@ -140,6 +141,13 @@ def make_scenario(
     rate, override = _nominal_feedrate(preset, resolved, given, override)
     _check_loop_options(options)
     return Scenario(preset, resolved, rate, _with_paper_options(preset, options), override, laps)
+
+
+def _for_path(preset: Preset, path: str | Path | None) -> Preset:
+    """``preset`` as it runs ``path``: a user's :class:`Path` at its ``part_accel``."""
+    if isinstance(path, Path) and preset.part_accel is not None and math.isinf(preset.accel):
+        return replace(preset, accel=preset.part_accel)
+    return preset
 
 
 def _scenario_path(preset: Preset, path: str | Path | None, laps: int | None) -> tuple[Path, int]:

@@ -10,13 +10,17 @@ Every env step computes the same *components* per member (:data:`COMPONENTS`; ea
 | chatter | mean over ticks and axes of abs(u_k - u_(k-1)) / u_max | [0, 2] |
 | progress | arc length advanced / (nominal feedrate x decision time) | [0, P] |
 | excess | max(0, peak - 1): how far the decision's peak broke the tolerance | [0, H - 1] |
+| record | the rise of the episode's peak error in the decision, / tolerance | [0, H] |
 
 with ``H = hard_limit / tolerance`` (beyond it the episode fails) and ``P`` the fastest progress
-the feedrate range allows. A reward maps them to a number:
+the feedrate range allows; an episode's ``record`` sums to its max contour error in
+tolerances. A reward maps them to a number:
 
 * a *compiled* reward (:class:`CompiledReward`, registered in :data:`REWARDS`): an njit
   ``fn(components, weights) -> float`` with named weights; it runs inside the env's compiled
-  step. Built in: ``ccc`` (``-(w_contour contour + w_chatter chatter)``) and ``feedrate``
+  step. Built in: ``ccc`` (``-(w_contour contour + w_chatter chatter + w_record record)``,
+  ``w_record`` 0 unless given: the peak's price, for agents judged by the max error) and
+  ``feedrate``
   (``w_progress progress - w_time - w_excess excess``: the time cost of one step makes the
   episode's return ``(L / F_nom - cycle time) / decision time - w_excess sum(excess)`` at the
   default weights, so a faster part scores higher, as 004's objective has it);
@@ -45,7 +49,9 @@ from contour_gym._registry import Registry
 from contour_gym._schema import Param, Schema, state_schema
 from contour_gym._validate import non_negative
 
-COMPONENTS = state_schema("reward components", "contour", "peak", "chatter", "progress", "excess")
+COMPONENTS = state_schema(
+    "reward components", "contour", "peak", "chatter", "progress", "excess", "record"
+)
 RC = COMPONENTS.col
 Array = NDArray[np.float64]
 
@@ -91,6 +97,7 @@ CCC_WEIGHTS = Schema(
     "ccc reward",
     contour=Param(1.0, non_negative, "per tolerance of mean contour error"),
     chatter=Param(10.0, non_negative, "per unit of normalised control variation"),
+    record=Param(0.0, non_negative, "per tolerance the decision raises the episode's peak"),
 )
 
 
@@ -99,8 +106,10 @@ _CW = CCC_WEIGHTS.col
 
 @numba.njit(cache=True, inline="always")
 def ccc_reward(comp, w):
-    """``-(w_contour contour + w_chatter chatter)`` (module docstring)."""
-    return -(w[_CW.contour] * comp[RC.contour] + w[_CW.chatter] * comp[RC.chatter])
+    """``-(w_contour contour + w_chatter chatter + w_record record)`` (module docstring)."""
+    c = _CW
+    return -(w[c.contour] * comp[RC.contour] + w[c.chatter] * comp[RC.chatter]
+             + w[c.record] * comp[RC.record])  # fmt: skip
 
 
 FEEDRATE_WEIGHTS = Schema(
@@ -149,6 +158,7 @@ def component_bounds(hard_over_tol: float, max_progress: float) -> tuple[Array, 
     hi[RC.chatter] = 2.0
     hi[RC.progress] = max_progress
     hi[RC.excess] = max(hard_over_tol - 1.0, 0.0)
+    hi[RC.record] = hard_over_tol
     return lo, hi
 
 

@@ -77,6 +77,8 @@ def _components(loop, env, ec, b):
     comp[b, RC.chatter] = chatter / n_a
     comp[b, RC.progress] = (loop.ip_s[b, IS.s] - env.s_before[b]) / env.nominal[b]
     comp[b, RC.excess] = max(worst / tol - 1.0, 0.0)
+    comp[b, RC.record] = max(worst - env.peak[b], 0.0) / tol
+    env.peak[b] = max(env.peak[b], worst)
     return loop.status[b] == STATUS_FAILED or worst > ec[EC.hard]
 
 

@@ -97,7 +97,8 @@ _SPEC = (
 
     ## Arguments
     ``plant`` (name or ``{"preset": name, **overrides}``), ``path`` (name, Path or
-    ``"random"``: each episode its own path, ``path_options``),
+    ``"random"``: each episode its own path, ``path_options``, run under ``"G64"`` look-ahead
+    unless ``path_control`` says otherwise, and at the preset's ``part_accel``),
     ``feedrate``, ``feedrate_override``, ``laps``, ``ideal``, ``estimator``,
     ``estimator_options``, ``axis_controller``, ``controller_options``, ``ccc_law``,
     ``ccc_law_params``, ``ccc_injection``, ``path_control``, ``path_tolerance``, ``decision_ticks``,

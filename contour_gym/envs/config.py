@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -17,6 +17,9 @@ from contour_gym.envs._paths import RANDOM, check_path_options, draw_path, path_
 from contour_gym.motion import PATH_CONTROLS
 from contour_gym.paths import Path
 from contour_gym.presets import Preset, resolve_preset
+
+if TYPE_CHECKING:
+    from contour_gym.tasks.base import Task
 
 # Default domain randomisation (``randomize=True``): relative +- spread of mass, damping and
 # force constant per axis and episode, and [low, high] scale ranges of friction and
@@ -59,7 +62,8 @@ class EnvConfig:
         ccc_law: CCC law name (``contour_gym.ccc.CCC_LAWS``).
         ccc_law_params: The law's parameters beyond kp, ki, kd.
         ccc_injection: ``"control"`` or ``"reference"`` (None: the preset's).
-        path_control: ``"none"``, ``"G61"``, ``"G61.1"``, ``"G64"`` (None: the path's own).
+        path_control: ``"none"``, ``"G61"``, ``"G61.1"``, ``"G64"`` (None: the path's own; on
+            random paths the task's: ``"G64"`` for the CCC task, ``"G61.1"`` for feedrate).
         path_tolerance: Tolerance of ``"G64"``, m.
         decision_ticks: Servo ticks per env step (the action is held).
         tolerance: Contour error bound, m; also the observation and reward scale (None: the
@@ -209,12 +213,26 @@ class EnvConfig:
         """The arguments of each random path draw on ``preset``, with the task's ``defaults``."""
         return path_options(preset.stage, defaults, self.path_options)
 
-    def scenario(self, path: Path | None = None) -> Scenario:
+    def random_scenario(self, rng: np.random.Generator, task: Task) -> Scenario:
+        """The scenario of one random path drawn from ``rng``, as the env runs it for ``task``.
+
+        The task's path defaults (:meth:`Task.path_defaults`) under the env's
+        ``path_options``, and its path control (:meth:`Task.random_path_control`) where the
+        env names none. For tuning on random paths (:mod:`agents.tune`) as the env trains.
+        """
+        preset = resolve_preset(self.plant)
+        options = self.path_options_for(preset, task.path_defaults(preset))
+        path = draw_path(rng, preset.stage, options)
+        return self.scenario(path=path, **task.random_path_control(self.tolerance_for(preset)))
+
+    def scenario(self, path: Path | None = None, **defaults: Any) -> Scenario:
         """The scenario (machine, path, loop options) these arguments describe.
 
         Args:
             path: The path to run instead of ``self.path`` (an env on random paths gives its
                 first draw; else, with ``path="random"``, a draw from ``default_rng(0)``).
+            **defaults: ``path_control`` and ``path_tolerance`` where these arguments leave
+                them None (the task's on random paths).
         """
         if path is None and self.random_paths:
             preset = resolve_preset(self.plant)
@@ -222,8 +240,10 @@ class EnvConfig:
             path = draw_path(rng, preset.stage, self.path_options_for(preset, {}))
         options: dict[str, Any] = {
             "ideal": self.ideal, "ccc_law": self.ccc_law, "ccc_law_params": self.ccc_law_params,
-            "path_control": self.path_control, "path_tolerance": self.path_tolerance,
-            "settle_time": self.settle_time, "estimator_options": self.estimator_options,
+            "path_control": self.path_control or defaults.get("path_control"),
+            "path_tolerance": self.path_tolerance or defaults.get("path_tolerance"),
+            "settle_time": self.settle_time,
+            "estimator_options": self.estimator_options,
             "controller_options": self.controller_options,
         }  # fmt: skip
         for key in ("ccc_injection", "estimator", "axis_controller"):  # None: the preset's

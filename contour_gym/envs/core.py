@@ -102,8 +102,7 @@ class ContourTask:
             return config.scenario()
         preset = resolve_preset(config.plant)
         self.path_options = config.path_options_for(preset, self.task_kind.path_defaults(preset))
-        first = draw_path(np.random.default_rng(0), preset.stage, self.path_options)
-        return config.scenario(path=first)
+        return config.random_scenario(np.random.default_rng(0), self.task_kind)
 
     @property
     def path(self) -> Path:
@@ -206,7 +205,7 @@ class ContourTask:
             "raw": (b,), "reward": (b,), "terminated": (b,), "truncated": (b,), "failure": (b,),
             "comp": (b, COMPONENTS.size), "weights": (max(weights.size, 1),), "steps": (b,),
             "ret": (b,), "track": (b, self.n_axes), "feedrate": (b,), "nominal": (b,),
-            "f_nom": (b,), "n_max": (b,),
+            "f_nom": (b,), "n_max": (b,), "peak": (b,),
         }  # fmt: skip
         self._blob = Blob([(name, shapes[name]) for name in ENV_FLOATS])
         self._attach_views()
@@ -335,7 +334,7 @@ class ContourTask:
         self.loop.reset(seeds, members=members)
         v = self._v
         for name in ("eps_prev", "steps", "ret", "reward", "terminated", "truncated", "failure",
-                     "comp"):  # fmt: skip
+                     "comp", "peak"):  # fmt: skip
             v[name][members] = 0.0
         self.task_kind.reset(self, members)
         with self._compiling():

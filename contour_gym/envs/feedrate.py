@@ -19,7 +19,9 @@ _SPEC = (
     interpolator follows within the machine's acceleration limit, for ``decision_ticks`` ticks. The
     interpolator only stops where it must (the path end, exact stops and dwells of a G-code
     part): slowing for corners and curves is the agent's job, unless ``path_control`` turns
-    on the CNC's own look-ahead planning (the ``cnc_lookahead`` reference policy does).
+    on the CNC's own look-ahead planning (the ``cnc_lookahead`` reference policy does). On
+    random paths (``path="random"``) the CNC stops at real corners (``"G61.1"``, unless
+    ``path_control`` says otherwise): the override's floor cannot stop the axes there.
 
     ## Action space
     ``Box(-1, 1, (1,), float32)``: ``dF = a * max_feedrate_change * F_nom`` and

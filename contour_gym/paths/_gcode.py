@@ -172,7 +172,8 @@ def _tool_lengths(value: Mapping[int, float] | None) -> dict[int, float] | None:
 def from_gcode(text: str, *, start: ArrayLike = (0.0, 0.0, 0.0),
                work_offsets: Mapping[str, ArrayLike] | None = None,
                tool_lengths: Mapping[int, float] | None = None,
-               cut_z: float = 0.0, default_feed: float | None = None) -> GcodePath:
+               cut_z: float = 0.0, default_feed: float | None = None,
+               name: str = "gcode") -> GcodePath:
     """Read a G-code program into a path (see the module documentation for the dialect).
 
     Args:
@@ -189,6 +190,7 @@ def from_gcode(text: str, *, start: ArrayLike = (0.0, 0.0, 0.0),
         default_feed: Feedrate, m/s, of the feed moves before the program's first F word.
             None (default): such a move is an error naming its line (a controller would not
             guess a feed either).
+        name: The path's name (e.g. the file's).
 
     Returns:
         A :class:`GcodePath` in machine coordinates, 3-D if a Z word appears, an arc lies in
@@ -216,7 +218,7 @@ def from_gcode(text: str, *, start: ArrayLike = (0.0, 0.0, 0.0),
     dim = 3 if st.saw_z or st.off_plane or (p0.shape[0] == 3 and p0[2] != 0.0) else 2
     cutting = [not r and (dim == 2 or low) for r, low in zip(out.rapid, out.low, strict=True)]
     table = make_table(out.kinds, out.lengths, np.array(out.rows), dim)
-    return GcodePath(table, "gcode", out.feeds, out.lines, out.rapid, cutting=cutting,
+    return GcodePath(table, name, out.feeds, out.lines, out.rapid, cutting=cutting,
                      exact_stop=out.stops, blend_tolerance=out.blend, path_control=out.control,
                      dwell_before=out.dwell, dwell_after_end=out.pending_dwell)
 

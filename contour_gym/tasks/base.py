@@ -80,6 +80,17 @@ class Task(ABC):
         """
         return {}
 
+    def random_path_control(self, tolerance: float) -> dict[str, Any]:
+        """``path_control`` and ``path_tolerance`` on random paths where the env names none.
+
+        Args:
+            tolerance: The env's contour tolerance, m.
+
+        Returns:
+            The defaults (none by default: the path's own, ``"none"`` for a random path).
+        """
+        return {}
+
     def fixed_ccc_gains(self, config: EnvConfig) -> Sequence[float] | None:
         """CCC gains the loop holds through the episode (None: the preset's, or the task's)."""
         return None
