@@ -12,9 +12,12 @@ Each holds constant CCC gains, mapped to the env's action by its ``gains_to_acti
   (default the env's PID CCC gains), and the law reschedules the gains from the contour
   error every servo tick inside the compiled loop, as 000 does (``decision_ticks`` only sets
   how often the constant action is re-sent).
-- ``pso_fuzzy_pid_ccc``: the same with the factors paper 000's improved PSO finds, tuning
-  protocol ``000`` of :mod:`agents.tune` (``contour-gym tune 000 --seed 0``; shipped in
-  ``agents/data/pso_fuzzy_pid_ccc.json``).
+- ``pso_fuzzy_pid_ccc_000``: the same with the factors paper 000's improved PSO finds on 000's
+  own three paths, tuning protocol ``000`` of :mod:`agents.tune` (``contour-gym tune 000
+  --seed 0``; shipped in ``agents/data/pso_fuzzy_pid_ccc_000.json``): 000's experiment.
+- ``pso_fuzzy_pid_ccc``: the same law with a general factor set, tuned by the same improved
+  PSO on random paths for parts it never saw (protocol ``000_general``: ``contour-gym tune
+  000_general --seed 0``; ``agents/data/pso_fuzzy_pid_ccc.json``).
 
 Their errors on the papers' paths, measured, are in the documentation (Measurements and design
 notes: reference CCC policies).
@@ -36,8 +39,9 @@ from __future__ import annotations
 
 import functools
 import json
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -153,8 +157,10 @@ class FuzzyPIDCCC(HeldGains):
         return {"ccc_law": FUZZY_PID.name, "ccc_law_params": dict(self.factors)}
 
 
-TUNED_000 = Path(__file__).parent / "data" / "pso_fuzzy_pid_ccc.json"
+TUNED_000 = Path(__file__).parent / "data" / "pso_fuzzy_pid_ccc_000.json"
 """The shipped run of tuning protocol ``000`` (its best factors, the command, the history)."""
+TUNED_GENERAL = Path(__file__).parent / "data" / "pso_fuzzy_pid_ccc.json"
+"""The shipped run of tuning protocol ``000_general`` (the general factor set)."""
 
 
 @functools.cache
@@ -167,6 +173,16 @@ def tuned_factors_000() -> dict[str, float]:
     return _shipped_params(TUNED_000, _FACTORS)
 
 
+@functools.cache
+def tuned_factors_general() -> dict[str, float]:
+    """The five factors protocol ``000_general`` found (:data:`TUNED_GENERAL`).
+
+    Raises:
+        ValueError: if the file lacks a factor.
+    """
+    return _shipped_params(TUNED_GENERAL, _FACTORS)
+
+
 def _shipped_params(file: Path, names: tuple[str, ...]) -> dict[str, float]:
     """The ``params`` of a shipped tuning run, in ``names`` order; ValueError if one lacks."""
     params = json.loads(file.read_text(encoding="utf-8"))["params"]
@@ -177,12 +193,14 @@ def _shipped_params(file: Path, names: tuple[str, ...]) -> dict[str, float]:
 
 
 class PSOFuzzyPIDCCC(FuzzyPIDCCC):
-    """Paper 000's fuzzy PID CCC with its improved-PSO-tuned factors (``pso_fuzzy_pid_ccc``).
+    """Paper 000's fuzzy PID CCC with a general improved-PSO factor set (``pso_fuzzy_pid_ccc``).
 
-    The factors are the best of tuning protocol ``000`` (:mod:`agents.tune`: improved PSO,
-    50 particles x 100 generations, 000's eq. 15 averaged over its circle, "infinity" and
-    trident on the rig), shipped in ``agents/data/pso_fuzzy_pid_ccc.json`` with the command
-    that reproduces them, ``contour-gym tune 000 --seed 0``.
+    The factors are the best of tuning protocol ``000_general`` (:mod:`agents.tune`: 000's
+    improved PSO, 50 particles x 100 generations, on random paths of 000's machine: the
+    worst path's max contour error relative to the untuned law's, chattering bounded),
+    shipped in ``agents/data/pso_fuzzy_pid_ccc.json`` with the command that reproduces them,
+    ``contour-gym tune 000_general --seed 0``: a factor set for parts it never saw. 000's own
+    experiment, tuned on its three paths, is :class:`PSOFuzzyPIDCCC000`.
 
     Args:
         base_gains: The base gains (Kp0, Ki0, Kd0), (3,) or (C, 3); None: the env's PID CCC
@@ -193,9 +211,23 @@ class PSOFuzzyPIDCCC(FuzzyPIDCCC):
     """
 
     name = "pso_fuzzy_pid_ccc"
+    shipped: ClassVar[Callable[[], dict[str, float]]] = staticmethod(tuned_factors_general)
 
     def __init__(self, base_gains: ArrayLike | None = None) -> None:
-        super().__init__(**tuned_factors_000(), base_gains=base_gains)
+        super().__init__(**type(self).shipped(), base_gains=base_gains)
+
+
+class PSOFuzzyPIDCCC000(PSOFuzzyPIDCCC):
+    """Paper 000's fuzzy PID CCC with its improved-PSO factors (``pso_fuzzy_pid_ccc_000``).
+
+    The best of tuning protocol ``000`` (improved PSO, 000's eq. 15 averaged over its circle,
+    "infinity" and trident on the rig; ``agents/data/pso_fuzzy_pid_ccc_000.json``,
+    ``contour-gym tune 000 --seed 0``). Tuned on those paths, it loses to the untuned law on
+    others (the generalization suite).
+    """
+
+    name = "pso_fuzzy_pid_ccc_000"
+    shipped = staticmethod(tuned_factors_000)
 
 
 register_policy("no_ccc", NoCCC)
@@ -288,6 +320,7 @@ class AdaptiveFuzzyPIDCCC(HeldGains):
 
 register_policy("adaptive_fuzzy_pid_ccc", AdaptiveFuzzyPIDCCC)
 register_policy("pso_fuzzy_pid_ccc", PSOFuzzyPIDCCC)
+register_policy("pso_fuzzy_pid_ccc_000", PSOFuzzyPIDCCC000)
 
 
 # ----------------------------------------------------------------------------------------

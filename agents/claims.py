@@ -109,11 +109,11 @@ def _peak_claim(
 def claims_000(ideal: bool = False) -> list[Claim]:
     """000's three peak-error claims (seed 0, one episode each)."""
     return [
-        _peak_claim("000", "circle", CIRCLE_000, "pso_fuzzy_pid_ccc", "no_ccc", -0.988, -0.90,
+        _peak_claim("000", "circle", CIRCLE_000, "pso_fuzzy_pid_ccc_000", "no_ccc", -0.988, -0.90,
                     ideal),
-        _peak_claim("000", "infinity", INFINITY_000, "pso_fuzzy_pid_ccc", "fuzzy_pid_ccc",
+        _peak_claim("000", "infinity", INFINITY_000, "pso_fuzzy_pid_ccc_000", "fuzzy_pid_ccc",
                     -0.536, -0.50, ideal),
-        _peak_claim("000", "trident", TRIDENT_000, "pso_fuzzy_pid_ccc", "fuzzy_pid_ccc",
+        _peak_claim("000", "trident", TRIDENT_000, "pso_fuzzy_pid_ccc_000", "fuzzy_pid_ccc",
                     -0.677, -0.50, ideal),
     ]  # fmt: skip
 

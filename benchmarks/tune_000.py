@@ -1,7 +1,8 @@
 """Paper 000's tuned fuzzy PID CCC against no CCC and the untuned one, and its claims.
 
-Runs ``no_ccc``, ``fuzzy_pid_ccc`` (the law's defaults) and ``pso_fuzzy_pid_ccc`` (the factors
-of tuning protocol 000, ``agents/data/pso_fuzzy_pid_ccc.json``) with
+Runs ``no_ccc``, ``fuzzy_pid_ccc`` (the law's defaults), ``pso_fuzzy_pid_ccc_000`` (the factors
+of tuning protocol 000, ``agents/data/pso_fuzzy_pid_ccc_000.json``) and ``pso_fuzzy_pid_ccc``
+(protocol 000_general's general factor set) with
 :func:`agents.evaluate.run_policy` (seed 0, one episode) on 000's three envs, rig and ideal,
 and prints max / mean true contour error (um) and 000's claims: PSO-tuned vs no CCC on the
 circle >= 90 % lower max error; PSO-tuned vs untuned on "infinity" and trident >= 50 % lower
@@ -18,7 +19,7 @@ from agents.evaluate import run_policy
 from agents.policies import make_policy
 
 ENVS = ("contour_gym/CCC-Circle-v0", "contour_gym/CCC-Infinity-v0", "contour_gym/CCC-Trident-v0")
-POLICIES = ("no_ccc", "fuzzy_pid_ccc", "pso_fuzzy_pid_ccc")
+POLICIES = ("no_ccc", "fuzzy_pid_ccc", "pso_fuzzy_pid_ccc_000", "pso_fuzzy_pid_ccc")
 UM = 1e6
 
 

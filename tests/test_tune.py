@@ -178,10 +178,25 @@ def test_the_shipped_factors_are_protocol_000s_and_the_policy_uses_them() -> Non
     assert (data["protocol"], data["optimizer"], data["seed"]) == ("000", "improved_pso", 0)
     assert len(data["history"]) == 100 and data["history"][-1] == data["fitness"]
     factors = tuned_factors_000()
-    assert make("pso_fuzzy_pid_ccc").factors == factors  # type: ignore[attr-defined]
+    assert make("pso_fuzzy_pid_ccc_000").factors == factors  # type: ignore[attr-defined]
     p = get_protocol("000")
     for param in p.params:
         assert param.low <= factors[param.name] <= param.high
     # the objective still gives the shipped fitness (the code and the data agree)
     f = PopulationObjective("000").fitness([[factors[n] for n in p.names]])[0]
+    assert f == pytest.approx(data["fitness"], rel=1e-12)
+
+
+def test_the_general_factors_are_protocol_000_generals_and_the_policy_uses_them() -> None:
+    from agents.ccc_policies import TUNED_GENERAL, tuned_factors_general
+    from agents.policies import make
+
+    data = json.loads(TUNED_GENERAL.read_text())
+    assert data["command"] == "contour-gym tune 000_general --seed 0"
+    assert (data["protocol"], data["optimizer"], data["seed"]) == ("000_general", "improved_pso", 0)
+    factors = tuned_factors_general()
+    assert make("pso_fuzzy_pid_ccc").factors == factors  # type: ignore[attr-defined]
+    p = get_protocol("000_general")
+    assert len(p.scenarios) == 16 and p.relative and p.worst_case and p.chatter_bound == 2.0
+    f = PopulationObjective("000_general").fitness([[factors[n] for n in p.names]])[0]
     assert f == pytest.approx(data["fitness"], rel=1e-12)

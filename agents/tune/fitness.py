@@ -76,19 +76,23 @@ FITNESS_TERMS: dict[str, Callable[[Scenario], int]] = {
 
 
 
-def combine(per_case: ArrayLike, failed: ArrayLike, penalty: float) -> FloatArray:
+def combine(
+    per_case: ArrayLike, failed: ArrayLike, penalty: float, worst: bool = False
+) -> FloatArray:
     """Total fitness: the mean over scenarios, ``penalty`` wherever a scenario failed.
 
     Args:
         per_case: ``(S, n)`` fitness per scenario and candidate.
         failed: ``(S, n)`` failures (a non-finite fitness counts as one).
         penalty: Finite fitness of a failed candidate.
+        worst: The worst scenario's fitness instead of the mean.
 
     Returns:
         ``(n,)`` finite fitness.
     """
     f = np.asarray(per_case, dtype=np.float64)
     bad = np.asarray(failed, dtype=bool) | ~np.isfinite(f)
-    mean = np.where(bad, 0.0, f).mean(axis=0)
-    return np.where(bad.any(axis=0), float(penalty), mean)
+    kept = np.where(bad, 0.0, f)
+    total = kept.max(axis=0) if worst else kept.mean(axis=0)
+    return np.where(bad.any(axis=0), float(penalty), total)
 

@@ -18,13 +18,14 @@ gets the penalty of :mod:`agents.tune.fitness`.
 
 from __future__ import annotations
 
+import math
 import os
 import threading
 import time
 import weakref
 from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import gymnasium as gym
@@ -43,32 +44,44 @@ from agents.tune.fitness import (
 from agents.tune.protocols import Protocol, get_protocol
 from agents.tune.setters import SETTERS
 from contour_gym.api import Scenario
+from contour_gym.ccc import CCC_LAWS
 from contour_gym.envs.config import EnvConfig
 from contour_gym.loop import ServoLoop
+from contour_gym.tasks import TASKS
 
 
 @dataclass(frozen=True)
 class _Case:
     """One scenario of a protocol, built as its env builds it."""
 
-    env_id: str
+    name: str
     scenario: Scenario
     base_gains: tuple[float, float, float]
     hard_limit: float
+    chatter_cap: float = math.inf
+    scale: float = 1.0  # the reference point's fitness here (Protocol.relative), else 1
 
 
 def _case(
-    env_id: str, ccc_law: str, ideal: bool, overrides: Mapping[str, Any] | None = None
+    name: str, ccc_law: str, ideal: bool, overrides: Mapping[str, Any] | None = None
 ) -> _Case:
+    given = dict(overrides or {})
+    env_id, path_seed = given.pop("id", name), given.pop("path_seed", None)
     if env_id not in gym.registry:
-        raise ValueError(f"unknown env id {env_id!r}")
-    kwargs = {**gym.spec(env_id).kwargs, **(overrides or {}), "ideal": ideal, "ccc_law": ccc_law}
+        raise ValueError(f"unknown env id {env_id!r} (scenario {name!r})")
+    kwargs = {**gym.spec(env_id).kwargs, **given, "ideal": ideal, "ccc_law": ccc_law}
     config = EnvConfig.from_kwargs(kwargs)
-    scenario = config.scenario()
+    if config.random_paths:
+        if not isinstance(path_seed, int) or isinstance(path_seed, bool):
+            raise ValueError(f"scenario {name!r} runs a random path: give its int path_seed, "
+                             f"got {path_seed!r}")  # fmt: skip
+        scenario = config.random_scenario(np.random.default_rng(path_seed), TASKS.get("ccc"))
+    else:
+        scenario = config.scenario()
     preset = scenario.preset
     kp, ki, kd = config.ccc_gains or preset.ccc_gains.as_tuple()
     hard = config.hard_limit_for(preset)
-    return _Case(env_id, scenario, (float(kp), float(ki), float(kd)), float(hard))
+    return _Case(name, scenario, (float(kp), float(ki), float(kd)), float(hard))
 
 
 MEMO_SIZE = 100_000  # candidates a PopulationObjective remembers (a few hundred bytes each)
@@ -125,6 +138,24 @@ class PopulationObjective:
         self._pool: ThreadPoolExecutor | None = None
         # candidates met before: parameters (bytes) -> (fitness (S,), failed (S,))
         self._memo: dict[bytes, tuple[FloatArray, NDArray[np.bool_]]] = {}
+        if proto.chatter_bound is not None or proto.relative:
+            self._run_reference()
+
+    def _run_reference(self) -> None:
+        """Each scenario's chattering cap and fitness scale, from the reference point's run."""
+        proto = self.protocol
+        defaults = CCC_LAWS.get(proto.ccc_law).params.defaults()
+        point = {**defaults, **(proto.reference or {})}
+        ref = np.array([[float(point[name]) for name in proto.names]])  # type: ignore[arg-type]
+        cases = []
+        for case, m in zip(self.cases, self.metrics(ref), strict=True):
+            cap = math.inf if proto.chatter_bound is None else proto.chatter_bound * float(
+                m["chattering"][0])
+            scale = float(self._fitness(m)[0]) if proto.relative else 1.0
+            cases.append(replace(case, chatter_cap=cap, scale=scale))
+        self.cases = tuple(cases)
+        scales = np.array([c.scale for c in self.cases])
+        self.penalty *= float(scales.mean() / scales.min())  # above any relative total
 
     def __call__(self, z: FloatArray, /) -> FloatArray:
         """Fitness of each row of ``z`` (search coordinates; see :meth:`Protocol.to_params`)."""
@@ -133,11 +164,15 @@ class PopulationObjective:
     def fitness(self, params: ArrayLike) -> FloatArray:
         """Fitness of each row of ``params`` (the parameters in their own units), m.
 
-        The mean over the scenarios of the protocol's fitness, or :attr:`penalty` for a
-        candidate that failed on any scenario.
+        The mean (or, ``worst_case``, the largest) over the scenarios of the protocol's
+        fitness (``relative``: over the reference's, times the reference's mean), or
+        :attr:`penalty` for a candidate that failed on any scenario.
         """
         per_case, failed = self.evaluate(params)
-        return combine(per_case, failed, self.penalty)
+        scale = np.array([[c.scale] for c in self.cases])
+        unit = float(scale.mean())
+        total = combine(per_case / scale, failed, self.penalty / unit, self.protocol.worst_case)
+        return total * unit
 
     def evaluate(self, params: ArrayLike) -> tuple[FloatArray, NDArray[np.bool_]]:
         """Run every candidate on every scenario.
@@ -290,7 +325,8 @@ class PopulationObjective:
         metrics = {k: v[:n] for k, v in run.items()}
         f = self._fitness(metrics)
         failed = (~loop.done[:n] | ~np.isfinite(f)
-                  | ~(metrics["max_contour_error"] <= case.hard_limit))  # fmt: skip
+                  | ~(metrics["max_contour_error"] <= case.hard_limit)
+                  | ~(metrics["chattering"] <= case.chatter_cap))  # fmt: skip
         return f, failed | ~(f < self.penalty)
 
 

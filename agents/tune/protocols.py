@@ -74,8 +74,21 @@ class Protocol:
         setter: How a candidate's parameters reach its batch member, a key of
             :data:`SETTERS`: ``"ccc_law"`` (the CCC law's parameters by name) or
             ``"acc2pid"`` (paper 003's 2PID axes and P compensators, :func:`set_acc2pid`).
-        scenario_kwargs: Env id -> env keyword arguments overriding the id's own for this
-            protocol (e.g. a shorter window: ``{"laps": 1}``).
+        scenario_kwargs: Scenario -> env keyword arguments overriding the id's own for this
+            protocol (e.g. a shorter window: ``{"laps": 1}``). A scenario is a registered env
+            id, or a name of your choosing whose kwargs name the id (``"id"``); on random
+            paths (``"path": "random"``) its one path is drawn from ``"path_seed"``, as the
+            env draws it, so several paths of one id are several named scenarios.
+        chatter_bound: A candidate whose chattering (total variation of the control command)
+            on a scenario exceeds ``chatter_bound`` times that of the law's own defaults
+            (:attr:`reference`) there fails on it. None: unbounded.
+        reference: The untuned point the chattering is bounded by and ``relative`` divides
+            by (parameters by name; None: the CCC law's registered defaults).
+        relative: Score each scenario's fitness relative to the reference point's there (1:
+            as good as the untuned law), so that paths of large and small errors weigh alike;
+            the total is put back in metres (times the reference's mean over the scenarios).
+        worst_case: The total is the worst scenario's, not the mean: a factor set that must
+            not lose on any path.
     """
 
     name: str
@@ -91,6 +104,10 @@ class Protocol:
     doc: str = ""
     setter: str = "ccc_law"
     scenario_kwargs: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    chatter_bound: float | None = None
+    reference: Mapping[str, float] | None = None
+    relative: bool = False
+    worst_case: bool = False
 
     def __post_init__(self) -> None:
         choice(self.fitness, "fitness", FITNESSES)
@@ -99,6 +116,8 @@ class Protocol:
         stray = sorted(set(self.scenario_kwargs) - set(self.scenarios))
         if stray:
             raise ValueError(f"scenario_kwargs for env ids not in the scenarios: {stray}")
+        if self.chatter_bound is not None and not self.chatter_bound > 0:
+            raise ValueError(f"chatter_bound must be > 0, got {self.chatter_bound!r}")
         if not self.params or not self.scenarios:
             raise ValueError(f"protocol {self.name!r} needs parameters and scenarios")
 

@@ -51,7 +51,7 @@ class TuneResult:
         fitness: Their fitness, m (the protocol's; :attr:`PopulationObjective.penalty` if
             every candidate failed).
         history: Best-so-far fitness after each generation, non-increasing, m.
-        per_scenario: Env id -> the best parameters' fitness there, m.
+        per_scenario: Scenario (env id or name) -> the best parameters' fitness there, m.
         nfev: Candidates evaluated.
         wall_time: Seconds the search took.
         settings: Everything else the run was given (budget, box, scales, options, ...).
@@ -281,7 +281,7 @@ def _result(
 ) -> TuneResult:  # fmt: skip
     best = proto.to_params(res.x)
     per_case, failed = objective.evaluate(best)
-    per = {c.env_id: float(objective.penalty if failed[i, 0] else per_case[i, 0])
+    per = {c.name: float(objective.penalty if failed[i, 0] else per_case[i, 0])
            for i, c in enumerate(objective.cases)}  # fmt: skip
     return TuneResult(
         protocol=proto.name, optimizer=res.name, seed=int(seed),
