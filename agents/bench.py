@@ -56,6 +56,8 @@ import numpy as np
 
 from agents._files import write_atomically
 from agents.evaluate import env_arguments, make_vector_env, run_episodes
+from agents.generalization import format_value, summary_rows
+from agents.generalization import markdown as summary_markdown
 from agents.policies import Policy
 from agents.suites import PolicySpec, ScenarioSpec, Suite, load_suite
 from contour_gym.envs.base import ContourVectorEnv
@@ -322,18 +324,6 @@ def _change(cell: Cell, base: Cell | None, key: str) -> float:
     return 100.0 * (c - b) / b
 
 
-def _fmt(value: Any) -> str:
-    if isinstance(value, str):
-        return value
-    if isinstance(value, (int, np.integer)):
-        return str(value)
-    if math.isnan(value):
-        return ""
-    if math.isinf(value):
-        return "inf" if value > 0 else "-inf"
-    return f"{value:.4g}"
-
-
 def markdown_table(suite: Suite, rows: Sequence[Mapping[str, Any]]) -> str:
     """The results as Markdown: the table, then the scenarios it ran."""
     lines = ["| " + " | ".join(h for _, h in COLUMNS) + " |",
@@ -345,7 +335,7 @@ def markdown_table(suite: Suite, rows: Sequence[Mapping[str, Any]]) -> str:
             if key.endswith("_pct") and isinstance(value, float) and math.isfinite(value):
                 cells.append(f"{value:+.1f}")
             else:
-                cells.append(_fmt(value).replace("|", "\\|"))
+                cells.append(format_value(value).replace("|", "\\|"))
         lines.append("| " + " | ".join(cells) + " |")
     lines += ["", f"Suite `{suite.name}` (hash {suite.digest[:12]}); values are means over "
               "the seeds; CE = contour error.", "",
@@ -557,6 +547,8 @@ def run_suite(
         bar.close()
     rows = table_rows(suite, cells)
     markdown = markdown_table(suite, rows)
+    if suite.summary == "paths":
+        markdown += "\n## Per path, by machine\n\n" + summary_markdown(summary_rows(suite, cells))
     _write_text(folder.root / "results.md", markdown)
     _write_text(folder.root / "results.csv", csv_table(rows))
     return BenchResult(folder.root, rows, markdown, computed, time.perf_counter() - start)

@@ -8,6 +8,8 @@ reference policy; ``tiny`` is for tests). A suite::
 
     description: what it is for                # optional
     seeds: 1                                   # optional default of every scenario
+    summary: paths                             # optional: add a per-path table by machine
+                                               # (agents.generalization)
     policies:                                  # label -> policy (the labels name table rows)
       no_ccc:                                  # empty: the registered policy of that name
       pid_ccc:
@@ -27,6 +29,8 @@ reference policy; ``tiny`` is for tests). A suite::
         plant: xy_servo_coulomb                # a preset name or {preset: ..., stage: ...}
         path: corner                           # a library path name, or random (a new
                                                # path per seed; env_kwargs.path_options)
+        # gcode: parts/bracket.nc              # ... or a G-code part instead of path (a file
+                                               # relative to the suite's folder)
         estimator: ground_truth                # optional, as are axis_controller, ideal
         ideal: true                            # the papers' pure model (default: the rig)
         seeds: [0, 1, 2]                       # a count n (seeds 0..n-1) or a list
@@ -90,6 +94,7 @@ from contour_gym.envs.config import EnvConfig
 from contour_gym.envs.core import CCC, FEEDRATE
 from contour_gym.envs.registration import ENV_IDS, SCENARIOS
 from contour_gym.paths import NAMES as PATH_NAMES
+from contour_gym.paths import GcodeError, GcodePath, from_gcode
 from contour_gym.presets import resolve_preset
 from contour_gym.servo.base import CONTROLLERS
 
@@ -255,8 +260,10 @@ class Suite:
         description: Its ``description``.
         policies: Label -> policy.
         scenarios: The scenarios, in file order.
-        digest: SHA-256 of the parsed content (canonical JSON).
+        digest: SHA-256 of the parsed content (canonical JSON) and of its G-code parts.
         text: The file's text.
+        summary: ``"paths"``: the results end with a per-path summary by machine
+            (:mod:`agents.generalization`); empty: none.
     """
 
     name: str
@@ -266,6 +273,7 @@ class Suite:
     scenarios: tuple[ScenarioSpec, ...]
     digest: str
     text: str
+    summary: str = ""
 
 
 def shipped_suites() -> list[str]:
@@ -316,14 +324,16 @@ def _type_name(value: Any) -> str:
 class _SuiteReader:
     """Validates a suite's parsed YAML; every error names the file and the key's path."""
 
-    SUITE_KEYS = ("description", "seeds", "policies", "scenarios")
+    SUITE_KEYS = ("description", "seeds", "summary", "policies", "scenarios")
+    SUMMARIES = ("paths",)
     POLICY_KEYS = ("policy", "params")
-    SCENARIO_KEYS = ("env", "task", "plant", "path", "estimator", "axis_controller", "ideal",
-                     "seeds", "env_kwargs", "baseline", "policies", "magnify")  # fmt: skip
+    SCENARIO_KEYS = ("env", "task", "plant", "path", "gcode", "estimator", "axis_controller",
+                     "ideal", "seeds", "env_kwargs", "baseline", "policies", "magnify")  # fmt: skip
     ENV_KEYS = ("plant", "path", "estimator", "axis_controller", "ideal")  # scenario -> env
 
     def __init__(self, path: Path) -> None:
         self.path = path
+        self.parts: dict[str, str] = {}  # G-code file -> its text (the suite's identity)
 
     def error(self, where: str, message: str) -> ValueError:
         return ValueError(f"{self.path}: {where}: {message}")
@@ -368,6 +378,10 @@ class _SuiteReader:
             if key not in top:
                 raise self.error("top level", f"missing key {key!r}")
         description = self.typed(top.get("description", ""), "description", str, "a string")
+        summary = self.typed(top.get("summary", ""), "summary", str, "'paths'")
+        if summary and summary not in self.SUMMARIES:
+            raise self.error("summary", f"unknown summary {summary!r}; accepted: "
+                             f"{', '.join(self.SUMMARIES)}")  # fmt: skip
         seeds = self.seeds(top.get("seeds", 1), "seeds")
         policies = self.policies(top["policies"])
         built = {label: self.build(spec) for label, spec in policies.items()}
@@ -376,9 +390,9 @@ class _SuiteReader:
             raise self.error("scenarios", "no scenario")
         specs = tuple(self.scenario(name, value, seeds, built)
                       for name, value in scenarios.items())  # fmt: skip
-        canonical = json.dumps(raw, sort_keys=True, default=str)
+        canonical = json.dumps([raw, self.parts], sort_keys=True, default=str)
         return Suite(self.path.stem, self.path, description, policies, specs,
-                     hashlib.sha256(canonical.encode()).hexdigest(), text)  # fmt: skip
+                     hashlib.sha256(canonical.encode()).hexdigest(), text, summary)  # fmt: skip
 
     def policies(self, raw: Any) -> dict[str, PolicySpec]:
         entries = self.mapping(raw, "policies", None)
@@ -468,6 +482,10 @@ class _SuiteReader:
                     raise self.error(f"{where}.env_kwargs", f"{key!r} is also given as "
                                      f"{where}.{key}: give it once")  # fmt: skip
                 kwargs[key] = self.env_value(key, body[key], f"{where}.{key}")
+        if "gcode" in body:
+            if "path" in body or "path" in extra:
+                raise self.error(f"{where}.gcode", "give either 'gcode' or 'path'")
+            kwargs["path"] = self.part(body["gcode"], f"{where}.gcode")
         kwargs.update(extra)
         try:
             EnvConfig.from_kwargs({**registered, **kwargs})
@@ -492,6 +510,22 @@ class _SuiteReader:
             self.registered(ESTIMATORS.get if key == "estimator" else CONTROLLERS.get, value,
                             where)  # fmt: skip
         return value
+
+    def part(self, value: Any, where: str) -> GcodePath:
+        """The G-code part in file ``value`` (relative to the suite's folder), named by it."""
+        file = self.path.parent / self.typed(value, where, str, "a G-code file")
+        try:
+            text = file.read_text(encoding="utf-8", errors="replace")
+        except OSError as exc:
+            raise self.error(where, f"{file}: {exc.strerror or exc}") from None
+        try:
+            part = from_gcode(text, name=file.stem)
+        except GcodeError as exc:
+            raise self.error(where, f"{file}: line {exc.line}: {exc.message}") from None
+        except ValueError as exc:
+            raise self.error(where, f"{file}: {exc}") from None
+        self.parts[value] = text
+        return part
 
     def registered(self, get: Callable[[str], Any], value: str, where: str) -> None:
         try:

@@ -197,19 +197,25 @@ def test_bad_input_is_refused_naming_file_and_key_before_any_work(
 
 
 def test_an_unknown_suite_name_lists_the_shipped_ones(counted):
-    with pytest.raises(ValueError, match=r"unknown suite 'tinny'; shipped: default, tiny"):
+    with pytest.raises(ValueError, match=r"unknown suite 'tinny'; shipped: default, "
+                                         r"generalization, tiny"):
         run_suite("tinny", progress=False)
     assert counted == []
 
 
 def test_the_default_suite_covers_every_paper_scenario_and_reference_policy():
-    suite = load_suite("default")
+    # ... and the generalization suite every general agent (on paths they never saw)
+    suite, general = load_suite("default"), load_suite("generalization")
     papers = {f"contour_gym/{k}" for k in SCENARIOS} - {
         "contour_gym/CCC-v0", "contour_gym/Feedrate-v0"}  # the generic ids
     assert {sc.env_id for sc in suite.scenarios} == papers
-    ran = {suite.policies[label].target for sc in suite.scenarios for label in sc.policies}
+    ran = {s.policies[label].target for s in (suite, general) for sc in s.scenarios
+           for label in sc.policies}  # fmt: skip
     assert ran == set(available())
+    assert {label for label in available() if label.endswith("_general")} <= {
+        general.policies[label].target for sc in general.scenarios for label in sc.policies}
     assert all(note == "" for note in plan(suite).values())  # no cell is skipped
+    assert all(note == "" for note in plan(general).values())
 
 
 def test_a_policy_needing_what_the_scenario_sets_otherwise_is_skipped_with_a_note(tmp_path):

@@ -266,7 +266,8 @@ def agent_dir(tmp_path_factory):
 
 def test_saved_agent_loads_by_path_and_predicts_single_and_batched(agent_dir):
     agent = SavedAgent(agent_dir)
-    assert agent.env_id == CCC and agent.env_kwargs == {"decision_ticks": 50}
+    # its training env's kwargs, with the observation of its id (v0 here)
+    assert agent.env_id == CCC and agent.env_kwargs == {"decision_ticks": 50, "observation": "v0"}
     venv = gym.make_vec(CCC, num_envs=3, vectorization_mode="vector_entry_point",
                         **agent.env_kwargs)  # fmt: skip
     agent.reset(venv)
@@ -332,8 +333,8 @@ def test_every_shipped_agent_loads_by_name_and_runs_a_user_path(name):
         spec = {"id": "contour_gym/Feedrate-v0", "plant": "xy_servo_coulomb",
                 "path": from_gcode(USER_PART)}  # fmt: skip
     else:
-        spec = {"id": "contour_gym/CCC-v0", "plant": "xy_dc_servo", "path": curve,
-                "estimator": "two_circle"}  # fmt: skip
+        spec = {"id": "contour_gym/CCC-v0", "plant": agent.env_kwargs.get("plant", "xy_dc_servo"),
+                "path": curve, "estimator": "two_circle"}  # fmt: skip
     m = run_policy(spec, agent)
     assert m["finished"] and not m["failed"] and not m["truncated"]
     assert np.isfinite(m["max_contour_error"])

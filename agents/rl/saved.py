@@ -17,7 +17,9 @@ imported) when the policy is made, not at registration.
 The policy acts deterministically on the normalised observation, on a batch
 (:meth:`SB3Policy.act`) or, with :meth:`SB3Policy.predict`, on one observation or a batch.
 Its :attr:`~agents.policies.Policy.env_kwargs` are the training env's less those that only
-vary the training (``randomize``), so an evaluation builds the env the agent acts in.
+vary the training (``randomize``, the world of paths ``path="random"`` and its ``path_options``,
+the reward and its weights), so an evaluation builds the env the agent acts in, on the path
+it is given.
 """
 
 from __future__ import annotations
@@ -28,14 +30,17 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 import yaml
 
 from agents.policies import POLICIES, Actions, Observation, Policy, batch_size, register_policy
 from agents.rl.observation import flatten_obs
+from contour_gym.envs.config import EnvConfig
 
 TRAINED_DIR = Path(__file__).resolve().parent.parent / "trained"
-TRAINING_ONLY = ("randomize",)  # env kwargs that vary the training, not the agent's interface
+# env kwargs that vary the training, not the agent's interface (observation, action, machine)
+TRAINING_ONLY = ("randomize", "path", "path_options", "reward", "reward_weights")
 MODEL_FILE, STATS_FILE, META_FILE = "model.zip", "vecnormalize.pkl", "meta.yaml"
 
 
@@ -210,8 +215,20 @@ class SavedAgent(SB3Policy):
         model = algo.load_class().load(model_path, device="cpu")
         stats = folder / STATS_FILE
         normalizer = load_normalizer(stats) if stats.is_file() else None
-        super().__init__(model, normalizer, self.meta.get("env_kwargs"), folder.name,
-                         deterministic, algo.recurrent)  # fmt: skip
+        super().__init__(model, normalizer, self._interface(), folder.name, deterministic,
+                         algo.recurrent)  # fmt: skip
+
+    def _interface(self) -> dict[str, Any]:
+        """The training env kwargs, with the observation version of its id when they lack it.
+
+        A -v1 agent run on a -v0 id (or the other way round) gets the observation it was
+        trained on, in an env of its own.
+        """
+        kwargs = dict(self.meta.get("env_kwargs") or {})
+        if "observation" not in kwargs and self.meta["env_id"] in gym.registry:
+            kwargs["observation"] = gym.spec(self.meta["env_id"]).kwargs.get(
+                "observation", EnvConfig.observation)
+        return kwargs
 
     @property
     def env_id(self) -> str:

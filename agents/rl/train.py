@@ -15,11 +15,17 @@ in ``VecMonitor`` and, when the config says ``normalize``, ``VecNormalize``. A r
 | ``tensorboard/`` | TensorBoard logs (SB3's, and ``eval/*``) |
 | ``eval.csv``, ``.png`` | the evaluation curve (every ``eval_every`` steps; below) |
 | ``checkpoints/`` | ``model_<steps>_steps.zip``, its ``vecnormalize`` and ``replay_buffer`` |
+| ``best_model.zip`` | the model at its best evaluation (highest mean return) so far |
+| ``best_vecnormalize.pkl`` | its statistics; ``best.yml`` its step count and evaluation |
 
 The evaluation runs one episode per member of a separate native vector env (the nominal
 machine: no ``randomize``) with deterministic actions, and records the mean max and mean
-contour error (um), the cycle time (s), the failed fraction and the mean return. Checkpoints of
-off-policy algorithms keep their replay buffer (same step count).
+contour error (um), the cycle time (s), the failed fraction and the mean return; its episodes
+are the training env's (random paths stay random: every evaluation the same ``eval_episodes``
+paths, none a test path). The model of the highest mean return so far is kept as
+``best_model.zip`` (as rl-zoo's ``best_model``): :mod:`agents.rl.train_shipped` exports it, a
+selection on those evaluation episodes. Checkpoints of off-policy algorithms keep their replay
+buffer (same step count).
 
 A progress bar (tqdm, on stderr) shows the steps and the latest evaluation. Ctrl-C
 (KeyboardInterrupt) saves the model, its statistics and a checkpoint, then re-raises;
@@ -289,6 +295,19 @@ def save_final(model: Any, run: Path) -> None:
     write_handle_atomically(run / "model.zip", model.save)
 
 
+BEST_MODEL, BEST_STATS, BEST_META = "best_model.zip", "best_vecnormalize.pkl", "best.yml"
+
+
+def save_best(model: Any, run: Path, row: Mapping[str, float]) -> None:
+    """The model of the best evaluation so far, its statistics and ``best.yml`` (``row``)."""
+    normalizer = model.get_vec_normalize_env()
+    if normalizer is not None:
+        write_atomically(run / BEST_STATS, normalizer.save)
+    write_handle_atomically(run / BEST_MODEL, model.save)
+    text = yaml.safe_dump({k: float(v) for k, v in row.items()}, sort_keys=False)
+    write_atomically(run / BEST_META, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+
+
 def save_checkpoint(model: Any, run: Path) -> Path:
     """A checkpoint at the model's step count: model, VecNormalize stats, replay buffer.
 
@@ -398,6 +417,8 @@ class EvalCurve(BaseCallback):
             self.latest = rows[-1]
             return rows[-1]
         row = self._row(model)
+        if not any(r["mean_return"] >= row["mean_return"] for r in rows):
+            save_best(model, self.run, row)
         append_row(self.run / "eval.csv", row)
         plot_curve(rows + [row], self.run / "eval.png", self.config.env_id, self.config.algo)
         self.latest = row
@@ -409,7 +430,9 @@ class EvalCurve(BaseCallback):
 
         policy = SB3Policy(model, model.get_vec_normalize_env(), self.config.env_kwargs,
                            label=f"{self.config.algo} at {model.num_timesteps} steps")  # fmt: skip
-        out = run_policy_batch({"id": self.config.env_id, **policy.env_kwargs}, policy,
+        # the training env less its randomisation: random paths stay random, the reward its own
+        kwargs = {k: v for k, v in self.config.env_kwargs.items() if k != "randomize"}
+        out = run_policy_batch({"id": self.config.env_id, **kwargs}, policy,
                                num_envs=self.episodes, seed=EVAL_SEED + self.seed)  # fmt: skip
         return {
             "timesteps": model.num_timesteps,

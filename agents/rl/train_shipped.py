@@ -9,10 +9,13 @@ agent with :func:`agents.rl.train.train` from its entry::
       seed: 0
       timesteps: 1000000           # optional: the config's n_timesteps
       env_kwargs: {randomize: true} # replace the config block's env_kwargs
+      hyperparams: {n_epochs: 10}  # optional: replace the block's other keys
+      eval_episodes: 16            # optional: episodes per evaluation (default 4)
 
 into ``runs/shipped/`` (``--runs``) and exports the run (:func:`export_agent`) into
-``agents/trained/NAME/`` (``--dest``): ``model.zip``, ``vecnormalize.pkl`` and ``meta.yaml``
-with the command that reproduces it.
+``agents/trained/NAME/`` (``--dest``): ``model.zip`` and ``vecnormalize.pkl`` of the run's best
+evaluation (its final model if it has none), and ``meta.yaml`` with the command that
+reproduces it.
 """
 
 from __future__ import annotations
@@ -30,9 +33,18 @@ import yaml
 from agents._files import write_atomically
 from agents.rl.algorithms import ALGORITHMS
 from agents.rl.saved import META_FILE, MODEL_FILE, STATS_FILE, TRAINED_DIR
-from agents.rl.train import finished, read_curve, run_name, train
+from agents.rl.train import (
+    BEST_META,
+    BEST_MODEL,
+    BEST_STATS,
+    finished,
+    read_curve,
+    run_name,
+    train,
+)
 
-ENTRY_KEYS = {"algo": str, "env_id": str, "seed": int, "timesteps": int, "env_kwargs": dict}
+ENTRY_KEYS = {"algo": str, "env_id": str, "seed": int, "timesteps": int, "env_kwargs": dict,
+              "hyperparams": dict, "eval_episodes": int}
 
 
 def shipped_file() -> Path:
@@ -89,14 +101,17 @@ def train_shipped(
     if (dest / MODEL_FILE).exists() and not overwrite:
         raise ValueError(f"{dest} holds a trained agent; pass --overwrite to replace it")
     entry = entries[name]
-    overrides = {"env_kwargs": entry["env_kwargs"]} if "env_kwargs" in entry else {}
+    overrides = {**entry.get("hyperparams", {})}
+    if "env_kwargs" in entry:
+        overrides["env_kwargs"] = entry["env_kwargs"]
     command = f"python -m agents.rl.train_shipped {shlex.quote(name)}"
     folder = Path(runs) / name
     run = folder / run_name(entry["env_id"], entry["algo"], entry.get("seed", 0))
     if not (run / "args.yml").exists():
         run = train(entry["env_id"], entry["algo"], entry.get("timesteps"),
                     seed=entry.get("seed", 0), out_dir=folder, progress=progress,
-                    command=command, **overrides)  # fmt: skip
+                    eval_episodes=entry.get("eval_episodes", 4), command=command,
+                    **overrides)  # fmt: skip
     elif not finished(run):  # an interrupted or killed run: on from its last checkpoint
         run = train(resume=run, progress=progress)
     return export_agent(run, dest, command)
@@ -119,13 +134,18 @@ def export_agent(run: Path, dest: Path, command: str) -> Path:
     args = yaml.safe_load((run / "args.yml").read_text(encoding="utf-8"))
     block = yaml.safe_load((run / "config.yml").read_text(encoding="utf-8"))[args["env_id"]]
     dest.mkdir(parents=True, exist_ok=True)
-    for file in (MODEL_FILE, STATS_FILE):  # each whole or not at all
-        if (run / file).is_file():
-            _copy_atomically(run / file, dest / file)
+    best = (run / BEST_MODEL).is_file()  # the best evaluation's model, else the final one
+    pairs = ((BEST_MODEL, MODEL_FILE), (BEST_STATS, STATS_FILE)) if best else (
+        (MODEL_FILE, MODEL_FILE), (STATS_FILE, STATS_FILE))
+    for src, file in pairs:  # each whole or not at all
+        if (run / src).is_file():
+            _copy_atomically(run / src, dest / file)
     curve = read_curve(run / "eval.csv")
+    selected = yaml.safe_load((run / BEST_META).read_text(encoding="utf-8")) if best else None
     meta = {"algo": args["algo"], "env_id": args["env_id"],
             "env_kwargs": block.get("env_kwargs") or {}, "seed": args["seed"],
             "total_timesteps": args["total_timesteps"], "command": command,
+            "selected_evaluation": selected,
             "last_evaluation": curve[-1] if curve else None}  # fmt: skip
     text = yaml.safe_dump(meta, sort_keys=False)
     write_atomically(dest / META_FILE, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
