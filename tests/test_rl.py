@@ -347,6 +347,8 @@ def test_an_agent_trained_flat_on_random_paths_acts_on_the_v1_observation(tmp_pa
                 progress=False, eval_episodes=2, eval_every=128,
                 **{**TINY_PPO, "env_kwargs": {"decision_ticks": 50, "path": "random"}})  # fmt: skip
     agent = SavedAgent(export_agent(run, tmp_path / "general", "test"))
+    # it keeps its interface (the v1 observation), not its world of paths
+    assert agent.env_kwargs == {"decision_ticks": 50, "observation": "v1"}
     venv = gym.make_vec("contour_gym/CCC-v1", num_envs=2, decision_ticks=50, path="random")
     agent.reset(venv)
     obs, _ = venv.reset(seed=7)

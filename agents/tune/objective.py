@@ -152,6 +152,10 @@ class PopulationObjective:
             cap = math.inf if proto.chatter_bound is None else proto.chatter_bound * float(
                 m["chattering"][0])
             scale = float(self._fitness(m)[0]) if proto.relative else 1.0
+            if not (math.isfinite(scale) and scale > 0.0 and cap >= 0.0):
+                raise ValueError(f"protocol {proto.name!r}: the reference point gives fitness "
+                                 f"{scale!r} and chattering cap {cap!r} on scenario "
+                                 f"{case.name!r}; relative scores need a finite one > 0")
             cases.append(replace(case, chatter_cap=cap, scale=scale))
         self.cases = tuple(cases)
         scales = np.array([c.scale for c in self.cases])
