@@ -58,6 +58,7 @@ from agents._files import write_atomically
 from agents.evaluate import env_arguments, make_vector_env, run_episodes
 from agents.generalization import format_value, summary_rows
 from agents.generalization import markdown as summary_markdown
+from agents.parallel import Runner, runner
 from agents.policies import Policy
 from agents.suites import PolicySpec, ScenarioSpec, Suite, load_suite
 from contour_gym.envs.base import ContourVectorEnv
@@ -499,6 +500,8 @@ def run_suite(
     out: str | os.PathLike[str] | None = None,
     *,
     progress: bool = True,
+    workers: int | None = 1,
+    ray: str | None = None,
 ) -> BenchResult:
     """Run a suite (resuming a stopped run in ``out``), write the tables and the plots.
 
@@ -507,44 +510,39 @@ def run_suite(
         out: The run folder (default :func:`default_out`); an existing run of the same suite
             is resumed (finished cells are read back, not recomputed).
         progress: Show a progress bar on stderr.
+        workers: Cells run at once, each in a worker process (None: every CPU; 1: here, one
+            after another: :func:`agents.parallel.runner`).
+        ray: A Ray cluster's address to run the cells on as Ray tasks (``"auto"``,
+            ``"HOST:PORT"``, ``"local"``); a cell whose node dies runs again elsewhere.
+
+    The cells' numbers do not depend on ``workers`` or ``ray``: each cell seeds its own envs.
 
     Returns:
         The run's :class:`BenchResult`.
 
     Raises:
-        ValueError: for a bad suite, or ``out`` holding a run of another suite, before any
-            cell runs.
+        ValueError: for a bad suite, ``out`` holding a run of another suite, a bad
+            ``workers`` or ``ray`` without Ray installed, before any cell runs.
     """
     start = time.perf_counter()
     if not isinstance(suite, Suite):
         suite = load_suite(suite)
     folder = RunFolder(Path(out) if out is not None else default_out(suite), suite)
     notes = plan(suite)
+    where = runner(workers, ray)
     folder.start()
     pending = [key for key, note in notes.items() if not note and not folder.done(*key)]
     bar = Progress(len(notes), len(notes) - len(pending), progress)
-    computed: list[tuple[str, str]] = []
     cells: dict[tuple[str, str], Cell] = {}
     try:
+        with where:
+            computed = _run_cells(suite, pending, where, folder, bar, cells, notes)
         for sc in suite.scenarios:
-            todo = [label for label in sc.policies if (sc.name, label) in pending]
-            envs = EnvPool()
-            try:
-                for label in todo:
-                    bar.start(f"{sc.name} / {label}")
-                    cell = evaluate_cell(sc, suite.policies[label], envs)
-                    folder.save(cell)
-                    computed.append((sc.name, label))
-                    bar.advance()
-                for label in sc.policies:
-                    key = (sc.name, label)
-                    cells[key] = (Cell(sc.name, label, note=notes[key]) if notes[key]
-                                  else folder.load(*key))  # fmt: skip
-                _plots(sc, cells, folder, envs, fresh=bool(todo))
-            finally:
-                envs.close()
+            if not any(key[0] == sc.name for key in pending):
+                _finish_scenario(suite, sc.name, cells, notes, folder, fresh=False)
     finally:
         bar.close()
+        close_worker_envs()
     rows = table_rows(suite, cells)
     markdown = markdown_table(suite, rows)
     if suite.summary == "paths":
@@ -552,6 +550,75 @@ def run_suite(
     _write_text(folder.root / "results.md", markdown)
     _write_text(folder.root / "results.csv", csv_table(rows))
     return BenchResult(folder.root, rows, markdown, computed, time.perf_counter() - start)
+
+
+def _run_cells(
+    suite: Suite, pending: list[tuple[str, str]], where: Runner, folder: RunFolder,
+    bar: Progress, cells: dict[tuple[str, str], Cell], notes: Mapping[tuple[str, str], str],
+) -> list[tuple[str, str]]:  # fmt: skip
+    """Run the pending cells on ``where``; returns the cells computed.
+
+    Each cell is saved as it arrives; a scenario's plots are drawn once its last cell is in.
+    """
+    left = {sc.name: sum(key[0] == sc.name for key in pending) for sc in suite.scenarios}
+    computed: list[tuple[str, str]] = []
+    serial = where.workers == 1
+    bar.start(" / ".join(pending[0]) if serial and pending else where.describe())
+    for i, cell in where.map(run_cell, [(suite, key) for key in pending]):
+        folder.save(cell)
+        computed.append((cell.scenario, cell.policy))
+        bar.advance()
+        left[cell.scenario] -= 1
+        if serial and i + 1 < len(pending):
+            bar.start(" / ".join(pending[i + 1]))
+        if not left[cell.scenario]:
+            _finish_scenario(suite, cell.scenario, cells, notes, folder, fresh=True)
+    return computed
+
+
+# the envs of the scenarios a process ran cells of last (a worker process, or this one), so
+# that the policies of a scenario share them as they do run one after another
+_WORKER_ENVS: dict[tuple[str, str], EnvPool] = {}
+_KEEP_SCENARIOS = 2
+
+
+def worker_envs(suite: Suite, scenario: str) -> EnvPool:
+    """This process's :class:`EnvPool` of ``scenario`` (the last few scenarios' are kept)."""
+    key = (suite.digest, scenario)
+    if key not in _WORKER_ENVS:
+        while len(_WORKER_ENVS) >= _KEEP_SCENARIOS:
+            _WORKER_ENVS.pop(next(iter(_WORKER_ENVS))).close()
+        _WORKER_ENVS[key] = EnvPool()
+    return _WORKER_ENVS[key]
+
+
+def close_worker_envs() -> None:
+    """Close the envs :func:`worker_envs` keeps in this process."""
+    while _WORKER_ENVS:
+        _WORKER_ENVS.popitem()[1].close()
+
+
+def run_cell(unit: tuple[Suite, tuple[str, str]]) -> Cell:
+    """A unit of a bench run: the cell ``(scenario, policy)`` of a suite (any process).
+
+    Raises:
+        ValueError: whatever building the policy or its env raises.
+    """
+    suite, (scenario, label) = unit
+    sc = next(s for s in suite.scenarios if s.name == scenario)
+    return evaluate_cell(sc, suite.policies[label], worker_envs(suite, scenario))
+
+
+def _finish_scenario(
+    suite: Suite, scenario: str, cells: dict[tuple[str, str], Cell],
+    notes: Mapping[tuple[str, str], str], folder: RunFolder, fresh: bool,
+) -> None:  # fmt: skip
+    """Read a scenario's cells back into ``cells`` and draw its plots."""
+    sc = next(s for s in suite.scenarios if s.name == scenario)
+    for label in sc.policies:
+        key = (sc.name, label)
+        cells[key] = Cell(sc.name, label, note=notes[key]) if notes[key] else folder.load(*key)
+    _plots(sc, cells, folder, worker_envs(suite, scenario), fresh)
 
 
 def _plots(

@@ -145,12 +145,21 @@ def _add_train_parser(sub: argparse._SubParsersAction) -> None:
     train.add_argument("env", nargs="?", default=None, metavar="ENV_ID",
                        help="registered env id with a block in the config, e.g. "
                        "contour_gym/CCC-Circle-v0 (not with --resume)")  # fmt: skip
-    train.add_argument("--algo", default="ppo", choices=ALGORITHMS.names(),
-                       help="RL algorithm (agents.rl.algorithms; sb3-contrib's when installed)")
+    train.add_argument("--algo", default=["ppo"], type=_algorithms, metavar="ALGO[,ALGO...]",
+                       help="RL algorithm, or several to train each (agents.rl.algorithms: "
+                       f"{', '.join(ALGORITHMS.names())}; sb3-contrib's when installed)")
     train.add_argument("--timesteps", type=int, default=None, metavar="N",
                        help="env steps (default: the config's n_timesteps; with --resume, the "
                        "run's)")  # fmt: skip
-    train.add_argument("--seed", type=int, default=0)
+    seeds = train.add_mutually_exclusive_group()
+    seeds.add_argument("--seed", type=int, default=None, help="the run's seed (default 0)")
+    seeds.add_argument("--seeds", type=_seed_list, default=None, metavar="S[,S...]",
+                       help="train one run per seed, in parallel")
+    train.add_argument("--sweep", action="append", default=[], metavar="KEY=V1[,V2...]",
+                       help="train one run per value of a config key (repeat for a grid), "
+                       "e.g. learning_rate=1e-4,3e-4; runs go in OUT/KEY=VALUE/")
+    _add_parallel_arguments(train, "runs trained at once, in worker processes (Ray Tune "
+                            "trials with --ray)")
     train.add_argument("--out", default="runs", help="parent folder of the run folder")
     train.add_argument("--resume", default=None, metavar="RUN",
                        help="continue the run folder RUN from its latest checkpoint")
@@ -174,8 +183,8 @@ def _add_tune_parser(sub: argparse._SubParsersAction) -> None:
                       help="run folder (default runs/tune/PROTOCOL-OPTIMIZER-seedN[-ideal])")
     tune.add_argument("--ideal", action="store_true",
                       help="no encoder, noise or delay (the papers' pure simulations)")
-    tune.add_argument("--workers", type=int, default=None, metavar="N",
-                      help="threads running the population (default: every CPU; same result)")
+    _add_parallel_arguments(tune, "threads running the population (with --ray: the "
+                            "population spread over the cluster's CPUs)")
     tune.add_argument("--quiet", action="store_true", help="no progress bar")
     tune.add_argument("--overwrite", action="store_true",
                       help="replace a finished result in the run folder")  # fmt: skip
@@ -190,7 +199,44 @@ def _add_bench_parser(sub: argparse._SubParsersAction) -> None:
     bench.add_argument("--out", default=None, metavar="DIR",
                        help="run folder; an existing run of the same suite resumes (default "
                        "runs/bench/SUITE-HASH)")
+    _add_parallel_arguments(bench, "cells run at once, in worker processes")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _add_parallel_arguments(parser: argparse.ArgumentParser, what: str) -> None:
+    parser.add_argument("--workers", type=_workers, default=None, metavar="N",
+                        help=f"{what} (default: every CPU; 1: one after another; the numbers "
+                        "do not depend on it)")  # fmt: skip
+    parser.add_argument("--ray", default=None, metavar="ADDRESS",
+                        help="run on a Ray cluster: 'auto' (this machine's cluster), "
+                        "HOST:PORT of its head, or 'local' (start one here); needs the ray "
+                        "extra: pip install \"contour-gym[ray]\"")  # fmt: skip
+
+
+def _algorithms(text: str) -> list[str]:
+    names = [t.strip() for t in text.split(",")]
+    for name in names:
+        if name not in ALGORITHMS.names():
+            raise argparse.ArgumentTypeError(
+                f"unknown algorithm {name!r}; accepted: {', '.join(ALGORITHMS.names())}")
+    return names
+
+
+def _seed_list(text: str) -> list[int]:
+    try:
+        return [int(t) for t in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"seeds are integers, e.g. 0,1,2; got {text!r}") from None
+
+
+def _workers(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return value
 
 
 def format_table(columns: dict[str, dict[str, float]]) -> str:
@@ -324,11 +370,30 @@ def _report_failures(columns: dict[str, dict[str, float]]) -> int:
 
 
 def train_command(args: argparse.Namespace) -> int:
-    """Run ``contour-gym train``: a run folder; Ctrl-C saves the model and a checkpoint."""
-    from agents.rl.train import run_name, train
+    """Run ``contour-gym train``: a run folder; Ctrl-C saves the model and a checkpoint.
+
+    Several seeds, algorithms or swept values (or ``--ray``) train as a sweep
+    (:mod:`agents.rl.sweep`), in parallel.
+    """
+    from agents.rl.sweep import parse_grid, run_trials, trials
 
     if (args.env is None) == (args.resume is None):
         raise ValueError("give an ENV_ID to train, or --resume RUN to continue a run (not both)")
+    seeds = args.seeds or [0 if args.seed is None else args.seed]
+    grid = parse_grid(args.sweep)
+    if args.resume is None and (len(seeds) > 1 or len(args.algo) > 1 or grid or args.ray):
+        todo = trials(args.env, args.algo, seeds, grid, args.out, args.timesteps, args.config)
+        print(f"training {len(todo)} run(s) of {args.env}", file=sys.stderr)
+        for folder in run_trials(todo, args.workers, args.ray):
+            print(f"run written to {folder}")
+        return 0
+    args.algo, args.seed = args.algo[0], seeds[0]
+    return _train_one(args)
+
+
+def _train_one(args: argparse.Namespace) -> int:
+    from agents.rl.train import run_name, train
+
     argv = ["contour-gym", "train"] + ([args.env] if args.env else [])
     argv += ["--algo", args.algo, "--seed", str(args.seed), "--out", args.out]
     argv += ["--timesteps", str(args.timesteps)] if args.timesteps is not None else []
@@ -366,7 +431,7 @@ def tune_command(args: argparse.Namespace) -> int:
     result = tune(protocol, optimizer, seed=args.seed, population=args.population,
                   iterations=args.iterations, ideal=args.ideal, out=out,
                   progress=not args.quiet, command=shlex.join(argv),
-                  workers=args.workers, overwrite=args.overwrite)  # fmt: skip
+                  workers=args.workers, overwrite=args.overwrite, ray=args.ray)  # fmt: skip
     print(f"protocol {result.protocol}, {result.optimizer}, seed {result.seed}: best fitness "
           f"{result.fitness * 1e6:.6g} um ({result.settings['fitness']}) after "
           f"{result.nfev} candidates in {result.wall_time:.1f} s")  # fmt: skip
@@ -383,7 +448,8 @@ def bench_command(args: argparse.Namespace) -> int:
     from agents.bench import run_suite
 
     _compile_up_front(args, "loop", "env", "path_api")
-    result = run_suite(args.suite, args.out, progress=not args.quiet)
+    result = run_suite(args.suite, args.out, progress=not args.quiet, workers=args.workers,
+                       ray=args.ray)  # fmt: skip
     print(result.markdown, end="")
     print(f"\n{len(result.computed)} cell(s) computed in {result.wall_time:.1f} s; tables and "
           f"plots written to {result.out}")  # fmt: skip

@@ -188,6 +188,13 @@ def rows3(buf, lay, i):
 
 
 @numba.njit(cache=True, inline="always")
+def slab(buf, lay, i, j):
+    """Slab ``j`` (a 2-D view) of the 3-D array ``i`` of a blob."""
+    rows, cols = lay[i, 3], lay[i, 4]
+    return carve(buf, lay[i, 0] + j * rows * cols, (rows, cols))
+
+
+@numba.njit(cache=True, inline="always")
 def flat(buf, lay, i):
     """All elements of array ``i`` of a blob as one 1-D view."""
     return carve(buf, lay[i, 0], (_size(lay, i, lay[i, 1]),))

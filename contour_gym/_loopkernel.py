@@ -414,40 +414,42 @@ def member_run(b, n, k0, cfg, loop, path, noise, rec):
 @numba.njit(cache=True, nogil=True)
 def run_ticks(
     n, k0, config_row, floats, float_layout, ints, int_layout, path_kinds, path_floats,
-    path_layout, noise, rec,
+    path_layout, noise, rec, lo, hi, part,
 ):  # fmt: skip
-    """Run ``n`` ticks for every member whose status is OK; ends are flagged in ``status``.
+    """Run ``n`` ticks for members ``lo:hi`` whose status is OK; ends are flagged in ``status``.
 
     ``config_row`` is the run's :data:`~contour_gym._loopstate.CONFIG` row; ``floats`` and
     ``ints`` the loop's float and int blobs with their layouts; ``path_kinds``, ``path_floats``
     and ``path_layout`` the path bank's segment kinds and float blob (every member's path:
     :mod:`contour_gym._loopstate`). The blobs' views are made here and handed to
-    :func:`run_members`.
+    :func:`run_members`. ``part`` names the scratch the call uses: calls on disjoint
+    member ranges and other parts may run at once (on threads: the kernel holds no GIL).
     """
     # borrowed: the views made here and in the callees carry no owner to count
     bank = path_bank(borrow(path_kinds), borrow(path_floats), path_layout)
-    loop = loop_arrays(borrow(floats), float_layout, borrow(ints), int_layout)
-    run_members(n, k0, config(config_row), loop, bank, borrow(noise), borrow(rec))
+    loop = loop_arrays(borrow(floats), float_layout, borrow(ints), int_layout, part)
+    run_members(n, k0, config(config_row), loop, bank, borrow(noise), borrow(rec), lo, hi)
 
 
 @numba.njit(cache=True, nogil=True)
-def run_members(n, k0, cfg, loop, bank, noise, rec):
+def run_members(n, k0, cfg, loop, bank, noise, rec, lo, hi):
     """:func:`run_ticks` on the blobs' views (the env kernel calls this with its own).
 
-    ``acc_*`` receive the sums of just these ticks, ``ep_*`` the episode's running sums (kept
-    in the kernel so they do not depend on how an episode is cut into calls). ``k0`` is the
-    loop's tick; member ``b`` lives in local time ``k0 - k_start[b]`` (vector env members
-    restart at different ticks). ``noise`` holds each member's normals; member ``b`` reads its
-    rows from ``noise_at[b]`` on and advances it by ``n``
-    (:class:`contour_gym._loopnoise.NoiseSource` refills the buffer).
+    Members ``lo:hi`` run; ``acc_*`` receive the sums of just these ticks (their rows),
+    ``ep_*`` the episode's running sums (kept in the kernel so they do not depend on how an
+    episode is cut into calls). ``k0`` is the loop's tick; member ``b`` lives in local time
+    ``k0 - k_start[b]`` (vector env members restart at different ticks). ``noise`` holds each
+    member's normals; member ``b`` reads its rows from ``noise_at[b]`` on and advances it by
+    ``n`` (:class:`contour_gym._loopnoise.NoiseSource` refills the buffer).
     """
-    loop.acc_c[:] = 0.0  # the window sums start at zero
-    loop.acc_a[:] = 0.0
+    n_c, n_a = loop.c_axes.shape[0], loop.work.shape[1]
+    loop.acc_c[lo * n_c : hi * n_c] = 0.0  # the window sums start at zero
+    loop.acc_a[lo * n_a : hi * n_a] = 0.0
     # each member's views of its own path, carved here (carved inside member_run, compiled
     # without reference counting, they cost ~0.5 us a call at n = 1), and only when its path is
     # another than the last one carved (members sharing a path carve it once)
-    path, carved = member_path(bank, loop.p_at, 0), 0
-    for b in range(loop.ip_s.shape[0]):
+    path, carved = member_path(bank, loop.p_at, lo), lo
+    for b in range(lo, hi):
         if loop.status[b] != STATUS_OK:
             continue
         path, carved = next_path(bank, loop.p_at, path, carved, b)

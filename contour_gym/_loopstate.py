@@ -20,7 +20,7 @@ from collections import namedtuple
 
 import numba
 
-from contour_gym._blob import carve, readonly, rows2, rows3, view1, view2
+from contour_gym._blob import carve, readonly, rows2, rows3, slab, view1, view2
 from contour_gym._schema import Param, Schema, state_schema
 from contour_gym._validate import number
 
@@ -33,7 +33,7 @@ FLOATS = (
     ("hist", "view2"), ("ip_p", "view2"), ("ip_s", "view2"), ("foot", "rows2"),
     ("last", "rows2"), ("acc_c", "rows2"), ("acc_a", "rows2"), ("ep_c", "rows2"),
     ("ep_a", "rows2"), ("u_cmd", "view2"), ("y_last", "view2"), ("mem", "view2"),
-    ("work", "view2"), ("c_off", "view2"),
+    ("work", "view3"), ("c_off", "view2"),
 )  # fmt: skip
 # noise_at: each member's row in the noise buffer of its next tick (the kernel advances it)
 # p_at: each member's path in the path bank, row (first segment, segments, first s0 entry)
@@ -107,8 +107,13 @@ STATE_LIMIT = 1e3  # |x| in m or |v| in m/s beyond this is a diverged member
 
 
 @numba.njit(cache=True, inline="always")
-def loop_arrays(floats, float_layout, ints, int_layout):
-    """Every array of the loop's blobs as one named tuple of (borrowed) views."""
+def loop_arrays(floats, float_layout, ints, int_layout, part):
+    """Every array of the loop's blobs as one named tuple of (borrowed) views.
+
+    ``work`` is the scratch of ``part``: the members of a loop run on threads in parts
+    (contiguous slices of the batch, :meth:`contour_gym.loop.ServoLoop.advance`), each part on
+    scratch of its own; a member's results do not depend on its part.
+    """
     return LoopArrays(
         rows2(floats, float_layout, FLOAT_AT.ax_p),
         rows2(floats, float_layout, FLOAT_AT.fr_p),
@@ -138,7 +143,7 @@ def loop_arrays(floats, float_layout, ints, int_layout):
         view2(floats, float_layout, FLOAT_AT.u_cmd),
         view2(floats, float_layout, FLOAT_AT.y_last),
         view2(floats, float_layout, FLOAT_AT.mem),
-        view2(floats, float_layout, FLOAT_AT.work),
+        slab(floats, float_layout, FLOAT_AT.work, part),
         view2(floats, float_layout, FLOAT_AT.c_off),
         view2(ints, int_layout, INT_AT.c_axes),
         view1(ints, int_layout, INT_AT.status),

@@ -89,7 +89,7 @@ def CCC_COMMIT(code, p, s, data, q, row, e, ts, out, saturated):
 
 
 @numba.njit(cache=True)
-def RUN_MEMBERS(n, k0, cfg, loop, bank, noise, rec):
+def RUN_MEMBERS(n, k0, cfg, loop, bank, noise, rec, lo, hi):
     """The loop's run on its views, bound to the loop's own ``run_members``."""
 
 

@@ -50,11 +50,11 @@ class Scenario:
 
     def loop(
         self, *, batch_size: int = 1, ccc_gains: Any = None, record: bool = False,
-        ccc_weights: Any = None, **kwargs: Any,
+        ccc_weights: Any = None, threads: int | None = 1, **kwargs: Any,
     ) -> ServoLoop:  # fmt: skip
         """A :class:`ServoLoop` of this scenario; ``kwargs`` are loop options overriding ours.
 
-        ``ccc_weights`` None: the preset's.
+        ``ccc_weights`` None: the preset's; ``threads``: :class:`ServoLoop`'s.
         """
         options = _merged_controller(
             self.options["axis_controller"], self.options.get("controller_options") or {},
@@ -64,7 +64,7 @@ class Scenario:
             self.preset.stage, self.path, self.preset.axis_gains, self.interpolator(),
             batch_size=batch_size, ccc_gains=ccc_gains, record=record,
             ccc_weights=self.preset.ccc_weights if ccc_weights is None else ccc_weights,
-            **options,
+            threads=threads, **options,
         )  # fmt: skip
         if self.feed_override != 1.0:
             loop.set_feed_override(self.feed_override)

@@ -80,6 +80,7 @@ from contour_gym.servo import CONTROLLERS, PIDGains, build_controller, compensat
 from contour_gym.servo.base import CONTROLLER_FAMILY
 from contour_gym.servo.compensation import COMPENSATION_FAMILY
 from contour_gym.servo.gains import as_pid_gains
+from contour_gym.threads import check_threads, run_parts, split
 
 Array = NDArray[np.float64]
 # config columns holding the code of the loop's one component of each family
@@ -146,6 +147,9 @@ class ServoLoop(LoopPaths, LoopParameters):
             accepts (None: no CCC).
         ccc_weights: Per-coordinate weights of the CCC output, broadcastable to (B, C, 3).
         record: Keep a per-tick :class:`Trace`.
+        threads: Threads the members run on, each over a contiguous part of the batch (None:
+            :func:`contour_gym.threads.default_threads`, every CPU when the batch is large
+            enough to pay; at most one per member). Results do not depend on it.
         **options: The fields of :class:`LoopOptions` (axis controller, estimator, CCC law and
             injection, ``ideal``, path control, settle time, sample period). A path carrying a
             time law (:attr:`Path.time_law`) is run on it instead of the interpolator's feeds.
@@ -162,9 +166,12 @@ class ServoLoop(LoopPaths, LoopParameters):
         ccc_gains: ArrayLike | None = None,
         ccc_weights: ArrayLike = 1.0,
         record: bool = False,
+        threads: int | None = 1,
         **options: Any,
     ) -> None:
         _check_sizes(stage, path, axis_gains, batch_size)
+        self.threads = check_threads(threads, int(batch_size))
+        self._parts = split(int(batch_size), self.threads)
         stage.check_travel(path)  # before any array is sized
         self.opts = _options(options)
         self.stage, self.batch_size, self.record = stage, int(batch_size), record
@@ -214,7 +221,8 @@ class ServoLoop(LoopPaths, LoopParameters):
         # every array the kernel touches lives in one of two blobs (contour_gym._blob); the
         # attributes named in FLOAT_NAMES / INT_NAMES are views (LoopViews), written in place
         b = self.batch_size
-        shapes = state_shapes(self.stage, b, self.controller.state.size, self.ccc_law.state.size)
+        shapes = state_shapes(self.stage, b, self.controller.state.size, self.ccc_law.state.size,
+                              self.threads)  # fmt: skip
         self._fblob = filled_blob(FLOAT_NAMES, params, shapes)
         self._iblob = filled_blob(
             INT_NAMES, {"c_axes": contour_axes(self.stage)},
@@ -380,10 +388,12 @@ class ServoLoop(LoopPaths, LoopParameters):
             n_ticks: Ticks to run.
             skip: As in :meth:`step`.
             via: None for the loop's own ``run_ticks``; else a compiled function called as
-                ``via(*leading, n, k0, cf, fb, fl, ib, il, pk, pb, pl, noise, rec)`` that makes
-                the views of these blobs and calls the kernel's ``run_members`` on them once
-                (the env kernel: actions, the ticks and rewards in one call). If it returns
-                False it ran nothing: the clock stays where it was.
+                ``via(*leading, n, k0, cf, fb, fl, ib, il, pk, pb, pl, noise, rec, lo, hi,
+                part)`` that makes the views of these blobs and calls the kernel's
+                ``run_members`` on members ``lo:hi`` (the env kernel: actions, the ticks and
+                rewards in one call), once per part of the batch (on threads when the loop has
+                several, :mod:`contour_gym.threads`). If it returns False it ran nothing: the
+                clock stays where it was.
             leading: ``via``'s own arguments.
 
         Returns:
@@ -398,7 +408,11 @@ class ServoLoop(LoopPaths, LoopParameters):
         args = (n_ticks, self.tick, self._config, self._fblob.buffer, self._fblob.layout,
                 self._iblob.buffer, self._iblob.layout, self._kind, self._pblob.buffer,
                 self._pblob.layout, noise, rec)  # fmt: skip
-        result = self.kernel.run_ticks(*args) if via is None else via(*leading, *args)
+        call, head = (self.kernel.run_ticks, args) if via is None else (via, (*leading, *args))
+        if len(self._parts) == 1:
+            result = call(*head, 0, self.batch_size, 0)
+        else:
+            result = run_parts(lambda lo, hi, part: call(*head, lo, hi, part), self._parts)[0]
         if result is False:
             if paused is not None:
                 self._resume(paused, 0)

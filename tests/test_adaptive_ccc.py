@@ -67,7 +67,7 @@ def run_rows(loop: ServoLoop) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     for k in range(TICKS):
         loop.step(1)
         eps[k] = loop.ccc_s[0, 0, :, e_prev]
-        out[k] = loop.work[WORK_ROW.uccc, :3]
+        out[k] = loop.work[0, WORK_ROW.uccc, :3]
         theta.append(thetas(loop)[0].copy())
     return eps, out, np.array(theta)
 

@@ -49,8 +49,8 @@ def run_ccc_outputs(loop: ServoLoop) -> tuple[np.ndarray, np.ndarray]:
     eps, out = np.empty(TICKS), np.empty(TICKS)
     for k in range(TICKS):
         loop.step(1)
-        ux, uy = loop.work[WORK_ROW.uccc, :2]
-        vx, vy = loop.work[WORK_ROW.rdot, :2]
+        ux, uy = loop.work[0, WORK_ROW.uccc, :2]
+        vx, vy = loop.work[0, WORK_ROW.rdot, :2]
         eps[k] = loop.contour_error_estimate[0, 0]
         out[k] = math.copysign(math.hypot(ux, uy), vy * ux - vx * uy)
     return eps, out

@@ -19,7 +19,6 @@ gets the penalty of :mod:`agents.tune.fitness`.
 from __future__ import annotations
 
 import math
-import os
 import threading
 import time
 import weakref
@@ -48,6 +47,7 @@ from contour_gym.ccc import CCC_LAWS
 from contour_gym.envs.config import EnvConfig
 from contour_gym.loop import ServoLoop
 from contour_gym.tasks import TASKS
+from contour_gym.threads import available_cpus
 
 
 @dataclass(frozen=True)
@@ -104,6 +104,10 @@ class PopulationObjective:
         protocol: The protocol (or its name).
         ideal: Run the scenarios without the rig's encoder, noise and delay.
         workers: Threads (None: the CPUs this process may use; 1: no threads).
+        ray: A Ray cluster's address (:class:`agents.parallel.RayRunner`): the candidates run
+            on one actor per CPU of the cluster (each an objective of one thread), in slices
+            of equal size; an actor whose node dies is started again and its slice retried.
+            :meth:`close` releases them.
 
     Attributes:
         penalty: The fitness of a failed candidate (:mod:`agents.tune.fitness`), m.
@@ -113,8 +117,9 @@ class PopulationObjective:
     """
 
     def __init__(
-        self, protocol: str | Protocol, ideal: bool = False, workers: int | None = None
-    ) -> None:
+        self, protocol: str | Protocol, ideal: bool = False, workers: int | None = None,
+        ray: str | None = None,
+    ) -> None:  # fmt: skip
         self.protocol = get_protocol(protocol)
         self.ideal = bool(ideal)
         self.workers = available_cpus() if workers is None else workers
@@ -140,6 +145,16 @@ class PopulationObjective:
         self._memo: dict[bytes, tuple[FloatArray, NDArray[np.bool_]]] = {}
         if proto.chatter_bound is not None or proto.relative:
             self._run_reference()
+        self._remote = None if ray is None else RemoteSlices(self.protocol, self.ideal, ray)
+
+    def close(self) -> None:
+        """Stop the objective's threads and Ray actors (it still runs, on this thread)."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=False)
+            self._pool = None
+        if self._remote is not None:
+            self._remote.close()
+            self._remote = None
 
     def _run_reference(self) -> None:
         """Each scenario's chattering cap and fitness scale, from the reference point's run."""
@@ -202,7 +217,8 @@ class PopulationObjective:
                 new[key] = r
         results: dict[bytes, tuple[FloatArray, NDArray[np.bool_]]] = {}
         if new:
-            fit, failed = self._simulate(x[np.fromiter(new.values(), dtype=np.intp)])
+            simulate = self._simulate if self._remote is None else self._remote
+            fit, failed = simulate(x[np.fromiter(new.values(), dtype=np.intp)])
             results = {key: (fit[:, c].copy(), failed[:, c].copy()) for c, key in enumerate(new)}
             for key, value in results.items():
                 if len(self._memo) < MEMO_SIZE:
@@ -334,10 +350,51 @@ class PopulationObjective:
         return f, failed | ~(f < self.penalty)
 
 
-def available_cpus() -> int:
-    """CPUs this process may run on (its affinity where the OS tells it)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
+
+
+class RemoteSlices:
+    """A population's candidates on a Ray cluster: one actor per CPU, a slice each.
+
+    Each actor holds a one-thread :class:`PopulationObjective` of the protocol (built once);
+    a call deals the candidates to the actors in slices of equal size and returns what
+    :meth:`PopulationObjective._simulate` returns for all of them, the same numbers as a local
+    run (a candidate's run depends on its parameters alone).
+    """
+
+    def __init__(self, protocol: Protocol, ideal: bool, address: str) -> None:
+        from agents.parallel import RAY_RETRIES, RayRunner
+
+        self._cluster = RayRunner(address)
+        ray = self._ray = self._cluster._ray
+        actor = ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=RAY_RETRIES)(_Slices)
+        self._actors = [actor.remote(protocol, ideal) for _ in range(self._cluster.workers)]
+
+    def __call__(self, x: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
+        """What :meth:`PopulationObjective._simulate` returns for ``x``, run on the actors."""
+        slices = [rows for rows in np.array_split(np.arange(x.shape[0]), len(self._actors))
+                  if rows.size]  # fmt: skip
+        refs = [a.simulate.remote(x[rows]) for a, rows in zip(self._actors, slices, strict=False)]
+        parts = self._ray.get(refs)
+        fit = np.concatenate([p[0] for p in parts], axis=1)
+        failed = np.concatenate([p[1] for p in parts], axis=1)
+        return fit, failed
+
+    def close(self) -> None:
+        """Stop the actors (and the cluster, if this started it)."""
+        for a in self._actors:
+            self._ray.kill(a)
+        self._actors = []
+        self._cluster.close()
+
+
+class _Slices:
+    # a Ray actor: a one-thread objective of the protocol, simulating the slices it is given
+    def __init__(self, protocol: Protocol, ideal: bool) -> None:
+        from agents.parallel import _init_worker
+
+        _init_worker()
+        self.objective = PopulationObjective(protocol, ideal=ideal, workers=1)
+
+    def simulate(self, x: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
+        return self.objective._simulate(x)
 

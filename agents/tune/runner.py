@@ -130,6 +130,7 @@ def tune(
     command: str | None = None,
     workers: int | None = None,
     overwrite: bool = False,
+    ray: str | None = None,
 ) -> TuneResult:
     """Run a tuning protocol with an optimiser.
 
@@ -150,6 +151,8 @@ def tune(
         workers: Threads running the population (:class:`PopulationObjective`; None: every
             CPU). The result does not depend on it.
         overwrite: Replace a finished result in ``out`` (else refused: :func:`check_run_folder`).
+        ray: A Ray cluster's address: each generation's candidates spread over its CPUs
+            (:class:`~agents.tune.objective.PopulationObjective`; the same result).
 
     Returns:
         The :class:`TuneResult`.
@@ -165,10 +168,13 @@ def tune(
     folder = _run_folder(m, t, seed, out, overwrite)
     settings = _settings(proto, name, options, m, t, ideal,
                          command or _command(proto.name, name, seed, m, t, ideal, out))  # fmt: skip
-    objective = PopulationObjective(proto, ideal=ideal, workers=workers)
+    objective = PopulationObjective(proto, ideal=ideal, workers=workers, ray=ray)
     settings["penalty"] = objective.penalty
     run = _Run(proto, name, seed, settings, folder)
-    return run.finish(run.search(objective, m, t, options, progress), objective)
+    try:
+        return run.finish(run.search(objective, m, t, options, progress), objective)
+    finally:
+        objective.close()
 
 
 def _run_folder(

@@ -41,10 +41,10 @@ CORNER_ANGLE = 0.02  # rad: a segment join turning more than this is a corner (v
 
 
 @numba.njit(cache=True, inline="always")
-def _apply(loop, env, ec):
+def _apply(loop, env, ec, lo, hi):
     # clip each live member's action to [-1, 1]; the task sets what it acts on
     n_c = loop.c_axes.shape[0]
-    for b in range(env.action.shape[0]):
+    for b in range(lo, hi):
         if env.skip[b] != 0.0:
             continue
         env.s_before[b] = loop.ip_s[b, IS.s]
@@ -91,15 +91,16 @@ def apply_rewards(env_floats, env_layout, floats, float_layout, ints, int_layout
     earns at least ``r_lo <= 0``).
     """
     # borrowed (contour_gym._blob.borrow): the caller keeps the blobs alive
-    loop = loop_arrays(borrow(floats), float_layout, borrow(ints), int_layout)
-    _rewards(loop, env_arrays(borrow(env_floats), env_layout), ec)
+    loop = loop_arrays(borrow(floats), float_layout, borrow(ints), int_layout, 0)
+    env = env_arrays(borrow(env_floats), env_layout)
+    _rewards(loop, env, ec, 0, env.reward.shape[0])
 
 
 @numba.njit(cache=True, inline="always")
-def _rewards(loop, env, ec):
-    # apply_rewards on the views
+def _rewards(loop, env, ec, lo, hi):
+    # apply_rewards on the views of members lo:hi
     r_lo, r_hi = ec[EC.r_lo], ec[EC.r_hi]
-    for b in range(env.reward.shape[0]):
+    for b in range(lo, hi):
         if env.skip[b] != 0.0:
             env.reward[b], env.terminated[b], env.truncated[b] = 0.0, 0.0, 0.0
             continue
@@ -246,11 +247,12 @@ def _observe(loop, path, env, ec, b):
 @numba.njit(cache=True, inline="always")
 def _views(
     env_floats, env_layout, floats, float_layout, ints, int_layout, path_kinds, path_floats,
-    path_layout,
+    path_layout, part,
 ):  # fmt: skip
-    # the loop's, the path bank's and the env's arrays, borrowed (the caller keeps the blobs
-    # alive: views of a borrowed blob count no references, contour_gym._blob.borrow)
-    loop = loop_arrays(borrow(floats), float_layout, borrow(ints), int_layout)
+    # the loop's (with part's scratch), the path bank's and the env's arrays, borrowed (the
+    # caller keeps the blobs alive: views of a borrowed blob count no references,
+    # contour_gym._blob.borrow)
+    loop = loop_arrays(borrow(floats), float_layout, borrow(ints), int_layout, part)
     bank = path_bank(borrow(path_kinds), borrow(path_floats), path_layout)
     return loop, bank, env_arrays(borrow(env_floats), env_layout)
 
@@ -262,7 +264,7 @@ def observe(
 ):  # fmt: skip
     """Write the observation rows of ``members`` (after a reset and after every step)."""
     loop, bank, env = _views(env_floats, env_layout, floats, float_layout, ints, int_layout,
-                             path_kinds, path_floats, path_layout)  # fmt: skip
+                             path_kinds, path_floats, path_layout, 0)  # fmt: skip
     path, carved = member_path(bank, loop.p_at, 0), 0
     for b in members:
         path, carved = next_path(bank, loop.p_at, path, carved, b)
@@ -270,11 +272,11 @@ def observe(
 
 
 @numba.njit(cache=True, inline="always")
-def _finish(loop, bank, env, ec):
-    # components, failure flags and (compiled reward) raw rewards; observations (each member on
-    # its own path: contour_gym._loopstate.next_path)
-    path, carved = member_path(bank, loop.p_at, 0), 0
-    for b in range(env.reward.shape[0]):
+def _finish(loop, bank, env, ec, lo, hi):
+    # members lo:hi's components, failure flags and (compiled reward) raw rewards; their
+    # observations (each member on its own path: contour_gym._loopstate.next_path)
+    path, carved = member_path(bank, loop.p_at, lo), lo
+    for b in range(lo, hi):
         if env.skip[b] == 0.0:
             failed = _components(loop, env, ec, b)
             env.failure[b] = 1.0 if failed else 0.0
@@ -289,26 +291,27 @@ def _finish(loop, bank, env, ec):
 @numba.njit(cache=True)
 def env_step(
     env_floats, env_layout, ec, n, k0, config_row, floats, float_layout, ints, int_layout,
-    path_kinds, path_floats, path_layout, noise, rec,
+    path_kinds, path_floats, path_layout, noise, rec, lo, hi, part,
 ):  # fmt: skip
-    """One env decision in one compiled call: apply actions, run the ticks, finish.
+    """One env decision of members ``lo:hi`` in one compiled call: apply actions, run, finish.
 
     The arguments from ``n`` on are the loop's (:meth:`contour_gym.loop.ServoLoop.advance`; passed
     flat: a tuple argument would send numba's dispatcher down its slow typing path).
-    Returns False, having changed nothing, when an action is NaN or infinite.
+    Returns False, having changed nothing, when any member's action (not only ``lo:hi``'s) is
+    NaN or infinite, so every part of a decision run on threads agrees.
     """
     # the views, made once for the whole decision
     loop, bank, env = _views(env_floats, env_layout, floats, float_layout, ints, int_layout,
-                             path_kinds, path_floats, path_layout)  # fmt: skip
+                             path_kinds, path_floats, path_layout, part)  # fmt: skip
     for b in range(env.action.shape[0]):
         for j in range(env.action.shape[1]):
             if not math.isfinite(env.action[b, j]):
                 return False
-    _apply(loop, env, ec)
-    RUN_MEMBERS(n, k0, config(config_row), loop, bank, borrow(noise), borrow(rec))
-    _finish(loop, bank, env, ec)
+    _apply(loop, env, ec, lo, hi)
+    RUN_MEMBERS(n, k0, config(config_row), loop, bank, borrow(noise), borrow(rec), lo, hi)
+    _finish(loop, bank, env, ec, lo, hi)
     if ec[EC.python_reward] == 0.0:
-        _rewards(loop, env, ec)
+        _rewards(loop, env, ec, lo, hi)
     return True
 
 

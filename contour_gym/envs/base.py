@@ -184,6 +184,12 @@ class ContourVectorEnv(GainsMap, VectorEnv):
     A member whose episode ended and that is reset by ``reset(options={"reset_mask": ...})``
     before the next step starts its new episode there (as a same-step caller, e.g. an SB3
     ``VecEnv`` adapter, does) and is not reset again by the auto-reset.
+
+    ``num_threads`` (a constructor argument beside ``num_envs``): the threads the members step
+    on, each over a contiguous part of the batch (the kernel holds no GIL). None (default):
+    every CPU this process may use, one thread per 32 members at most
+    (:func:`contour_gym.threads.default_threads`, chosen by ``benchmarks/scaling.py``); 1: the
+    calling thread only. The numbers do not depend on it, bit for bit.
     """
 
     kind: ClassVar[str]
@@ -197,6 +203,7 @@ class ContourVectorEnv(GainsMap, VectorEnv):
         num_envs: int = 1,
         max_episode_steps: int | None = None,
         render_mode: str | None = None,
+        num_threads: int | None = None,
         **kwargs: Any,
     ) -> None:
         if not isinstance(num_envs, int) or num_envs < 1:
@@ -207,7 +214,8 @@ class ContourVectorEnv(GainsMap, VectorEnv):
             kwargs["step_limit"] = max_episode_steps
         self.config = EnvConfig.from_kwargs(kwargs)
         self.num_envs, self.render_mode = num_envs, render_mode
-        self.task = ContourTask(self.config, num_envs, self.kind, record=render_mode is not None)
+        self.task = ContourTask(self.config, num_envs, self.kind, record=render_mode is not None,
+                                threads=num_threads)  # fmt: skip
         self.max_episode_steps = self.task.max_episode_steps
         self.single_action_space = self.task.action_space()
         self.single_observation_space = self.task.observation_space()

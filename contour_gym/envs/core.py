@@ -60,11 +60,13 @@ class ContourTask:
         kind: The task (:mod:`contour_gym.tasks`), or its registered name: ``"ccc"`` (actions
             are CCC gains), ``"feedrate"`` (actions change the feed override), or your own.
         record: Keep per-tick traces (for rendering).
+        threads: Threads the members step on (:class:`contour_gym.loop.ServoLoop`'s).
     """
 
     def __init__(
-        self, config: EnvConfig, batch: int, kind: str | Task, record: bool = False
-    ) -> None:
+        self, config: EnvConfig, batch: int, kind: str | Task, record: bool = False,
+        threads: int | None = 1,
+    ) -> None:  # fmt: skip
         self.task_kind: Task = task_named(kind)
         self.config, self.batch, self.kind = config, batch, self.task_kind.name
         self.scenario = self._make_scenario()
@@ -78,7 +80,7 @@ class ContourTask:
         self.g0 = np.asarray(config.ccc_gains or preset.ccc_gains.as_tuple(), dtype=float)
         self.loop = self.scenario.loop(
             batch_size=batch, ccc_gains=self.task_kind.fixed_ccc_gains(config), record=record,
-            ccc_weights=config.ccc_weights,
+            ccc_weights=config.ccc_weights, threads=threads,
         )  # fmt: skip
         self.ovr_bounds = np.asarray(config.feedrate_range, dtype=float)
         self.gain_map = GainMap.for_env(config, preset, self.g0)

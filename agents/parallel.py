@@ -1,0 +1,291 @@
+"""Units of work on every core, or on a Ray cluster: one interface for bench, tune and train.
+
+A command cuts its work into independent *units* (a bench cell, a training run, a slice of a
+tuning population), each a picklable call ``fn(item)`` whose result depends on ``item`` alone.
+:func:`runner` gives the place they run:
+
+- ``workers=1``: in this process, one after another (what every command did before);
+- ``workers=N > 1``: ``N`` worker processes on this machine (``spawn``ed: no forked threads,
+  torch or numba state), each with one torch and BLAS thread;
+- ``ray=ADDRESS``: Ray tasks on a cluster (``"auto"``: the cluster this machine belongs to;
+  ``"local"``: start a local one with ``workers`` CPUs; ``"HOST:PORT"``: that head). A task
+  whose worker or node dies is retried elsewhere (:data:`RAY_RETRIES`); a unit's own
+  exception is not retried (it would fail again), it is raised.
+
+Results arrive as units finish (:meth:`Runner.map` yields ``(index, result)``), so a command
+saves each one at once (its run folder resumes after an interruption); they equal a serial
+run's bit for bit, because each unit seeds itself from its own item.
+
+Ray is an optional extra (``pip install "contour-gym[ray]"``); without it ``ray=...`` raises
+:class:`ValueError` saying how to install it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from typing import Any, TypeVar
+
+from contour_gym.threads import THREADS_VARIABLE, available_cpus
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+RAY_RETRIES = 3  # a unit whose Ray worker or node died runs again up to this many times
+RAY_HINT = 'Ray is not installed: pip install "contour-gym[ray]" (or pip install "ray[tune]")'
+_SINGLE_THREADED = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
+                    THREADS_VARIABLE: "1"}
+
+
+def resolve_workers(workers: int | None) -> int:
+    """``workers`` checked (None: every CPU this process may use).
+
+    Raises:
+        ValueError: for anything but a positive int or None.
+    """
+    if workers is None:
+        return available_cpus()
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers must be a positive int, got {workers!r}")
+    return workers
+
+
+class Runner:
+    """Where units run: in this process (this class), or :class:`Processes`, :class:`RayRunner`.
+
+    Attributes:
+        workers: Units that run at once.
+    """
+
+    workers = 1
+
+    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> Iterator[tuple[int, R]]:
+        """``(i, fn(items[i]))`` for every item, as each finishes (here: in order).
+
+        The first unit that raises stops the run: the error is raised once the units already
+        running have finished (their results are yielded first).
+        """
+        for i, item in enumerate(items):
+            yield i, fn(item)
+
+    def close(self) -> None:
+        """Release the workers (a no-op here)."""
+
+    def __enter__(self) -> Runner:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def describe(self) -> str:
+        """Where the units run, in a few words."""
+        return "this process"
+
+
+def _init_worker() -> None:
+    # a worker process: one thread for torch and BLAS (the cores are the workers'), no
+    # background compiles (contour_gym._tiers: the parent compiled up front)
+    os.environ.update(_SINGLE_THREADED)
+    os.environ.setdefault("CONTOUR_GYM_BACKGROUND", "0")
+    try:
+        import torch
+    except ImportError:
+        return
+    torch.set_num_threads(1)
+
+
+class Processes(Runner):
+    """``workers`` spawned worker processes on this machine (started on first use)."""
+
+    def __init__(self, workers: int) -> None:
+        self.workers = workers
+        self._pool: ProcessPoolExecutor | None = None
+
+    def _executor(self) -> ProcessPoolExecutor:
+        if self._pool is None:
+            context = multiprocessing.get_context("spawn")
+            self._pool = ProcessPoolExecutor(self.workers, mp_context=context,
+                                             initializer=_init_worker)  # fmt: skip
+        return self._pool
+
+    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> Iterator[tuple[int, R]]:
+        """As :meth:`Runner.map`, the units on the worker processes, results as they finish."""
+        if not items:
+            return
+        pool = self._executor()
+        futures: dict[Future[R], int] = {pool.submit(fn, item): i for i, item in enumerate(items)}
+        yield from _as_finished(futures)
+
+    def close(self) -> None:
+        """Stop the worker processes."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+    def describe(self) -> str:
+        """Where the units run, in a few words."""
+        return f"{self.workers} worker processes"
+
+
+def _as_finished(futures: dict[Future[R], int]) -> Iterator[tuple[int, R]]:
+    # the futures' results as they finish; on an error (or the caller stopping) the pending
+    # ones are cancelled, the running ones finish, and the first error is raised
+    pending = set(futures)
+    error: BaseException | None = None
+    try:
+        while pending and error is None:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for future in sorted(done, key=futures.__getitem__):
+                exc = future.exception()
+                if exc is not None:
+                    error = error or exc
+                else:
+                    yield futures[future], future.result()
+    finally:
+        for future in pending:
+            future.cancel()
+    if error is not None:
+        raise error
+
+
+class RayRunner(Runner):
+    """Units as Ray tasks (one CPU each) on the cluster at ``address``.
+
+    Args:
+        address: ``"auto"``, ``"HOST:PORT"`` of a running cluster's head (``ray://...`` for
+            Ray Client), or ``"local"``/None: start a local cluster of ``workers`` CPUs (on
+            127.0.0.1, stopped by :meth:`close`).
+        workers: CPUs of a local cluster (None: every CPU); ignored for a running cluster.
+
+    Raises:
+        ValueError: when Ray is not installed (saying how to install it).
+    """
+
+    def __init__(self, address: str | None, workers: int | None = None) -> None:
+        ray = import_ray()
+        self._started = not ray.is_initialized()
+        if self._started:
+            if address in (None, "local"):
+                loopback_only(ray)
+                ray.init(num_cpus=resolve_workers(workers), include_dashboard=False,
+                         log_to_driver=False, runtime_env={"env_vars": _SINGLE_THREADED})
+            else:
+                ray.init(address=address, log_to_driver=False,
+                         runtime_env={"env_vars": _SINGLE_THREADED})  # fmt: skip
+        self.address = address or "local"
+        self.workers = max(1, int(ray.cluster_resources().get("CPU", 1)))
+        self._ray = ray
+
+    def map(self, fn: Callable[[T], R], items: Sequence[T]) -> Iterator[tuple[int, R]]:
+        """As :meth:`Runner.map`, each unit a Ray task (retried if its worker or node dies)."""
+        ray = self._ray
+        remote = ray.remote(num_cpus=1, max_retries=RAY_RETRIES, retry_exceptions=False)(
+            _call)
+        refs = {remote.remote(fn, item): i for i, item in enumerate(items)}
+        pending, error = list(refs), None
+        try:
+            while pending and error is None:
+                done, pending = ray.wait(pending, num_returns=1)
+                for ref in done:
+                    try:
+                        yield refs[ref], ray.get(ref)
+                    except ray.exceptions.RayTaskError as exc:
+                        error = error or exc.as_instanceof_cause()
+        finally:
+            for ref in pending:
+                ray.cancel(ref)
+        if error is not None:
+            raise error
+
+    def close(self) -> None:
+        """Disconnect (and stop the cluster if this runner started it)."""
+        if self._started:
+            self._ray.shutdown()
+            self._started = False
+
+    def describe(self) -> str:
+        """Where the units run, in a few words."""
+        return f"Ray cluster {self.address} ({self.workers} CPUs)"
+
+
+def _call(fn: Callable[[T], R], item: T) -> R:
+    # a Ray task: the unit in a worker that threads torch and BLAS once
+    _init_worker()
+    return fn(item)
+
+
+def import_ray() -> Any:
+    """The ``ray`` module.
+
+    Raises:
+        ValueError: when Ray is not installed, saying how to install it.
+    """
+    try:
+        import ray
+    except ImportError as exc:
+        raise ValueError(RAY_HINT) from exc
+    return ray
+
+
+def loopback_only(ray: Any) -> None:
+    """Make the Ray clusters this process starts listen on 127.0.0.1 only.
+
+    Ray takes a node's address from the network unless told that clusters are off
+    (``RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0``, read at import: set here for this process and the
+    processes it starts); a node then binds every server to 127.0.0.1 (Ray >= 2.54).
+    """
+    os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"
+    ray._private.ray_constants.ENABLE_RAY_CLUSTER = False
+
+
+@contextlib.contextmanager
+def local_cluster(nodes: int = 2, cpus_per_node: int = 1, **head: Any) -> Iterator[Any]:
+    """A Ray cluster of ``nodes`` nodes on this machine, on 127.0.0.1 only, for its block.
+
+    Each node is a raylet of its own (the head also runs the GCS), as separate machines'
+    would be; :meth:`ray.cluster_utils.Cluster.remove_node` kills one (a node dying mid-run).
+    Yields the :class:`ray.cluster_utils.Cluster` (``.address`` is the head's); stopped at
+    the block's end.
+
+    Args:
+        nodes: Nodes, the head included.
+        cpus_per_node: CPUs each node offers.
+        **head: More arguments of the head node (e.g. ``_system_config``).
+
+    Raises:
+        ValueError: when Ray is not installed.
+    """
+    ray = import_ray()
+    loopback_only(ray)
+    from ray.cluster_utils import Cluster
+
+    cluster = Cluster(initialize_head=True, head_node_args={
+        "num_cpus": cpus_per_node, "include_dashboard": False, **head})  # fmt: skip
+    try:
+        for _ in range(nodes - 1):
+            cluster.add_node(num_cpus=cpus_per_node)
+        cluster.wait_for_nodes()
+        yield cluster
+    finally:
+        if ray.is_initialized():
+            ray.shutdown()
+        cluster.shutdown()
+
+
+def runner(workers: int | None = None, ray: str | None = None) -> Runner:
+    """Where a command's units run: ``ray`` set -> :class:`RayRunner`, else by ``workers``.
+
+    Args:
+        workers: Worker processes on this machine (None: every CPU; 1: this process).
+        ray: A Ray address (``"auto"``, ``"HOST:PORT"``, ``"local"``: see :class:`RayRunner`).
+
+    Raises:
+        ValueError: for a bad ``workers``, or ``ray`` without Ray installed.
+    """
+    n = resolve_workers(workers)
+    if ray is not None:
+        return RayRunner(ray, n if workers is not None else None)
+    return Runner() if n == 1 else Processes(n)

@@ -1,0 +1,229 @@
+"""Every core and a cluster: the same numbers for any number of threads, workers or nodes."""
+
+from __future__ import annotations
+
+import builtins
+import hashlib
+import importlib.util
+import json
+import sys
+import time
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from agents.bench import run_cell, run_suite
+from agents.cli import main
+from agents.parallel import RAY_HINT, Processes, Runner, runner
+from agents.rl.sweep import parse_grid, run_trials, trials
+from agents.suites import load_suite
+from agents.tune import tune
+from contour_gym.api import make_scenario
+from contour_gym.threads import MIN_MEMBERS_PER_THREAD, check_threads, default_threads, split
+
+SUITE = "tiny"
+ENV, STEPS = "contour_gym/CCC-Circle-v0", 1000  # two 1000-step runs (seeds 0, 1)
+
+
+def episodes(folder: Path) -> dict[str, Any]:
+    # every cell's episodes (their metrics), by file: what must not depend on where they ran
+    return {str(f.relative_to(folder)): json.loads(f.read_text())["episodes"]
+            for f in sorted((folder / "cells").glob("*/*.json"))}  # fmt: skip
+
+
+def weights(run: Path) -> str:
+    with zipfile.ZipFile(run / "model.zip") as z:
+        return hashlib.sha256(z.read("policy.pth")).hexdigest()
+
+
+@pytest.fixture(scope="module")
+def local_bench(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """The tiny suite's cells, run in this process."""
+    out = tmp_path_factory.mktemp("bench") / "one"
+    run_suite(SUITE, out, progress=False, workers=1)
+    return episodes(out)
+
+
+@pytest.fixture(scope="module")
+def parallel_runs(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+    """Seeds 0 and 1 of a 1000-step PPO run, trained at once on two worker processes."""
+    out = tmp_path_factory.mktemp("train") / "two"
+    return run_trials(trials(ENV, ["ppo"], [0, 1], {}, out, STEPS), workers=2)
+
+
+# ------------------------------------------------------------------------------ threads
+def test_parts_cover_the_batch_evenly_and_the_default_pays() -> None:
+    assert split(7, 3) == ((0, 3, 0), (3, 5, 1), (5, 7, 2))
+    assert check_threads(8, 3) == 3  # at most one per member
+    assert default_threads(MIN_MEMBERS_PER_THREAD - 1) == 1
+    with pytest.raises(ValueError, match="num_threads"):
+        check_threads(0, 4)
+
+
+def test_the_loop_on_threads_equals_one_thread_bit_for_bit() -> None:
+    sc = make_scenario("xy_dc_servo", ideal=False)
+    out = []
+    for threads in (1, 3):
+        loop = sc.loop(batch_size=5, ccc_gains=sc.preset.ccc_gains.as_tuple(), threads=threads)
+        loop.set_ccc_gains(np.linspace(0.5, 2.0, 5)[:, None, None] * sc.preset.ccc_gains.as_tuple())
+        loop.reset(7)
+        loop.step(300)
+        out.append((loop.ax_s.copy(), loop.sums.contour.copy(), loop.metrics()))
+    np.testing.assert_array_equal(out[0][0], out[1][0])
+    np.testing.assert_array_equal(out[0][1], out[1][1])
+    for key, value in out[0][2].items():
+        np.testing.assert_array_equal(value, out[1][2][key], err_msg=key)
+
+
+@pytest.mark.parametrize("env_id", ["contour_gym/CCC-v1", "contour_gym/Feedrate-v1"])
+def test_a_vector_env_on_threads_equals_one_thread_bit_for_bit(env_id: str) -> None:
+    runs = []
+    for threads in (1, 2):
+        env = gym.make_vec(env_id, num_envs=5, vectorization_mode="vector_entry_point",
+                           num_threads=threads, path="random", decision_ticks=20)  # fmt: skip
+        rng = np.random.default_rng(3)
+        obs, _ = env.reset(seed=11)
+        steps = [obs]
+        for _ in range(40):  # long enough for auto-resets (the feedrate task's short paths)
+            obs, reward, term, trunc, info = env.step(rng.uniform(-1, 1, env.action_space.shape))
+            steps.append((obs, reward, term, trunc, info["contour_error"], info["s"]))
+        runs.append(steps)
+        env.close()
+    for a, b in zip(*runs, strict=True):
+        np.testing.assert_equal(a, b)
+
+
+# ------------------------------------------------------------------------ processes
+def test_bench_on_worker_processes_equals_one_process(
+    local_bench: dict[str, Any], tmp_path: Path
+) -> None:
+    result = run_suite(SUITE, tmp_path / "two", progress=False, workers=2)
+    assert len(result.computed) == len(local_bench)
+    assert episodes(tmp_path / "two") == local_bench
+    assert sorted(p.name for p in (tmp_path / "two" / "plots").iterdir())
+
+
+def test_a_units_error_is_raised_after_the_running_ones_finish() -> None:
+    with Processes(2) as where:
+        got = []
+        with pytest.raises(ZeroDivisionError):
+            for i, value in where.map(_inverse, [1, 0, 2, 4]):
+                got.append((i, value))
+    assert (0, 1.0) in got
+
+
+def _inverse(x: int) -> float:
+    return 1.0 / x
+
+
+@pytest.mark.slow
+def test_seeds_train_in_parallel_with_the_weights_of_one_at_a_time(
+    parallel_runs: list[Path], tmp_path: Path
+) -> None:
+    alone = run_trials(trials(ENV, ["ppo"], [1], {}, tmp_path / "one", STEPS), workers=1)
+    assert [r.name for r in parallel_runs] == ["CCC-Circle-v0_ppo_seed0", "CCC-Circle-v0_ppo_seed1"]
+    assert weights(parallel_runs[1]) == weights(alone[0])
+    assert weights(parallel_runs[0]) != weights(parallel_runs[1])
+    again = run_trials(trials(ENV, ["ppo"], [0, 1], {}, parallel_runs[0].parent, STEPS),
+                       workers=2)  # finished runs are not trained again  # fmt: skip
+    assert [weights(r) for r in again] == [weights(r) for r in parallel_runs]
+
+
+def test_a_sweep_grid_names_its_folders_by_value(tmp_path: Path) -> None:
+    grid = parse_grid(["learning_rate=1e-4,3e-4", "n_epochs=2"])
+    assert grid == {"learning_rate": [1e-4, 3e-4], "n_epochs": [2]}
+    todo = trials("contour_gym/CCC-Circle-v0", ["ppo", "sac"], [0], grid, tmp_path)
+    assert len(todo) == 4
+    assert todo[1].run == tmp_path / "learning_rate=0.0003,n_epochs=2" / "CCC-Circle-v0_ppo_seed0"
+    for bad in (["learning_rate"], ["=1"], ["a=1", "a=2"]):
+        with pytest.raises(ValueError):
+            parse_grid(bad)
+
+
+def test_runner_picks_the_place() -> None:
+    assert type(runner(1)) is Runner and isinstance(runner(2), Processes)
+    with pytest.raises(ValueError, match="workers"):
+        runner(0)
+
+
+def test_without_ray_every_command_says_how_to_install_it(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    real_import = builtins.__import__
+
+    def no_ray(name: str, *args: Any, **kwargs: Any) -> Any:
+        if name == "ray" or name.startswith("ray."):
+            raise ImportError("No module named 'ray'")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_ray)
+    monkeypatch.delitem(sys.modules, "ray", raising=False)
+    for argv in (["bench", "--suite", SUITE, "--ray", "auto", "--out", str(tmp_path / "b")],
+                 ["tune", "003", "--ray", "auto", "--population", "4", "--iterations", "1",
+                  "--out", str(tmp_path / "t")],
+                 ["train", "contour_gym/CCC-Circle-v0", "--ray", "auto", "--out",
+                  str(tmp_path / "r")]):  # fmt: skip
+        assert main(argv) == 2
+        assert RAY_HINT in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------------- Ray
+needs_ray = pytest.mark.skipif(importlib.util.find_spec("ray") is None,
+                               reason='the ray extra is not installed: pip install ".[ray]"')
+
+
+@pytest.mark.slow
+@needs_ray
+def test_bench_tune_and_training_on_a_two_node_cluster_equal_a_local_run(
+    local_bench: dict[str, Any], parallel_runs: list[Path], tmp_path: Path
+) -> None:
+    from agents.parallel import local_cluster
+
+    protocol: dict[str, Any] = dict(protocol="003", population=6, iterations=1, progress=False)
+    local_tune = tune(**protocol, workers=1)
+    with local_cluster(nodes=2, cpus_per_node=1) as cluster:  # a head and a worker node
+        assert cluster.address.startswith("127.0.0.1:")
+        run_suite(SUITE, tmp_path / "ray", progress=False, ray=cluster.address)
+        remote_tune = tune(**protocol, ray=cluster.address)
+        remote_runs = run_trials(trials(ENV, ["ppo"], [0, 1], {}, tmp_path / "runs", STEPS),
+                                 ray=cluster.address)  # fmt: skip
+    assert episodes(tmp_path / "ray") == local_bench
+    assert remote_tune.params == local_tune.params
+    assert remote_tune.history == local_tune.history
+    assert [weights(r) for r in remote_runs] == [weights(r) for r in parallel_runs]
+    assert all((r / "eval.csv").is_file() and (r / "args.yml").is_file() for r in remote_runs)
+
+
+def _slow_cell(unit: Any) -> Any:
+    time.sleep(1.5)  # long enough to be running when its node dies
+    return run_cell(unit)
+
+
+@pytest.mark.slow
+@needs_ray
+def test_a_node_that_dies_mid_run_loses_only_its_unfinished_units(
+    local_bench: dict[str, Any],
+) -> None:
+    from ray import cloudpickle
+
+    from agents.parallel import RayRunner, local_cluster
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests
+    suite = load_suite(SUITE)
+    units = [(suite, (sc.name, label)) for sc in suite.scenarios for label in sc.policies]
+    with local_cluster(nodes=2, cpus_per_node=1) as cluster:
+        worker = next(iter(cluster.worker_nodes))
+        results = {}
+        with RayRunner(cluster.address) as where:
+            for i, cell in where.map(_slow_cell, units):  # one unit on each node at a time
+                results[i] = cell
+                if worker is not None:  # the worker node is running its second unit
+                    cluster.remove_node(worker, allow_graceful=False)
+                    worker = None
+    assert worker is None and sorted(results) == list(range(len(units)))
+    got = {f"cells/{c.scenario}/{c.policy}.json": c.episodes for c in results.values()}
+    assert got == local_bench
