@@ -254,12 +254,12 @@ class RunFolder:
         text = json.dumps(record, indent=1, default=repr)
         _write_text(self.cell_file(cell.scenario, cell.policy), text)
 
-    def load(self, scenario: str, policy: str) -> Cell:
-        """A finished cell read back (its trace too, if its file is there)."""
+    def load(self, scenario: str, policy: str, with_trace: bool = True) -> Cell:
+        """A finished cell read back (its trace too, if asked and its file is there)."""
         record = json.loads(self.cell_file(scenario, policy).read_text(encoding="utf-8"))
         trace_file = self.cell_file(scenario, policy, ".npz")
         trace = None
-        if trace_file.is_file():
+        if with_trace and trace_file.is_file():
             with np.load(trace_file) as data:
                 trace = Trace(**{k: data[k] for k in TRACE_FIELDS})
         return Cell(scenario, policy, record["episodes"], trace, record["wall_time"])
@@ -525,24 +525,27 @@ def run_suite(
             ``workers`` or ``ray`` without Ray installed, before any cell runs.
     """
     start = time.perf_counter()
-    if not isinstance(suite, Suite):
-        suite = load_suite(suite)
-    folder = RunFolder(Path(out) if out is not None else default_out(suite), suite)
-    notes = plan(suite)
-    where = runner(workers, ray)
-    folder.start()
-    pending = [key for key, note in notes.items() if not note and not folder.done(*key)]
-    bar = Progress(len(notes), len(notes) - len(pending), progress)
-    cells: dict[tuple[str, str], Cell] = {}
-    try:
-        with where:
-            computed = _run_cells(suite, pending, where, folder, bar, cells, notes)
-        for sc in suite.scenarios:
-            if not any(key[0] == sc.name for key in pending):
-                _finish_scenario(suite, sc.name, cells, notes, folder, fresh=False)
-    finally:
-        bar.close()
-        close_worker_envs()
+    with runner(workers, ray) as where:
+        where.warm("agents.bench")  # workers start now: their imports overlap the suite's
+        if not isinstance(suite, Suite):
+            suite = load_suite(suite)
+        folder = RunFolder(Path(out) if out is not None else default_out(suite), suite)
+        notes = plan(suite)
+        folder.start()
+        pending = [key for key, note in notes.items() if not note and not folder.done(*key)]
+        bar = Progress(len(notes), len(notes) - len(pending), progress)
+        try:
+            computed = _run_cells(suite, pending, where, folder, bar)
+        finally:
+            bar.close()
+            close_worker_envs()
+        computed.sort(key=list(notes).index)  # the suite's order, wherever they ran
+        fresh = {key[0] for key in computed}
+        units = [(suite, sc.name, folder.root, sc.name in fresh) for sc in suite.scenarios]
+        for _ in where.map(draw_scenario, units):
+            pass
+    cells = {key: Cell(*key, note=note) if note else folder.load(*key, with_trace=False)
+             for key, note in notes.items()}  # fmt: skip
     rows = table_rows(suite, cells)
     markdown = markdown_table(suite, rows)
     if suite.summary == "paths":
@@ -554,25 +557,31 @@ def run_suite(
 
 def _run_cells(
     suite: Suite, pending: list[tuple[str, str]], where: Runner, folder: RunFolder,
-    bar: Progress, cells: dict[tuple[str, str], Cell], notes: Mapping[tuple[str, str], str],
+    bar: Progress,
 ) -> list[tuple[str, str]]:  # fmt: skip
-    """Run the pending cells on ``where``; returns the cells computed.
+    """Run the pending cells on ``where``, each saved as it arrives; returns those computed.
 
-    Each cell is saved as it arrives; a scenario's plots are drawn once its last cell is in.
+    A unit is a scenario's pending cells (they share its envs and compiled kernels: one
+    process loads them); on several workers, the scenarios with the most episodes first.
     """
-    left = {sc.name: sum(key[0] == sc.name for key in pending) for sc in suite.scenarios}
     computed: list[tuple[str, str]] = []
-    serial = where.workers == 1
-    bar.start(" / ".join(pending[0]) if serial and pending else where.describe())
-    for i, cell in where.map(run_cell, [(suite, key) for key in pending]):
-        folder.save(cell)
-        computed.append((cell.scenario, cell.policy))
-        bar.advance()
-        left[cell.scenario] -= 1
-        if serial and i + 1 < len(pending):
-            bar.start(" / ".join(pending[i + 1]))
-        if not left[cell.scenario]:
-            _finish_scenario(suite, cell.scenario, cells, notes, folder, fresh=True)
+    root = folder.root if where.shares_files else None  # workers save their cells
+    todo: dict[str, list[str]] = {}
+    for scenario, label in pending:
+        todo.setdefault(scenario, []).append(label)
+    seeds = {sc.name: len(sc.seeds) for sc in suite.scenarios}
+    serial = where.workers == 1  # in the suite's order; in parallel, the dearest first
+    order = list(todo) if serial else sorted(todo, key=lambda n: -len(todo[n]) * seeds[n])
+    bar.start(order[0] if serial and order else where.describe())
+    units = [(suite, name, tuple(todo[name]), root) for name in order]
+    for i, cells in where.map(run_scenario, units):
+        for cell in cells:
+            if root is None:
+                folder.save(cell)
+            computed.append((cell.scenario, cell.policy))
+            bar.advance()
+        if serial and i + 1 < len(order):
+            bar.start(order[i + 1])
     return computed
 
 
@@ -598,27 +607,56 @@ def close_worker_envs() -> None:
         _WORKER_ENVS.popitem()[1].close()
 
 
-def run_cell(unit: tuple[Suite, tuple[str, str]]) -> Cell:
-    """A unit of a bench run: the cell ``(scenario, policy)`` of a suite (any process).
+def run_scenario(unit: tuple[Suite, str, tuple[str, ...], Path | None]) -> list[Cell]:
+    """A unit of a bench run: cells ``labels`` of a suite's scenario (any process).
+
+    With a run folder's ``root`` each cell is saved there as it finishes and returned without
+    its trace (a worker on this machine: no trace crosses processes); else returned whole.
+
+    Raises:
+        ValueError: whatever building a policy or its env raises.
+    """
+    suite, scenario, labels, root = unit
+    return [run_cell((suite, (scenario, label), root)) for label in labels]
+
+
+def run_cell(unit: tuple[Suite, tuple[str, str], Path | None]) -> Cell:
+    """The cell ``(scenario, policy)`` of a suite (any process), as :func:`run_scenario`.
 
     Raises:
         ValueError: whatever building the policy or its env raises.
     """
-    suite, (scenario, label) = unit
+    suite, (scenario, label), root = unit
     sc = next(s for s in suite.scenarios if s.name == scenario)
-    return evaluate_cell(sc, suite.policies[label], worker_envs(suite, scenario))
+    cell = evaluate_cell(sc, suite.policies[label], worker_envs(suite, scenario))
+    if root is not None:
+        RunFolder(root, suite).save(cell)
+        cell.trace = None
+    return cell
 
 
-def _finish_scenario(
-    suite: Suite, scenario: str, cells: dict[tuple[str, str], Cell],
-    notes: Mapping[tuple[str, str], str], folder: RunFolder, fresh: bool,
-) -> None:  # fmt: skip
-    """Read a scenario's cells back into ``cells`` and draw its plots."""
+def draw_scenario(unit: tuple[Suite, str, Path, bool]) -> None:
+    """A unit of a bench run: a scenario's plots from its saved cells (any process).
+
+    Drawn when a cell of it ran now (``fresh``) or a plot file is missing.
+    """
+    suite, scenario, root, fresh = unit
     sc = next(s for s in suite.scenarios if s.name == scenario)
-    for label in sc.policies:
-        key = (sc.name, label)
-        cells[key] = Cell(sc.name, label, note=notes[key]) if notes[key] else folder.load(*key)
-    _plots(sc, cells, folder, worker_envs(suite, scenario), fresh)
+    if not fresh and all((root / "plots" / n).is_file() for n in _plot_names(sc)):
+        return
+    folder = RunFolder(root, suite)
+    cells = {(sc.name, label): folder.load(sc.name, label) for label in sc.policies
+             if folder.done(sc.name, label)}  # fmt: skip
+    envs = EnvPool()
+    try:
+        _plots(sc, cells, folder, envs, fresh)
+    finally:
+        envs.close()
+
+
+def _plot_names(sc: ScenarioSpec) -> list[str]:
+    # a scenario's plot files
+    return [f"{sc.name}_contour.png"] + [f"{sc.name}_feedrate.png"] * (sc.task == FEEDRATE)
 
 
 def _plots(
@@ -627,11 +665,10 @@ def _plots(
 ) -> None:  # fmt: skip
     """Draw a scenario's plots when a cell of it ran now or a plot file is missing."""
     plots = folder.root / "plots"
-    names = [f"{sc.name}_contour.png"] + ([f"{sc.name}_feedrate.png"] * (sc.task == FEEDRATE))
-    if not fresh and all((plots / n).is_file() for n in names):
+    if not fresh and all((plots / n).is_file() for n in _plot_names(sc)):
         return
     traces = {label: cell.trace for label in sc.policies
-              if (cell := cells[(sc.name, label)]).trace is not None}  # fmt: skip
+              if (cell := cells.get((sc.name, label))) is not None and cell.trace is not None}
     if not traces:
         return
     env = envs.any_env()

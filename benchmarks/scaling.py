@@ -10,16 +10,19 @@ Prints, for 1, 2, ... workers (up to the CPUs this process may use):
 * **vector env**: ``contour_gym/CCC-v1`` (``decision_ticks`` 10) at several ``num_envs`` on 1
   and on every thread: env-ticks/s (how :data:`contour_gym.threads.MIN_MEMBERS_PER_THREAD`
   was chosen);
-* **bench**: ``contour-gym bench`` of a suite (``--suite``, default ``default``) with
-  ``--workers N``: wall time, each run into a fresh folder, kernels compiled beforehand;
-* **tune**: ``contour-gym tune 003`` (its full budget unless ``--tune-budget``) with
-  ``--workers N``: wall time;
-* **Ray**: bench and tune on a local two-node Ray cluster (a head and a worker node on
-  127.0.0.1, one CPU each), beside the one-worker local run; the cluster's start time apart.
+* **bench**: the command ``contour-gym bench --suite S --workers N`` in a fresh process, as
+  a user runs it (each suite of ``--suites``, default ``default`` and ``generalization``), into
+  a fresh folder, after one untimed run (every kernel compiled and cached: the warm figure;
+  the first run's is ``cold_start.py``'s), background compiles off;
+* **tune**: ``agents.tune.tune("003", workers=N)`` (its full budget unless ``--tune-budget``):
+  the run's wall time (threads in one process: no start-up differs between the counts);
+* **Ray**: bench (the last suite) and tune on a local two-node Ray cluster (a head and a worker
+  node on 127.0.0.1, one CPU each), beside the one-worker local run; the cluster's start time
+  apart.
 
 Speed-up is against one worker in the same run; efficiency = speed-up / workers.
 
-    python benchmarks/scaling.py [--suite default] [--repeats 5] [--skip-ray]
+    python benchmarks/scaling.py [--suites default,generalization] [--repeats 5] [--skip-ray]
 """
 
 from __future__ import annotations
@@ -29,6 +32,8 @@ import multiprocessing
 import os
 import platform
 import shutil
+import subprocess
+import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -124,14 +129,17 @@ def wall(job: Callable[[], object]) -> float:
     return time.perf_counter() - start
 
 
-def bench_job(suite: str, root: Path, **where: object) -> Callable[[], object]:
-    """A bench run of ``suite`` into a fresh folder under ``root``."""
-    from agents.bench import run_suite
+def bench_job(suite: str, root: Path, *flags: str) -> Callable[[], object]:
+    """``contour-gym bench`` of ``suite`` in a fresh process, into a fresh folder."""
 
     def job() -> object:
         out = Path(tempfile.mkdtemp(dir=root))
+        env = dict(os.environ, CONTOUR_GYM_BACKGROUND="0")
         try:
-            return run_suite(suite, out, progress=False, **where)  # type: ignore[arg-type]
+            return subprocess.run(
+                [sys.executable, "-m", "agents.cli", "bench", "--suite", suite, "--quiet",
+                 "--out", str(out), *flags], check=True, env=env, stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL)  # fmt: skip
         finally:
             shutil.rmtree(out, ignore_errors=True)
 
@@ -156,7 +164,7 @@ def row(label: str, workers: int, value: float, base: float, unit: str, faster: 
 def main() -> None:
     """Measure and print the tables."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--suite", default="default")
+    parser.add_argument("--suites", default="default,generalization")
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--tune-budget", default=None, metavar="M,T",
                         help="population,iterations of protocol 003 (default: its own)")
@@ -182,14 +190,18 @@ def main() -> None:
                   True))  # fmt: skip
     root = Path(tempfile.mkdtemp(prefix="scaling-"))
     try:
-        benches = {n: wall(bench_job(args.suite, root, workers=n)) for n in counts}
-        for n in counts:
-            print(row(f"bench {args.suite}", n, benches[n], benches[1], "s", False))
+        suites = args.suites.split(",")
+        for suite in suites:
+            wall(bench_job(suite, root, "--workers", "1"))  # its kernels compiled and cached
+            benches = {n: wall(bench_job(suite, root, "--workers", str(n))) for n in counts}
+            for n in counts:
+                print(row(f"bench {suite}", n, benches[n], benches[1], "s", False))
+        wall(tune_job((4, 1), workers=1))  # its kernels cached
         tunes = {n: wall(tune_job(budget, workers=n)) for n in counts}
         for n in counts:
             print(row("tune 003", n, tunes[n], tunes[1], "s", False))
         if not args.skip_ray:
-            ray_rows(args.suite, budget, root, benches[1], tunes[1])
+            ray_rows(suites[-1], budget, root, benches[1], tunes[1])
     finally:
         shutil.rmtree(root, ignore_errors=True)
     envs = env_rates(cpus, args.repeats)
@@ -217,7 +229,7 @@ def ray_rows(
         return
     try:
         started = time.perf_counter() - start
-        bench = wall(bench_job(suite, root, ray=cluster.address))
+        bench = wall(bench_job(suite, root, "--ray", cluster.address))
         tune = wall(tune_job(budget, ray=cluster.address))
     finally:
         cluster_cm.__exit__(None, None, None)

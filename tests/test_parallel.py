@@ -171,6 +171,35 @@ def test_without_ray_every_command_says_how_to_install_it(
         assert RAY_HINT in capsys.readouterr().err
 
 
+def test_a_stopped_tuning_run_resumes_from_its_evaluations(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from agents.tune.objective import PopulationObjective
+
+    real = PopulationObjective._simulate
+    calls: list[int] = []  # candidates simulated, per call
+    stop_at = [0]
+
+    def counting(self: PopulationObjective, x: np.ndarray) -> Any:
+        if len(calls) + 1 == stop_at[0]:
+            raise KeyboardInterrupt  # a Ctrl-C in that call
+        calls.append(len(x))
+        return real(self, x)
+
+    monkeypatch.setattr(PopulationObjective, "_simulate", counting)
+    budget: dict[str, Any] = dict(population=6, iterations=3, progress=False, workers=1)
+    whole = tune("003", out=tmp_path / "whole", **budget)
+    total, calls[:] = sum(calls), []
+    stop_at[0] = 3
+    with pytest.raises(KeyboardInterrupt):
+        tune("003", out=tmp_path / "cut", **budget)
+    assert (tmp_path / "cut" / "evaluations.npz").is_file()
+    first, calls[:], stop_at[0] = sum(calls), [], 0
+    resumed = tune("003", out=tmp_path / "cut", **budget)
+    assert resumed.params == whole.params and resumed.history == whole.history
+    assert sum(calls) == total - first  # what the stopped run evaluated was read back
+
+
 # ------------------------------------------------------------------------------- Ray
 needs_ray = pytest.mark.skipif(importlib.util.find_spec("ray") is None,
                                reason='the ray extra is not installed: pip install ".[ray]"')
@@ -214,7 +243,7 @@ def test_a_node_that_dies_mid_run_loses_only_its_unfinished_units(
 
     cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests
     suite = load_suite(SUITE)
-    units = [(suite, (sc.name, label)) for sc in suite.scenarios for label in sc.policies]
+    units = [(suite, (sc.name, label), None) for sc in suite.scenarios for label in sc.policies]
     with local_cluster(nodes=2, cpus_per_node=1) as cluster:
         worker = next(iter(cluster.worker_nodes))
         results = {}

@@ -44,7 +44,7 @@ BLOCKS = _all_blocks()
 # the two Quick-start commands, byte for byte (.ci/run runs the second)
 QUICK_START = (
     'pip install torch==2.13.0 && pip install ".[rl]" && contour-gym bench',
-    'pip install torch==2.13.0 && pip install -e ".[rl,zoo,dev]" && ruff check . && mypy && '
+    'pip install torch==2.13.0 && pip install -e ".[rl,zoo,dev,ray]" && ruff check . && mypy && '
     "python -m pytest",
 )
 

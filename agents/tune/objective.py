@@ -25,6 +25,7 @@ import weakref
 from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -33,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 import agents.ccc_laws  # noqa: F401  (registers the fuzzy_pid law)
 import contour_gym  # noqa: F401  (registers the env ids)
+from agents._files import write_atomically
 from agents.tune.fitness import (
     FITNESS_TERMS,
     FITNESSES,
@@ -146,6 +148,35 @@ class PopulationObjective:
         if proto.chatter_bound is not None or proto.relative:
             self._run_reference()
         self._remote = None if ray is None else RemoteSlices(self.protocol, self.ideal, ray)
+
+    def keep(self, target: Path) -> None:
+        """Write every remembered candidate and its results to ``target`` (``.npz``, atomic)."""
+        if not self._memo:
+            return
+        d = len(self.protocol.params)
+        x = np.stack([np.frombuffer(key, dtype=np.float64, count=d) for key in self._memo])
+        fit = np.stack([v[0] for v in self._memo.values()])
+        failed = np.stack([v[1] for v in self._memo.values()])
+
+        def write(tmp: str) -> None:
+            with open(tmp, "wb") as handle:
+                np.savez(handle, x=x, fitness=fit, failed=failed)
+
+        write_atomically(target, write)
+
+    def recall(self, source: Path) -> None:
+        """Remember the candidates :meth:`keep` wrote (a file of another protocol is ignored)."""
+        try:
+            with np.load(source) as data:
+                x, fit, failed = data["x"], data["fitness"], data["failed"]
+        except (OSError, ValueError, KeyError):
+            return
+        if x.ndim != 2 or x.shape[1] != len(self.protocol.params) or fit.shape[1:] != (
+                len(self.cases),):  # fmt: skip
+            return
+        for row, f, bad in zip(x, fit, failed, strict=True):
+            if len(self._memo) < MEMO_SIZE:
+                self._memo[np.ascontiguousarray(row).tobytes()] = (f.copy(), bad.copy())
 
     def close(self) -> None:
         """Stop the objective's threads and Ray actors (it still runs, on this thread)."""

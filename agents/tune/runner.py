@@ -8,8 +8,15 @@ several optimisers over several seeds.
 settings, seed, optimiser, wall time and the best-so-far fitness after every generation),
 written atomically after every generation (``"status": "running"``, the history so far),
 once more at the end (``"complete"``; ``"interrupted"`` on Ctrl-C and ``"failed"`` on an
-error, then re-raised); ``convergence.png``; and for the PSO family ``schedules.png``
-(:mod:`agents.tune.plots`).
+error, then re-raised); ``evaluations.npz`` (every candidate evaluated so far and its
+per-scenario results, written with it); ``convergence.png``; and for the PSO family
+``schedules.png`` (:mod:`agents.tune.plots`).
+
+**Resuming.** A run that stopped (Ctrl-C, a crash, a cluster node lost) continues when run
+again with the same folder and settings: the optimiser starts again from its seed, but every
+candidate the stopped run evaluated is read from ``evaluations.npz`` instead of simulated, so
+it replays those generations in moments and goes on; the result equals an uninterrupted
+run's.
 """
 
 from __future__ import annotations
@@ -37,6 +44,7 @@ from agents.tune.protocols import Protocol, get_protocol
 from contour_gym.params import choice
 
 PSO_FAMILY = ("pso", "improved_pso")
+EVALUATIONS = "evaluations.npz"  # a run folder's evaluated candidates (a stopped run resumes)
 
 
 @dataclass(frozen=True)
@@ -171,6 +179,7 @@ def tune(
     objective = PopulationObjective(proto, ideal=ideal, workers=workers, ray=ray)
     settings["penalty"] = objective.penalty
     run = _Run(proto, name, seed, settings, folder)
+    run.recall(objective)
     try:
         return run.finish(run.search(objective, m, t, options, progress), objective)
     finally:
@@ -242,9 +251,28 @@ class _Run:
         """Seconds since the search started."""
         return time.perf_counter() - self.start
 
+    def recall(self, objective: PopulationObjective) -> None:
+        """Give ``objective`` the candidates an unfinished run of the same settings evaluated.
+
+        The optimiser then replays that run's generations from its seed without simulating
+        them (every candidate's result is remembered), and goes on where it stopped.
+        """
+        if self.folder is None or not (self.folder / EVALUATIONS).is_file():
+            return
+        try:
+            before = json.loads((self.folder / "result.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return
+        same = {k: v for k, v in before.get("settings", {}).items() if k != "command"}
+        if (before.get("seed"), before.get("optimizer")) == (self.seed, self.name) and same == {
+                k: v for k, v in json.loads(json.dumps(self.settings)).items()
+                if k != "command"}:  # fmt: skip
+            objective.recall(self.folder / EVALUATIONS)
+
     def save(self, mon: _Monitor, status: str = "running") -> None:
-        """Write the partial ``result.json`` (when there is a run folder)."""
+        """Write the partial ``result.json`` and the evaluations so far (with a run folder)."""
         if self.folder is not None:
+            mon.objective.keep(self.folder / EVALUATIONS)
             data = _partial_json(self.proto, self.name, self.seed, self.settings, mon,
                                  self.elapsed(), status)  # fmt: skip
             _write_json(self.folder / "result.json", data)
@@ -336,8 +364,8 @@ def _check_budget(population: Any, iterations: Any, seed: Any) -> None:
 def check_run_folder(folder: Path, overwrite: bool) -> None:
     """Refuse a run folder that is a file or holds a finished result (unless ``overwrite``).
 
-    An unfinished result (``"status"`` running, interrupted or failed) is replaced: a tuning
-    run restarts from its first generation (the optimisers keep no state to resume from).
+    An unfinished result (``"status"`` running, interrupted or failed) is resumed: the run
+    replays its evaluations (module docstring) when the settings are the same, else restarts.
 
     Raises:
         ValueError: naming the folder or file, and how to go on.

@@ -288,7 +288,7 @@ def _finish(loop, bank, env, ec, lo, hi):
         _observe(loop, path, env, ec, b)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def env_step(
     env_floats, env_layout, ec, n, k0, config_row, floats, float_layout, ints, int_layout,
     path_kinds, path_floats, path_layout, noise, rec, lo, hi, part,
