@@ -27,6 +27,7 @@ import contextlib
 import importlib
 import multiprocessing
 import os
+import sys
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import (
     FIRST_COMPLETED,
@@ -103,6 +104,16 @@ class Runner:
         return "this process"
 
 
+def _torch_threads(n: int | None) -> int | None:
+    # set torch's intra-op threads to n if torch is imported (None: leave them); the old count
+    torch = sys.modules.get("torch")
+    if torch is None or n is None:
+        return None
+    old = int(torch.get_num_threads())
+    torch.set_num_threads(n)
+    return old
+
+
 def _init_worker(*modules: str) -> None:
     # a worker process: one thread for torch and BLAS (the cores are the workers'), no
     # background compiles (contour_gym._tiers: the parent compiled up front); ``modules``
@@ -160,6 +171,7 @@ class Processes(Runner):
             running[where.submit(fn, item)] = (i, where)
 
         here = ThreadPoolExecutor(1, "contour-gym-unit")
+        threads = _torch_threads(1)  # one core per unit here too (as in the workers)
         submit(here)  # this process starts at once
         for _ in range(self.workers - 1):
             if todo:
@@ -181,6 +193,7 @@ class Processes(Runner):
             for future in running:
                 future.cancel()
             here.shutdown(wait=True)  # a unit running here finishes first
+            _torch_threads(threads)
         if error is not None:
             raise error
 
