@@ -541,7 +541,9 @@ def run_suite(
             close_worker_envs()
         computed.sort(key=list(notes).index)  # the suite's order, wherever they ran
         fresh = {key[0] for key in computed}
-        units = [(suite, sc.name, folder.root, sc.name in fresh) for sc in suite.scenarios]
+        drawn = fresh if where.shares_files else set()  # by the units that ran them
+        units = [(suite, sc.name, folder.root, sc.name in fresh) for sc in suite.scenarios
+                 if sc.name not in drawn]  # fmt: skip
         for _ in where.map(draw_scenario, units):
             pass
     cells = {key: Cell(*key, note=note) if note else folder.load(*key, with_trace=False)
@@ -610,18 +612,29 @@ def close_worker_envs() -> None:
 def run_scenario(unit: tuple[Suite, str, tuple[str, ...], Path | None]) -> list[Cell]:
     """A unit of a bench run: cells ``labels`` of a suite's scenario (any process).
 
-    With a run folder's ``root`` each cell is saved there as it finishes and returned without
-    its trace (a worker on this machine: no trace crosses processes); else returned whole.
+    With a run folder's ``root`` (a worker on this machine) the cells are saved there, the
+    scenario's plots drawn, and the cells returned without their traces (no trace crosses
+    processes); else returned whole.
 
     Raises:
         ValueError: whatever building a policy or its env raises.
     """
     suite, scenario, labels, root = unit
-    return [run_cell((suite, (scenario, label), root)) for label in labels]
+    cells = [run_cell((suite, (scenario, label), root)) for label in labels]
+    if root is not None:  # the plots drawn here, with the traces in hand
+        folder = RunFolder(root, suite)
+        sc = next(s for s in suite.scenarios if s.name == scenario)
+        drawn = {(sc.name, c.policy): c for c in cells}
+        drawn.update({(sc.name, label): folder.load(sc.name, label) for label in sc.policies
+                      if label not in labels and folder.done(sc.name, label)})  # fmt: skip
+        _plots(sc, drawn, folder, worker_envs(suite, scenario), fresh=True)
+        for cell in cells:
+            cell.trace = None
+    return cells
 
 
 def run_cell(unit: tuple[Suite, tuple[str, str], Path | None]) -> Cell:
-    """The cell ``(scenario, policy)`` of a suite (any process), as :func:`run_scenario`.
+    """The cell ``(scenario, policy)`` of a suite (any process), saved in ``root`` if given.
 
     Raises:
         ValueError: whatever building the policy or its env raises.
@@ -629,9 +642,8 @@ def run_cell(unit: tuple[Suite, tuple[str, str], Path | None]) -> Cell:
     suite, (scenario, label), root = unit
     sc = next(s for s in suite.scenarios if s.name == scenario)
     cell = evaluate_cell(sc, suite.policies[label], worker_envs(suite, scenario))
-    if root is not None:
+    if root is not None:  # at once: an interrupted run keeps it
         RunFolder(root, suite).save(cell)
-        cell.trace = None
     return cell
 
 
