@@ -24,10 +24,12 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import functools
 import importlib
 import multiprocessing
 import os
 import sys
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import (
     FIRST_COMPLETED,
@@ -114,10 +116,16 @@ def _torch_threads(n: int | None) -> int | None:
     return old
 
 
-def _init_worker(*modules: str) -> None:
+def _init_worker(*modules: str, filters: list[Any] | None = None) -> None:
     # a worker process: one thread for torch and BLAS (the cores are the workers'), no
     # background compiles (contour_gym._tiers: the parent compiled up front); ``modules``
-    # imported at once
+    # imported at once; the parent's warning filters (a command's own, e.g. the CLI's)
+    if filters is not None:
+        warnings.resetwarnings()
+        for action, message, category, module, lineno in reversed(filters):
+            warnings.filterwarnings(action, getattr(message, "pattern", message) or "",
+                                    category, getattr(module, "pattern", module) or "",
+                                    lineno)  # fmt: skip
     os.environ.update(_SINGLE_THREADED)
     os.environ.setdefault("CONTOUR_GYM_BACKGROUND", "0")
     for name in modules:
@@ -148,9 +156,9 @@ class Processes(Runner):
             # spawned, not forked: the parent may hold threads (torch's, tqdm's, a thread
             # pool's); measured on the default suite, fork saved 1 s of 14 (worker imports)
             context = multiprocessing.get_context("spawn")
+            start = functools.partial(_init_worker, filters=list(warnings.filters))
             self._pool = ProcessPoolExecutor(self.workers - 1, mp_context=context,
-                                             initializer=_init_worker,
-                                             initargs=self._modules)  # fmt: skip
+                                             initializer=start, initargs=self._modules)
         return self._pool
 
     def warm(self, *modules: str) -> None:

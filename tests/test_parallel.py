@@ -107,6 +107,15 @@ def test_bench_on_worker_processes_equals_one_process(
     assert sorted(p.name for p in (tmp_path / "two" / "plots").iterdir())
 
 
+def test_workers_keep_the_commands_warning_filters(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str]
+) -> None:
+    # the tiny suite runs -v0 ids, whose deprecation the CLI silences: in its workers too
+    assert main(["bench", "--suite", SUITE, "--workers", "2", "--quiet",
+                 "--out", str(tmp_path / "b")]) == 0  # fmt: skip
+    assert "out of date" not in capfd.readouterr().err
+
+
 def test_a_units_error_is_raised_after_the_running_ones_finish() -> None:
     with Processes(2) as where:
         got = []
