@@ -153,6 +153,22 @@ def test_a_sweep_grid_names_its_folders_by_value(tmp_path: Path) -> None:
             parse_grid(bad)
 
 
+def test_the_train_command_reads_seeds_algorithms_and_sweeps(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from agents.cli import _parser
+
+    args = _parser().parse_args(["train", ENV, "--seeds", "0,1", "--algo", "ppo,sac",
+                                 "--sweep", "learning_rate=1e-4,3e-4", "--workers", "2"])
+    assert (args.seeds, args.algo, args.sweep, args.workers) == (
+        [0, 1], ["ppo", "sac"], ["learning_rate=1e-4,3e-4"], 2)  # fmt: skip
+    for bad in (["--seeds", "0,x"], ["--algo", "ppo,nope"], ["--workers", "0"],
+                ["--seed", "1", "--seeds", "2,3"]):  # fmt: skip
+        with pytest.raises(SystemExit):
+            _parser().parse_args(["train", ENV, *bad])
+    assert "nope" in capsys.readouterr().err
+
+
 def test_runner_picks_the_place() -> None:
     assert type(runner(1)) is Runner and isinstance(runner(2), Processes)
     with pytest.raises(ValueError, match="workers"):
