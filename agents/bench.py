@@ -246,7 +246,7 @@ class RunFolder:
 
             write_atomically(self.cell_file(cell.scenario, cell.policy, ".npz"), write_npz)
         spec = self.suite.policies[cell.policy]
-        scenario = next(sc for sc in self.suite.scenarios if sc.name == cell.scenario)
+        scenario = self.suite.scenario(cell.scenario)
         record = {"scenario": cell.scenario, "policy": cell.policy, "target": spec.target,
                   "params": dict(spec.params), "env": scenario.env_spec(),
                   "suite_hash": self.suite.digest, "wall_time": cell.wall_time,
@@ -540,12 +540,7 @@ def run_suite(
             bar.close()
             close_worker_envs()
         computed.sort(key=list(notes).index)  # the suite's order, wherever they ran
-        fresh = {key[0] for key in computed}
-        drawn = fresh if where.shares_files else set()  # by the units that ran them
-        units = [(suite, sc.name, folder.root, sc.name in fresh) for sc in suite.scenarios
-                 if sc.name not in drawn]  # fmt: skip
-        for _ in where.map(draw_scenario, units):
-            pass
+        _draw_the_rest(suite, folder, where, {key[0] for key in computed})
     cells = {key: Cell(*key, note=note) if note else folder.load(*key, with_trace=False)
              for key, note in notes.items()}  # fmt: skip
     rows = table_rows(suite, cells)
@@ -555,6 +550,19 @@ def run_suite(
     _write_text(folder.root / "results.md", markdown)
     _write_text(folder.root / "results.csv", csv_table(rows))
     return BenchResult(folder.root, rows, markdown, computed, time.perf_counter() - start)
+
+
+def _draw_the_rest(suite: Suite, folder: RunFolder, where: Runner, fresh: set[str]) -> None:
+    """Draw the plots the cells' units did not draw.
+
+    On a Ray cluster every scenario's, here (a node may not see this machine's files); else
+    those of the scenarios read back (when a plot file is missing).
+    """
+    drawn = fresh if where.shares_files else set()
+    units = [(suite, sc.name, folder.root, sc.name in fresh) for sc in suite.scenarios
+             if sc.name not in drawn]  # fmt: skip
+    for _ in (where if where.shares_files else Runner()).map(draw_scenario, units):
+        pass
 
 
 def _run_cells(
@@ -623,7 +631,7 @@ def run_scenario(unit: tuple[Suite, str, tuple[str, ...], Path | None]) -> list[
     cells = [run_cell((suite, (scenario, label), root)) for label in labels]
     if root is not None:  # the plots drawn here, with the traces in hand
         folder = RunFolder(root, suite)
-        sc = next(s for s in suite.scenarios if s.name == scenario)
+        sc = suite.scenario(scenario)
         drawn = {(sc.name, c.policy): c for c in cells}
         drawn.update({(sc.name, label): folder.load(sc.name, label) for label in sc.policies
                       if label not in labels and folder.done(sc.name, label)})  # fmt: skip
@@ -640,7 +648,7 @@ def run_cell(unit: tuple[Suite, tuple[str, str], Path | None]) -> Cell:
         ValueError: whatever building the policy or its env raises.
     """
     suite, (scenario, label), root = unit
-    sc = next(s for s in suite.scenarios if s.name == scenario)
+    sc = suite.scenario(scenario)
     cell = evaluate_cell(sc, suite.policies[label], worker_envs(suite, scenario))
     if root is not None:  # at once: an interrupted run keeps it
         RunFolder(root, suite).save(cell)
@@ -653,7 +661,7 @@ def draw_scenario(unit: tuple[Suite, str, Path, bool]) -> None:
     Drawn when a cell of it ran now (``fresh``) or a plot file is missing.
     """
     suite, scenario, root, fresh = unit
-    sc = next(s for s in suite.scenarios if s.name == scenario)
+    sc = suite.scenario(scenario)
     if not fresh and all((root / "plots" / n).is_file() for n in _plot_names(sc)):
         return
     folder = RunFolder(root, suite)

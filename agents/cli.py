@@ -379,6 +379,9 @@ def train_command(args: argparse.Namespace) -> int:
 
     if (args.env is None) == (args.resume is None):
         raise ValueError("give an ENV_ID to train, or --resume RUN to continue a run (not both)")
+    if args.resume is not None and (args.seeds or args.sweep or len(args.algo) > 1 or args.ray):
+        raise ValueError("--resume continues one run; run a sweep again to resume it (not "
+                         "--resume with --seeds, --sweep, several --algo or --ray)")
     seeds = args.seeds or [0 if args.seed is None else args.seed]
     grid = parse_grid(args.sweep)
     if args.resume is None and (len(seeds) > 1 or len(args.algo) > 1 or grid or args.ray):

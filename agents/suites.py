@@ -275,6 +275,10 @@ class Suite:
     text: str
     summary: str = ""
 
+    def scenario(self, name: str) -> ScenarioSpec:
+        """The scenario called ``name`` (a name :meth:`load_suite` accepted)."""
+        return next(sc for sc in self.scenarios if sc.name == name)
+
 
 def shipped_suites() -> list[str]:
     """Names of the suites in :data:`SUITES_DIR` (``default``, ``tiny``, ...)."""

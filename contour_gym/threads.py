@@ -20,8 +20,8 @@ Part = tuple[int, int, int]  # (lo, hi, part): members lo:hi on scratch ``part``
 
 # members per thread below which a batch runs on one thread by default: measured with
 # benchmarks/scaling.py (vector env rows, CCC-v1, 10 ticks a step) on a 2-core machine, two
-# threads against one: 0.68x at B = 16, 0.91x at 32, 1.19x at 64, 1.44x at 128, 1.85x at 1024
-# (the serial Python of a step, ~0.2 ms, and a thread hand-off weigh less as the batch grows)
+# threads against one: 0.61x at B = 16, 0.89x at 32, 1.16x at 64, 1.44x at 128, 1.84x at 1024
+# (the serial Python of a step and a thread hand-off weigh less as the batch grows)
 MIN_MEMBERS_PER_THREAD = 32
 
 THREADS_VARIABLE = "CONTOUR_GYM_THREADS"

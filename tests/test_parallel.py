@@ -84,15 +84,17 @@ def test_a_vector_env_on_threads_equals_one_thread_bit_for_bit(env_id: str) -> N
     runs = []
     for threads in (1, 2):
         env = gym.make_vec(env_id, num_envs=5, vectorization_mode="vector_entry_point",
-                           num_threads=threads, path="random", decision_ticks=20)  # fmt: skip
+                           num_threads=threads, path="random", decision_ticks=20,
+                           max_episode_steps=15)  # fmt: skip
         rng = np.random.default_rng(3)
         obs, _ = env.reset(seed=11)
         steps = [obs]
-        for _ in range(40):  # long enough for auto-resets (the feedrate task's short paths)
+        for _ in range(40):  # episodes of 15 steps: every member auto-resets (a new path)
             obs, reward, term, trunc, info = env.step(rng.uniform(-1, 1, env.action_space.shape))
             steps.append((obs, reward, term, trunc, info["contour_error"], info["s"]))
         runs.append(steps)
         env.close()
+    assert sum(int(np.sum(s[2] | s[3])) for s in runs[0][1:]) >= 5  # the resets happened
     for a, b in zip(*runs, strict=True):
         np.testing.assert_equal(a, b)
 

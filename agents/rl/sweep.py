@@ -16,6 +16,7 @@ the same sweep again after an interruption finishes only what was left.
 from __future__ import annotations
 
 import itertools
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -160,7 +161,8 @@ def _ray_tune(todo: Sequence[Trial], address: str, workers: int | None) -> list[
 
     try:
         trainable = tune.with_resources(_RayTrial(list(todo)), {"cpu": 1})
-        storage = Path(todo[0].out_dir).resolve() / "ray_tune" if todo else Path("ray_tune")
+        root = os.path.commonpath([str(Path(t.out_dir).resolve()) for t in todo]) if todo else "."
+        storage = Path(root) / "ray_tune"  # beside the sweep's run folders
         tuner = tune.Tuner(
             trainable,
             param_space={"trial": tune.grid_search(list(range(len(todo))))},

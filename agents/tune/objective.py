@@ -381,8 +381,6 @@ class PopulationObjective:
         return f, failed | ~(f < self.penalty)
 
 
-
-
 class RemoteSlices:
     """A population's candidates on a Ray cluster: one actor per CPU, a slice each.
 
