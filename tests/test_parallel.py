@@ -225,6 +225,9 @@ def test_a_stopped_tuning_run_resumes_from_its_evaluations(
     resumed = tune("003", out=tmp_path / "cut", **budget)
     assert resumed.params == whole.params and resumed.history == whole.history
     assert sum(calls) == total - first  # what the stopped run evaluated was read back
+    calls[:] = []
+    tune("003", out=tmp_path / "cut", overwrite=True, **budget)
+    assert sum(calls) == total  # --overwrite replays nothing
 
 
 # ------------------------------------------------------------------------------- Ray

@@ -13,10 +13,10 @@ per-scenario results, written with it); ``convergence.png``; and for the PSO fam
 ``schedules.png`` (:mod:`agents.tune.plots`).
 
 **Resuming.** A run that stopped (Ctrl-C, a crash, a cluster node lost) continues when run
-again with the same folder and settings: the optimiser starts again from its seed, but every
-candidate the stopped run evaluated is read from ``evaluations.npz`` instead of simulated, so
-it replays those generations in moments and goes on; the result equals an uninterrupted
-run's.
+again with the same folder and settings (and no ``overwrite``): the optimiser starts again
+from its seed, but every candidate the stopped run evaluated is read from
+``evaluations.npz`` instead of simulated, so it replays those generations in moments and goes
+on; the result equals an uninterrupted run's. ``overwrite`` simulates every candidate again.
 """
 
 from __future__ import annotations
@@ -179,7 +179,8 @@ def tune(
     objective = PopulationObjective(proto, ideal=ideal, workers=workers, ray=ray)
     settings["penalty"] = objective.penalty
     run = _Run(proto, name, seed, settings, folder)
-    run.recall(objective)
+    if not overwrite:  # --overwrite computes again (after a code change, say): no replay
+        run.recall(objective)
     try:
         return run.finish(run.search(objective, m, t, options, progress), objective)
     finally:
