@@ -179,8 +179,7 @@ def tune(
     objective = PopulationObjective(proto, ideal=ideal, workers=workers, ray=ray)
     settings["penalty"] = objective.penalty
     run = _Run(proto, name, seed, settings, folder)
-    if not overwrite:  # --overwrite computes again (after a code change, say): no replay
-        run.recall(objective)
+    run.recall(objective, replay=not overwrite)
     try:
         return run.finish(run.search(objective, m, t, options, progress), objective)
     finally:
@@ -252,13 +251,14 @@ class _Run:
         """Seconds since the search started."""
         return time.perf_counter() - self.start
 
-    def recall(self, objective: PopulationObjective) -> None:
+    def recall(self, objective: PopulationObjective, replay: bool = True) -> None:
         """Give ``objective`` the candidates an unfinished run of the same settings evaluated.
 
         The optimiser then replays that run's generations from its seed without simulating
-        them (every candidate's result is remembered), and goes on where it stopped.
+        them (every candidate's result is remembered), and goes on where it stopped. Not with
+        ``replay`` False (``overwrite``: computed again, e.g. after a code change).
         """
-        if self.folder is None or not (self.folder / EVALUATIONS).is_file():
+        if not replay or self.folder is None or not (self.folder / EVALUATIONS).is_file():
             return
         try:
             before = json.loads((self.folder / "result.json").read_text(encoding="utf-8"))
