@@ -29,6 +29,19 @@ A run of built-ins may also run on its *own* kernel (``bind(..., own=True)``: th
 only its components bound), faster than the built-ins' one; :mod:`contour_gym._tiers` says
 which of the two a run uses.
 
+**What a kernel calls compiles with it.** A function a kernel calls (the exact search and
+ground truth, the estimators, the history ring) is a plain ``@numba.njit`` without ``cache``:
+it compiles in the process that compiles the kernel, where LLVM can inline it. One loaded
+from numba's cache is machine code LLVM cannot inline: a kernel compiled after the ground
+truth search was cached (by another process) ran 6-11 % slower than one compiled beside it
+(measured on 000's circle, B = 1 and 1024), so a kernel's speed depended on what ran before.
+The kernels themselves and the functions called from Python (:mod:`contour_gym.paths._batch`,
+the estimator API's kernel) are cached. ``inline="always"`` (numba inlines
+the function's IR at every call site, typing it again each time) is kept for small
+functions: the path evaluation (:func:`contour_gym.paths._geom.eval_segment`) was inlined at
+every site until it was measured to cost a third of ``contour-gym simulate``'s first run
+(34.5 s against 23.2 s) for no throughput (LLVM inlines the call).
+
 **First run.** The built-ins' kernels compile in worker processes, several at a time, with a
 progress bar (:mod:`contour_gym._precompile`); a kernel for a user's component, or a run's own
 kernel on a fresh installation, compiles in the calling process with a progress line

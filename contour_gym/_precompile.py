@@ -284,19 +284,18 @@ class _Bar:
 # the package's own warm-ups
 # --------------------------------------------------------------------------------------
 # seconds: measured on this project's 2-core machine, each group in a worker of its own. The
-# loop compiles with the searches and estimators it calls in one process: LLVM inlines a
-# callee compiled in the same process, not one loaded from the cache (compiled apart, they
-# cost protocol 003 17-29 % of its speed)
+# searches and estimators a kernel calls compile with it, whatever is cached (_compile), so
+# only the env step waits: it calls the loop's kernels
 register_warmup(Warmup("loop", "contour_gym._warmups:servo_loop", doc="servo loop",
-                       seconds=50.0))  # fmt: skip
-register_warmup(Warmup("path_api", "contour_gym._warmups:path_api", after=("loop",),
-                       doc="path searches for plots", seconds=8.0))  # fmt: skip
+                       seconds=41.0))  # fmt: skip
+register_warmup(Warmup("path_api", "contour_gym._warmups:path_api",
+                       doc="path searches for plots", seconds=10.0))  # fmt: skip
 register_warmup(Warmup("env", "contour_gym._warmups:env_step", after=("loop",),
-                       doc="env step", seconds=20.0))  # fmt: skip
-register_warmup(Warmup("estimators", "contour_gym._warmups:estimators", after=("loop",),
-                       doc="estimator API", seconds=4.5))  # fmt: skip
+                       doc="env step", seconds=23.0))  # fmt: skip
+register_warmup(Warmup("estimators", "contour_gym._warmups:estimators",
+                       doc="estimator API", seconds=15.0))  # fmt: skip
 register_warmup(Warmup("axes", "contour_gym._warmups:axes",
-                       doc="axis controllers and single-axis plant", seconds=5.5))  # fmt: skip
+                       doc="axis controllers and single-axis plant", seconds=6.0))  # fmt: skip
 
 
 def main(name: str, target: str) -> None:

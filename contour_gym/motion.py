@@ -198,7 +198,7 @@ def _corner(t_in: Array, t_out: Array) -> bool:
 
 
 def _segment_ends(path: Path) -> tuple[Array, Array, Array]:
-    from contour_gym.paths._geom import segment_ends
+    from contour_gym.paths._batch import segment_ends
 
     t = path.table
     ends = segment_ends(t.kind, t.s0, t.data)

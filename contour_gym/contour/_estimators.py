@@ -14,6 +14,9 @@ Inputs are what a real controller has at tick k: the path table, the tool positi
 ``hist`` of the previous references (:mod:`contour_gym.contour._history`). Interpolation
 point ``j`` is the reference ``j`` ticks ago (:func:`~contour_gym.contour._history.ref_arc`).
 
+The functions are not cached: they compile with the loop kernel that calls them, where LLVM
+inlines them (:mod:`contour_gym._compile`).
+
 The papers' equations were lost in text extraction; each docstring names the paper
 (``shared/seeds/NNN``), the equations and what was reconstructed.
 """
@@ -47,14 +50,14 @@ _MIN_CHORD = 1e-10  # shortest chord (m) that still defines a direction
 _MAX_JOINS = 8  # segment boundaries checked for corners by the iteration
 
 
-@numba.njit(cache=True)
+@numba.njit
 def line_foot(p0, p1, p2, ax, ay, az, ux, uy, uz):
     """Foot of p on the line through a with direction u (|u| > 0)."""
     t = ((p0 - ax) * ux + (p1 - ay) * uy + (p2 - az) * uz) / (ux * ux + uy * uy + uz * uz)
     return ax + t * ux, ay + t * uy, az + t * uz
 
 
-@numba.njit(cache=True)
+@numba.njit
 def far_off(p0, p1, p2, rx, ry, rz, tx, ty, tz, kx, ky, kz, max_turn):
     """True when the tracking error spans more than ``max_turn`` rad of the path's turning.
 
@@ -70,7 +73,7 @@ def far_off(p0, p1, p2, rx, ry, rz, tx, ty, tz, kx, ky, kz, max_turn):
     return kappa * e > max_turn
 
 
-@numba.njit(cache=True)
+@numba.njit
 def est_exact(kind, s0, data, p0, p1, p2, s):
     """000 eqs. (1)-(3): exact contour error of a line or an arc (foot on the reference's segment).
 
@@ -109,7 +112,7 @@ def est_exact(kind, s0, data, p0, p1, p2, s):
             TRUSTED)
 
 
-@numba.njit(cache=True)
+@numba.njit
 def est_tangent(max_turn, kind, s0, data, p0, p1, p2, s):
     """001 section 2 (Yeh & Hsu): the foot on the tangent line at the reference.
 
@@ -127,7 +130,7 @@ def est_tangent(max_turn, kind, s0, data, p0, p1, p2, s):
     return True, qx, qy, qz, tx, ty, tz, TRUSTED
 
 
-@numba.njit(cache=True)
+@numba.njit
 def est_frenet(order, max_turn, kind, s0, data, p0, p1, p2, s):
     """002 section 4.1 eqs. (19)-(22): Frenet-frame estimate with the delay time.
 
@@ -153,7 +156,7 @@ def est_frenet(order, max_turn, kind, s0, data, p0, p1, p2, s):
             tx - kx * g, ty - ky * g, tz - kz * g, e2)
 
 
-@numba.njit(cache=True)
+@numba.njit
 def est_angle(lag, max_turn, kind, s0, data, p0, p1, p2, s, hist):
     """003 section 3 eqs. (16)-(21): linear contour angle from the previous and current command.
 
@@ -188,14 +191,14 @@ def est_angle(lag, max_turn, kind, s0, data, p0, p1, p2, s, hist):
     return FAIL
 
 
-@numba.njit(cache=True)
+@numba.njit
 def ref_point(kind, s0, data, hist, s, j):
     """Interpolation point ``j`` (see :func:`~contour_gym.contour._history.ref_arc`)."""
     x, y, z, _, _, _, _, _, _ = eval_path(kind, s0, data, ref_arc(hist, s, j))
     return x, y, z
 
 
-@numba.njit(cache=True)
+@numba.njit
 def lag_steps(kind, s0, data, hist, s, p0, p1, p2):
     """First guess of the nearest interpolation point, and ``|r - p|^2``.
 
@@ -214,7 +217,7 @@ def lag_steps(kind, s0, data, hist, s, p0, p1, p2):
     return max(int(round(j)), J_AHEAD), e2
 
 
-@numba.njit(cache=True)
+@numba.njit
 def nearest_quad(kind, s0, data, hist, s, p0, p1, p2, j):
     """Four interpolation points ``j-1, j, j+1, j+2`` around the one nearest p (index j).
 
@@ -255,7 +258,7 @@ def nearest_quad(kind, s0, data, hist, s, p0, p1, p2, j):
     return ok, ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz
 
 
-@numba.njit(cache=True)
+@numba.njit
 def circle_foot(ax, ay, az, bx, by, bz, cx, cy, cz, p0, p1, p2):
     """Nearest point of p on the circle through A (newest), B, C; the line if they are collinear.
 
@@ -295,7 +298,7 @@ def circle_foot(ax, ay, az, bx, by, bz, cx, cy, cz, p0, p1, p2):
     return True, ox + r * vx, oy + r * vy, oz + r * vz, tx, ty, tz
 
 
-@numba.njit(cache=True)
+@numba.njit
 def est_two_circle(kind, s0, data, p0, p1, p2, s, hist):
     """000 "free curve contour error estimation": two circles through interpolation points.
 
@@ -332,7 +335,7 @@ def est_two_circle(kind, s0, data, p0, p1, p2, s, hist):
             f1[4] / t1 + f2[4] / t2, f1[5] / t1 + f2[5] / t2, f1[6] / t1 + f2[6] / t2, e2)
 
 
-@numba.njit(cache=True)
+@numba.njit
 def window_scan(kind, s0, data, hist, s, p0, p1, p2, lo, hi):
     """Nearest interpolation point in ``[lo, hi]`` with its two neighbours, in one pass.
 
@@ -360,7 +363,7 @@ def window_scan(kind, s0, data, hist, s, p0, p1, p2, lo, hi):
     return j, bx, by, bz, dn, nx, ny, nz, do, ox, oy, oz
 
 
-@numba.njit(cache=True)
+@numba.njit
 def est_window(half0, kind, s0, data, p0, p1, p2, s, hist):
     """004 section 2.2: variable-size window; the two reference points closest to the tool.
 
@@ -398,7 +401,7 @@ def est_window(half0, kind, s0, data, p0, p1, p2, s, hist):
     return True, qx, qy, qz, ux, uy, uz, e2
 
 
-@numba.njit(cache=True)
+@numba.njit
 def newton_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz):
     """Newton step on ``g(s) = (P - p) . P'`` (the foot is a root); ``g'`` kept >= |P'|^2/10."""
     ex, ey, ez = x - p0, y - p1, z - p2
@@ -408,7 +411,7 @@ def newton_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz):
     return -g / gp
 
 
-@numba.njit(cache=True)
+@numba.njit
 def circle_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz):
     """Step to the projection of p on the osculating circle at the current point."""
     sp = math.sqrt(tx * tx + ty * ty + tz * tz)
@@ -424,7 +427,7 @@ def circle_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz):
     return math.atan2(a * kappa, 1.0 - b * kappa) / (kappa * sp)
 
 
-@numba.njit(cache=True)
+@numba.njit
 def corner_inside(kind, s0, data, lo, hi):
     """True if a tangent discontinuity lies strictly inside ``(lo, hi)``.
 
@@ -445,7 +448,7 @@ def corner_inside(kind, s0, data, lo, hi):
     return False
 
 
-@numba.njit(cache=True)
+@numba.njit
 def nearer_elsewhere(kind, s0, data, bound, p0, p1, p2, d2, llo, lhi, wlo, whi):
     """True if a segment inside ``[wlo, whi]`` but clear of ``[llo, lhi]`` comes nearer than d.
 
@@ -471,7 +474,7 @@ def nearer_elsewhere(kind, s0, data, bound, p0, p1, p2, d2, llo, lhi, wlo, whi):
     return False
 
 
-@numba.njit(cache=True)
+@numba.njit
 def certified(kind, s0, data, bound, p0, p1, p2, sig, lo, hi, pt):
     """Foot and tangent at ``sig`` if it is the nearest point in ``[lo, hi]``; else FAIL.
 
@@ -499,7 +502,7 @@ def certified(kind, s0, data, bound, p0, p1, p2, sig, lo, hi, pt):
     return True, x, y, z, tx, ty, tz, TRUSTED
 
 
-@numba.njit(cache=True)
+@numba.njit
 def est_iterative(n_iter, method, tol, kind, s0, data, bound, p0, p1, p2, s):
     """Beyond the papers: real-time nearest-point iteration started at the reference.
 
@@ -549,13 +552,13 @@ def _lines_and_arcs(path):
                          "has free-form or helix segments (use 'iterative' or 'ground_truth')")
 
 
-@numba.njit(cache=True)
+@numba.njit
 def foot_exact(p, kind, s0, data, bound, p0, p1, p2, s, hist):
     """Adapter of :func:`est_exact`."""
     return est_exact(kind, s0, data, p0, p1, p2, s)
 
 
-@numba.njit(cache=True)
+@numba.njit
 def foot_two_circle(p, kind, s0, data, bound, p0, p1, p2, s, hist):
     """Adapter of :func:`est_two_circle`."""
     return est_two_circle(kind, s0, data, p0, p1, p2, s, hist)
@@ -565,7 +568,7 @@ TANGENT = Schema("tangent", max_turn=_MAX_TURN)
 _TC = TANGENT.col
 
 
-@numba.njit(cache=True)
+@numba.njit
 def foot_tangent(p, kind, s0, data, bound, p0, p1, p2, s, hist):
     """Adapter of :func:`est_tangent`."""
     return est_tangent(p[_TC.max_turn], kind, s0, data, p0, p1, p2, s)
@@ -575,7 +578,7 @@ FRENET = Schema("frenet", order=Param(2, int_in(1, 2), "Taylor order"), max_turn
 _FC = FRENET.col
 
 
-@numba.njit(cache=True)
+@numba.njit
 def foot_frenet(p, kind, s0, data, bound, p0, p1, p2, s, hist):
     """Adapter of :func:`est_frenet`."""
     c = _FC
@@ -586,7 +589,7 @@ ANGLE = Schema("angle", lag=Param(1, int_in(1, N_HIST), "ticks back to D'"), max
 _AC = ANGLE.col
 
 
-@numba.njit(cache=True)
+@numba.njit
 def foot_angle(p, kind, s0, data, bound, p0, p1, p2, s, hist):
     """Adapter of :func:`est_angle`."""
     c = _AC
@@ -597,7 +600,7 @@ WINDOW = Schema("window", half_width=Param(1, int_in(1, N_HIST), "starting half-
 _WC = WINDOW.col
 
 
-@numba.njit(cache=True)
+@numba.njit
 def foot_window(p, kind, s0, data, bound, p0, p1, p2, s, hist):
     """Adapter of :func:`est_window`."""
     return est_window(int(p[_WC.half_width]), kind, s0, data, p0, p1, p2, s, hist)
@@ -612,7 +615,7 @@ ITERATIVE = Schema(
 _IC = ITERATIVE.col
 
 
-@numba.njit(cache=True)
+@numba.njit
 def foot_iterative(p, kind, s0, data, bound, p0, p1, p2, s, hist):
     """Adapter of :func:`est_iterative`."""
     c = _IC

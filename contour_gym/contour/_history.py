@@ -51,7 +51,7 @@ def eval_path_memo(kind, s0, data, s, hist):
     return r
 
 
-@numba.njit(cache=True)
+@numba.njit
 def history_push(hist, s):
     """Append arc length ``s`` to the ring buffer ``hist`` (hist[0] = head, hist[1:] = ring)."""
     head = int(hist[0]) + 1
@@ -61,7 +61,7 @@ def history_push(hist, s):
     hist[1 + head] = s
 
 
-@numba.njit(cache=True)
+@numba.njit
 def history_at(hist, i):
     """Reference arc length ``i + 1`` ticks ago (0 <= i < N_HIST); 0 before the start."""
     j = int(hist[0]) - i
@@ -70,7 +70,7 @@ def history_at(hist, i):
     return hist[1 + j]
 
 
-@numba.njit(cache=True)
+@numba.njit
 def ref_arc(hist, s, j):
     """Arc length of interpolation point ``j``.
 

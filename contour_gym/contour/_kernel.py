@@ -97,7 +97,7 @@ def ground_truth(kind, s0, data, bound, dim, p0, p1, p2, s):
     return eps, c0, c1, c2, sf
 
 
-@numba.njit(cache=True)
+@numba.njit
 def ground_truth_from(kind, s0, data, bound, dim, p0, p1, p2, s, rx, ry, rz):
     """:func:`ground_truth` hinted by any path point ``r = P(s)`` the caller already has.
 
@@ -105,9 +105,9 @@ def ground_truth_from(kind, s0, data, bound, dim, p0, p1, p2, s, rx, ry, rz):
     point (the loop's tracking of the machine's own progress): the same window argument holds
     for any point of the path near the foot. Returns ``(eps, c0, c1, c2, s_foot, qx, qy, qz)``.
 
-    Compiled once and *called*, never inlined: every specialised loop kernel shares this one
-    copy (inlining it costs far more compile time than it gains in throughput: the
-    documentation's "Measurements and design notes").
+    Called, never ``inline="always"`` (numba's inlining made a kernel's compile 3x longer: the
+    documentation's "Measurements and design notes"); not cached, so it compiles with the
+    kernel that calls it and LLVM inlines it there (:mod:`contour_gym._compile`).
     """
     w = 4.0 * math.sqrt((p0 - rx) ** 2 + (p1 - ry) ** 2 + (p2 - rz) ** 2) + 1e-9
     sf, _ = nearest_window_wrapped(kind, s0, data, bound, p0, p1, p2, s - w, s + w)

@@ -16,8 +16,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from contour_gym._validate import finite, positive
+from contour_gym.paths._batch import segment_ends
 from contour_gym.paths._gcode_words import GcodeError
-from contour_gym.paths._geom import HELIX, LINE, segment_ends
+from contour_gym.paths._geom import HELIX, LINE
 from contour_gym.paths._path import CORNER_TOL, Path
 from contour_gym.paths._table import FloatArray, PathTable, helix_row, line_row, make_table
 

@@ -89,9 +89,12 @@ def _poly_axis(data, i, j, t):
     return p, d1, d2
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit
 def eval_segment(kind, data, i, t):
-    """Point, dP/ds and d2P/ds2 of segment ``i`` at local arc length ``t`` (9 floats)."""
+    """Point, dP/ds and d2P/ds2 of segment ``i`` at local arc length ``t`` (9 floats).
+
+    Called and not cached, as the other functions the kernels call (:mod:`contour_gym._compile`).
+    """
     k = kind[i]
     if k == LINE:
         ux = data[i, 3]
@@ -126,11 +129,16 @@ def eval_segment(kind, data, i, t):
     return px, py, pz, tx, ty, tz, kx, ky, kz
 
 
-@numba.njit(cache=True, inline="always")
-def eval_path(kind, s0, data, s):
-    """Point, dP/ds and d2P/ds2 at arc length ``s`` clamped to [0, L] (9 floats).
+eval_segment_inline = numba.njit(inline="always")(eval_segment.py_func)
+""":func:`eval_segment` inlined where it is called, for a called helper that evaluates the path
+(where LLVM leaves the call: the env's observation, 3 % of a single env's step)."""
 
-    At a corner the segment that starts there is used. NaN propagates.
+
+@numba.njit(cache=True, inline="always")
+def locate(s0, s):
+    """Segment and local arc length of arc length ``s`` clamped to [0, L] (NaN propagates).
+
+    At a corner the segment that starts there.
     """
     total = s0[s0.shape[0] - 1]
     if s < 0.0:
@@ -138,7 +146,14 @@ def eval_path(kind, s0, data, s):
     elif s > total:
         s = total
     i = find_segment(s0, s)
-    return eval_segment(kind, data, i, s - s0[i])
+    return i, s - s0[i]
+
+
+@numba.njit(cache=True, inline="always")
+def eval_path(kind, s0, data, s):
+    """Point, dP/ds and d2P/ds2 at arc length ``s`` (:func:`locate`) (9 floats)."""
+    i, t = locate(s0, s)
+    return eval_segment(kind, data, i, t)
 
 
 @numba.njit(cache=True, inline="always")
@@ -202,7 +217,7 @@ def _nearest_arc(kind, data, i, px, py, pz, ta, tb):
     return ta, da
 
 
-@numba.njit(cache=True)
+@numba.njit
 def _norm3(data, i, j):
     x = data[i, j]
     y = data[i, j + 1]
@@ -210,7 +225,7 @@ def _norm3(data, i, j):
     return math.sqrt(x * x + y * y + z * z)
 
 
-@numba.njit(cache=True)
+@numba.njit
 def _g2_bound(data, i, seg_len, dmax):
     """Upper bound of |g''| = |3 P'.P'' + (P - p).P'''| over a POLY5 span, |P - p| <= dmax."""
     n1 = _norm3(data, i, 3)
@@ -237,7 +252,7 @@ def _g_at(kind, data, i, px, py, pz, local, t):
     return _dist2_at(kind, data, i, t, px, py, pz)
 
 
-@numba.njit(cache=True)
+@numba.njit
 def _root(kind, data, i, px, py, pz, local, lo, hi, glo, ghi):
     """Root of g in (lo, hi) with g(lo) < 0 < g(hi): Newton safeguarded by bisection.
 
@@ -268,7 +283,7 @@ def _root(kind, data, i, px, py, pz, local, lo, hi, glo, ghi):
 _NO_LOCAL = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
-@numba.njit(cache=True)
+@numba.njit
 def _nearest_sweep(kind, data, i, px, py, pz, ta, tb, g2max):
     """Exact nearest point on a POLY5 span over local [ta, tb] (see the module doc).
 
@@ -298,7 +313,7 @@ def _nearest_sweep(kind, data, i, px, py, pz, ta, tb, g2max):
     return best_t, best_d2
 
 
-@numba.njit(cache=True)
+@numba.njit
 def _helix_local(data, i, px, py, pz):
     """Coordinates of p in the helix frame (e1, e2, a) about its centre."""
     qx = px - data[i, 0]
@@ -310,7 +325,7 @@ def _helix_local(data, i, px, py, pz):
     return x, y, z
 
 
-@numba.njit(cache=True)
+@numba.njit
 def _helix_f(r, w, h, x, y, z, t):
     """Squared distance, g and g' at t for a helix point in local coordinates (x, y, z)."""
     phi = w * t
@@ -324,7 +339,7 @@ def _helix_f(r, w, h, x, y, z, t):
     return ex * ex + ey * ey + ez * ez, g, gp
 
 
-@numba.njit(cache=True)
+@numba.njit
 def _nearest_helix(kind, data, i, px, py, pz, ta, tb):
     """Exact nearest point on a helix segment over local [ta, tb].
 
@@ -435,7 +450,7 @@ def _visit(kind, s0, data, bound, j, px, py, pz, s_lo, s_hi, best_s, best_d2):
     return best_s, best_d2
 
 
-@numba.njit(cache=True)
+@numba.njit
 def nearest_window(kind, s0, data, bound, px, py, pz, s_lo, s_hi):
     """Exact nearest point with arc length in [s_lo, s_hi] (clamped to [0, L]): (s_foot, dist2).
 
@@ -465,7 +480,7 @@ def nearest_window(kind, s0, data, bound, px, py, pz, s_lo, s_hi):
     return best_s, best_d2
 
 
-@numba.njit(cache=True)
+@numba.njit
 def nearest_global(kind, s0, data, bound, px, py, pz):
     """Exact nearest point over the whole path: (s_foot, dist2).
 
@@ -488,7 +503,7 @@ def nearest_global(kind, s0, data, bound, px, py, pz):
     return best_s, best_d2
 
 
-@numba.njit(cache=True)
+@numba.njit
 def hint_window(kind, s0, data, px, py, pz, s_hint):
     """The search window used with a hint: ``[s_hint - W, s_hint + W]``.
 
@@ -506,14 +521,14 @@ def hint_window(kind, s0, data, px, py, pz, s_hint):
     return s_hint - w, s_hint + w
 
 
-@numba.njit(cache=True)
+@numba.njit
 def nearest_hint(kind, s0, data, bound, px, py, pz, s_hint):
     """Nearest point in the window :func:`hint_window` around ``s_hint``: (s_foot, dist2)."""
     lo, hi = hint_window(kind, s0, data, px, py, pz, s_hint)
     return nearest_window_wrapped(kind, s0, data, bound, px, py, pz, lo, hi)
 
 
-@numba.njit(cache=True)
+@numba.njit
 def is_closed(kind, s0, data):
     """Whether the path ends where it starts (within ``CLOSED_TOL``, as ``Path.closed``)."""
     dx = dy = dz = 0.0
@@ -523,7 +538,7 @@ def is_closed(kind, s0, data):
     return math.sqrt(dx**2 + dy**2 + dz**2) <= CLOSED_TOL
 
 
-@numba.njit(cache=True)
+@numba.njit
 def nearest_window_wrapped(kind, s0, data, bound, px, py, pz, s_lo, s_hi):
     """:func:`nearest_window`, where on a closed path the window wraps around 0 and L.
 
@@ -564,7 +579,7 @@ def unit_tangent(kind, data, i, t):
     return r[3] / norm, r[4] / norm, r[5] / norm
 
 
-@numba.njit(cache=True)
+@numba.njit
 def side_2d(kind, s0, data, closed, s, px, py):
     """Sign (+1 left of travel, -1 right) of a 2-D point whose foot point is at ``s``.
 
@@ -593,105 +608,3 @@ def side_2d(kind, s0, data, closed, s, px, py):
         bx, by = _unit_xy(eval_segment(kind, data, j, tj))
     cross = (ax + bx) * (py - r[1]) - (ay + by) * (px - r[0])
     return -1.0 if cross < 0.0 else 1.0
-
-
-@numba.njit(cache=True)
-def eval_many(kind, s0, data, s, out):
-    """:func:`eval_path` at every ``s[k]`` into ``out[k, 0:9]``."""
-    for k in range(s.shape[0]):
-        r = eval_path(kind, s0, data, s[k])
-        for j in range(9):
-            out[k, j] = r[j]
-
-
-@numba.njit(cache=True)
-def nearest_many(kind, s0, data, bound, pts, out_s, out_d2):
-    """Nearest point (:func:`nearest_global`) for every row of ``pts`` (N, 3)."""
-    for k in range(pts.shape[0]):
-        out_s[k], out_d2[k] = nearest_global(kind, s0, data, bound, pts[k, 0], pts[k, 1], pts[k, 2])
-
-
-@numba.njit(cache=True)
-def nearest_many_hinted(kind, s0, data, bound, pts, hint, out_s, out_d2):
-    """Nearest point (:func:`nearest_hint` with ``hint[k]``) for every row of ``pts`` (N, 3).
-
-    Apart from :func:`nearest_many`: a plot of a run searches near its references only, and
-    the global search is a third of a first run's compile.
-    """
-    for k in range(pts.shape[0]):
-        out_s[k], out_d2[k] = nearest_hint(kind, s0, data, bound, pts[k, 0], pts[k, 1],
-                                           pts[k, 2], hint[k])  # fmt: skip
-
-
-@numba.njit(cache=True)
-def side_many(kind, s0, data, closed, s, pts, out):
-    """:func:`side_2d` for every foot ``s[k]`` and point ``pts[k]``."""
-    for k in range(s.shape[0]):
-        out[k] = side_2d(kind, s0, data, closed, s[k], pts[k, 0], pts[k, 1])
-
-
-@numba.njit(cache=True)
-def _accel_bound(kind, data, i, seg_len):
-    """Upper bound of |P''| over the segment."""
-    k = kind[i]
-    if k == LINE:
-        return 0.0
-    if k == HELIX:
-        return data[i, 12] * data[i, 13] * data[i, 13]
-    a = 0.0
-    for j in range(2, 6):
-        a += j * (j - 1) * _norm3(data, i, 3 * j) * seg_len ** (j - 2)
-    return a
-
-
-@numba.njit(cache=True)
-def compute_bounds(kind, s0, data):
-    """Bounding sphere (centre xyz, radius) of every segment, (n, 4).
-
-    Samples each segment at ``_BOUND_SAMPLES + 1`` points; a curve piece between samples
-    ``h`` apart lies within ``h^2 max|P''| / 8`` of their chord, which is added to the radius.
-    """
-    n = kind.shape[0]
-    out = np.empty((n, 4))
-    m = _BOUND_SAMPLES
-    pts = np.empty((m + 1, 3))
-    for i in range(n):
-        seg_len = s0[i + 1] - s0[i]
-        for q in range(m + 1):
-            r = eval_segment(kind, data, i, seg_len * q / m)
-            pts[q, 0] = r[0]
-            pts[q, 1] = r[1]
-            pts[q, 2] = r[2]
-        cx = 0.5 * (pts[:, 0].min() + pts[:, 0].max())
-        cy = 0.5 * (pts[:, 1].min() + pts[:, 1].max())
-        cz = 0.5 * (pts[:, 2].min() + pts[:, 2].max())
-        rad = 0.0
-        for q in range(m + 1):
-            rad = max(rad, math.sqrt((pts[q, 0] - cx) ** 2 + (pts[q, 1] - cy) ** 2
-                                     + (pts[q, 2] - cz) ** 2))
-        h = seg_len / m
-        scale = abs(cx) + abs(cy) + abs(cz) + rad
-        out[i, 0] = cx
-        out[i, 1] = cy
-        out[i, 2] = cz
-        out[i, 3] = rad + h * h * _accel_bound(kind, data, i, seg_len) / 8.0 + 1e-14 * scale + 1e-15
-    return out
-
-
-@numba.njit(cache=True)
-def segment_ends(kind, s0, data):
-    """Point and unit tangent at the start and end of every segment, (n, 2, 6)."""
-    n = kind.shape[0]
-    out = np.empty((n, 2, 6))
-    for i in range(n):
-        for e in range(2):
-            t = 0.0 if e == 0 else s0[i + 1] - s0[i]
-            r = eval_segment(kind, data, i, t)
-            ux, uy, uz = unit_tangent(kind, data, i, t)
-            out[i, e, 0] = r[0]
-            out[i, e, 1] = r[1]
-            out[i, e, 2] = r[2]
-            out[i, e, 3] = ux
-            out[i, e, 4] = uy
-            out[i, e, 5] = uz
-    return out

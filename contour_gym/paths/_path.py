@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from contour_gym._validate import as_finite_array
-from contour_gym.paths import _geom
+from contour_gym.paths import _batch
 from contour_gym.paths._geom import CLOSED_TOL, CORNER_TOL
 from contour_gym.paths._table import PathTable, concat_tables, transform_table
 from contour_gym.paths._timelaw import TimeLaw
@@ -59,7 +59,7 @@ class Path:
         """
         if time_law is not None:
             _check_law(time_law, table.length, name)
-        ends = _geom.segment_ends(table.kind, table.s0, table.data)
+        ends = _batch.segment_ends(table.kind, table.s0, table.data)
         closed = bool(np.linalg.norm(ends[0, 0, :3] - ends[-1, 1, :3]) <= CLOSED_TOL)
         jump = np.linalg.norm(ends[1:, 0, 3:] - ends[:-1, 1, 3:], axis=1) > CORNER_TOL
         corners = table.s0[1:-1][jump]
@@ -156,7 +156,7 @@ class Path:
         flat = np.ascontiguousarray(arr.reshape(-1))
         out = np.empty((flat.shape[0], 9))
         t = self._table
-        _geom.eval_many(t.kind, t.s0, t.data, flat, out)
+        _batch.eval_many(t.kind, t.s0, t.data, flat, out)
         return out, arr.ndim == 0
 
     def evaluate(self, s: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -247,16 +247,16 @@ class Path:
         out_s = np.empty(n)
         out_d2 = np.empty(n)
         if s_hint is None:
-            _geom.nearest_many(t.kind, t.s0, t.data, t.bound, pts, out_s, out_d2)
+            _batch.nearest_many(t.kind, t.s0, t.data, t.bound, pts, out_s, out_d2)
         else:
             hint = np.ascontiguousarray(as_finite_array(s_hint, "s_hint").reshape(-1))
             if hint.shape != (n,):
                 raise ValueError(f"s_hint must have one value per point ({n}), got {hint.shape}")
-            _geom.nearest_many_hinted(t.kind, t.s0, t.data, t.bound, pts, hint, out_s, out_d2)
+            _batch.nearest_many_hinted(t.kind, t.s0, t.data, t.bound, pts, hint, out_s, out_d2)
         dist = np.sqrt(out_d2)
         if self.dim == 2:
             sign = np.empty(n)
-            _geom.side_many(t.kind, t.s0, t.data, self._closed, out_s, pts, sign)
+            _batch.side_many(t.kind, t.s0, t.data, self._closed, out_s, pts, sign)
             dist = dist * sign
         if single:
             return float(out_s[0]), float(dist[0])

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from contour_gym.paths import _geom
+from contour_gym.paths import _batch
 from contour_gym.paths._geom import HELIX, LINE, NCOL, POLY5
 
 FloatArray = NDArray[np.float64]
@@ -73,7 +73,7 @@ def make_table(kind: Sequence[int] | IntArray, lengths: Sequence[float] | FloatA
     s0 = np.concatenate(([0.0], np.cumsum(lens)))
     rows = np.ascontiguousarray(data, dtype=np.float64).reshape(-1, NCOL)
     if bound is None:
-        bound = _geom.compute_bounds(kind_arr, s0, rows)
+        bound = _batch.compute_bounds(kind_arr, s0, rows)
     return PathTable(kind_arr, s0, rows, bound, dim)
 
 

@@ -1,0 +1,127 @@
+"""The path engine's batch functions, called from Python (cached; :mod:`contour_gym._compile`).
+
+Each runs one of :mod:`contour_gym.paths._geom`'s functions over many points, or builds a
+table's per-segment data (bounding spheres, segment ends).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from contour_gym.paths._geom import (
+    _BOUND_SAMPLES,
+    HELIX,
+    LINE,
+    _norm3,
+    eval_path,
+    eval_segment,
+    nearest_global,
+    nearest_hint,
+    side_2d,
+    unit_tangent,
+)
+
+
+@numba.njit(cache=True)
+def eval_many(kind, s0, data, s, out):
+    """:func:`eval_path` at every ``s[k]`` into ``out[k, 0:9]``."""
+    for k in range(s.shape[0]):
+        r = eval_path(kind, s0, data, s[k])
+        for j in range(9):
+            out[k, j] = r[j]
+
+
+@numba.njit(cache=True)
+def nearest_many(kind, s0, data, bound, pts, out_s, out_d2):
+    """Nearest point (:func:`nearest_global`) for every row of ``pts`` (N, 3)."""
+    for k in range(pts.shape[0]):
+        out_s[k], out_d2[k] = nearest_global(kind, s0, data, bound, pts[k, 0], pts[k, 1], pts[k, 2])
+
+
+@numba.njit(cache=True)
+def nearest_many_hinted(kind, s0, data, bound, pts, hint, out_s, out_d2):
+    """Nearest point (:func:`nearest_hint` with ``hint[k]``) for every row of ``pts`` (N, 3).
+
+    Apart from :func:`nearest_many`: a plot of a run searches near its references only, and
+    the global search is a third of a first run's compile.
+    """
+    for k in range(pts.shape[0]):
+        out_s[k], out_d2[k] = nearest_hint(kind, s0, data, bound, pts[k, 0], pts[k, 1],
+                                           pts[k, 2], hint[k])  # fmt: skip
+
+
+@numba.njit(cache=True)
+def side_many(kind, s0, data, closed, s, pts, out):
+    """:func:`side_2d` for every foot ``s[k]`` and point ``pts[k]``."""
+    for k in range(s.shape[0]):
+        out[k] = side_2d(kind, s0, data, closed, s[k], pts[k, 0], pts[k, 1])
+
+
+@numba.njit
+def _accel_bound(kind, data, i, seg_len):
+    """Upper bound of |P''| over the segment."""
+    k = kind[i]
+    if k == LINE:
+        return 0.0
+    if k == HELIX:
+        return data[i, 12] * data[i, 13] * data[i, 13]
+    a = 0.0
+    for j in range(2, 6):
+        a += j * (j - 1) * _norm3(data, i, 3 * j) * seg_len ** (j - 2)
+    return a
+
+
+@numba.njit(cache=True)
+def compute_bounds(kind, s0, data):
+    """Bounding sphere (centre xyz, radius) of every segment, (n, 4).
+
+    Samples each segment at ``_BOUND_SAMPLES + 1`` points; a curve piece between samples
+    ``h`` apart lies within ``h^2 max|P''| / 8`` of their chord, which is added to the radius.
+    """
+    n = kind.shape[0]
+    out = np.empty((n, 4))
+    m = _BOUND_SAMPLES
+    pts = np.empty((m + 1, 3))
+    for i in range(n):
+        seg_len = s0[i + 1] - s0[i]
+        for q in range(m + 1):
+            r = eval_segment(kind, data, i, seg_len * q / m)
+            pts[q, 0] = r[0]
+            pts[q, 1] = r[1]
+            pts[q, 2] = r[2]
+        cx = 0.5 * (pts[:, 0].min() + pts[:, 0].max())
+        cy = 0.5 * (pts[:, 1].min() + pts[:, 1].max())
+        cz = 0.5 * (pts[:, 2].min() + pts[:, 2].max())
+        rad = 0.0
+        for q in range(m + 1):
+            rad = max(rad, math.sqrt((pts[q, 0] - cx) ** 2 + (pts[q, 1] - cy) ** 2
+                                     + (pts[q, 2] - cz) ** 2))
+        h = seg_len / m
+        scale = abs(cx) + abs(cy) + abs(cz) + rad
+        out[i, 0] = cx
+        out[i, 1] = cy
+        out[i, 2] = cz
+        out[i, 3] = rad + h * h * _accel_bound(kind, data, i, seg_len) / 8.0 + 1e-14 * scale + 1e-15
+    return out
+
+
+@numba.njit(cache=True)
+def segment_ends(kind, s0, data):
+    """Point and unit tangent at the start and end of every segment, (n, 2, 6)."""
+    n = kind.shape[0]
+    out = np.empty((n, 2, 6))
+    for i in range(n):
+        for e in range(2):
+            t = 0.0 if e == 0 else s0[i + 1] - s0[i]
+            r = eval_segment(kind, data, i, t)
+            ux, uy, uz = unit_tangent(kind, data, i, t)
+            out[i, e, 0] = r[0]
+            out[i, e, 1] = r[1]
+            out[i, e, 2] = r[2]
+            out[i, e, 3] = ux
+            out[i, e, 4] = uy
+            out[i, e, 5] = uz
+    return out
