@@ -446,13 +446,20 @@ def needs_compile(module: ModuleType) -> bool:
     return not Path(str(module.__file__)).with_suffix(".compiled").exists()
 
 
+OWN_KERNEL_SECONDS = 20.0
+"""About how long one kernel compiles in-process on a 2-core machine (``benchmarks/cold_start.py``:
+``contour-gym simulate`` 24 s in all, the README's toy estimator 17 s), for the progress line."""
+
+
 class _Progress(event.Listener):
-    """A progress line on stderr while numba compiles: what, and the time so far."""
+    """A progress line on stderr while numba compiles: what, how long to expect, the time so far."""
 
     def __init__(self, label: str) -> None:
         from tqdm.auto import tqdm
 
-        self.bar = tqdm(total=None, file=sys.stderr, desc=f"contour-gym: compiling {label}",
+        desc = (f"contour-gym: compiling {label} "
+                f"(first run only, about {OWN_KERNEL_SECONDS:.0f} s on 2 cores)")  # fmt: skip
+        self.bar = tqdm(total=None, file=sys.stderr, desc=desc,
                         bar_format="{desc} [{elapsed}] {postfix}")  # fmt: skip
         self.stop = threading.Event()
         self.thread = threading.Thread(target=self._tick, daemon=True)
