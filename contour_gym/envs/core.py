@@ -227,6 +227,8 @@ class ContourTask:
             f_max=self._machine_feedrate(), horizon=max(self.config.preview),
             progress_obs=float(self.config.observe_progress),
         )  # fmt: skip
+        self._leading = (self._blob.buffer, self._blob.layout, self._econfig)  # never move
+        self._quiet = contextlib.nullcontext()
         self._member_constants(np.arange(b))
 
     def _machine_feedrate(self) -> float:
@@ -379,11 +381,10 @@ class ContourTask:
             self._action[~skip] = actions[~skip]
             self._skip[...] = skip
             self._skipping = True
-        eb, el = self._blob.buffer, self._blob.layout
         skipped = None if skip is None else np.flatnonzero(skip)
-        with contextlib.nullcontext() if self._stepped else self._compiling():
-            ran = self.loop.advance(self.config.decision_ticks, skipped, via=self.kernel.env_step,
-                                leading=(eb, el, self._econfig))  # fmt: skip
+        with self._quiet if self._stepped else self._compiling():  # positional: a step's 1 %
+            ran = self.loop.advance(self.config.decision_ticks, skipped, self.kernel.env_step,
+                                    self._leading)  # fmt: skip
         if not ran:
             raise ValueError(f"actions must be finite, got {actions}")  # nothing was run
         if not self._stepped:  # the env kernel is in numba's cache now
