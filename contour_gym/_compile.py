@@ -36,11 +36,10 @@ from numba's cache is machine code LLVM cannot inline: a kernel compiled after t
 truth search was cached (by another process) ran 6-11 % slower than one compiled beside it
 (measured on 000's circle, B = 1 and 1024), so a kernel's speed depended on what ran before.
 The kernels themselves and the functions called from Python (:mod:`contour_gym.paths._batch`,
-the estimator API's kernel) are cached. ``inline="always"`` (numba inlines
-the function's IR at every call site, typing it again each time) is kept for small
-functions: the path evaluation (:func:`contour_gym.paths._geom.eval_segment`) was inlined at
-every site until it was measured to cost a third of ``contour-gym simulate``'s first run
-(34.5 s against 23.2 s) for no throughput (LLVM inlines the call).
+the estimator API's kernel) are cached. ``inline="always"`` (numba inlines the function's IR
+at every call site, typing it again each time) stays on the path evaluation
+(:func:`contour_gym.paths._geom.eval_segment`): called instead, ``contour-gym simulate``'s
+first run took 23 s instead of 35 s, but 004's machine ran 10-30 % slower.
 
 **First run.** The built-ins' kernels compile in worker processes, several at a time, with a
 progress bar (:mod:`contour_gym._precompile`); a kernel for a user's component, or a run's own
@@ -446,9 +445,9 @@ def needs_compile(module: ModuleType) -> bool:
     return not Path(str(module.__file__)).with_suffix(".compiled").exists()
 
 
-OWN_KERNEL_SECONDS = 20.0
+OWN_KERNEL_SECONDS = 30.0
 """About how long one kernel compiles in-process on a 2-core machine (``benchmarks/cold_start.py``:
-``contour-gym simulate`` 24 s in all, the README's toy estimator 17 s), for the progress line."""
+``contour-gym simulate`` 35 s in all, the README's toy estimator 16-17 s), for the progress line."""
 
 
 class _Progress(event.Listener):

@@ -287,7 +287,7 @@ class _Bar:
 # searches and estimators a kernel calls compile with it, whatever is cached (_compile), so
 # only the env step waits: it calls the loop's kernels
 register_warmup(Warmup("loop", "contour_gym._warmups:servo_loop", doc="servo loop",
-                       seconds=41.0))  # fmt: skip
+                       seconds=50.0))  # fmt: skip
 register_warmup(Warmup("path_api", "contour_gym._warmups:path_api",
                        doc="path searches for plots", seconds=10.0))  # fmt: skip
 register_warmup(Warmup("env", "contour_gym._warmups:env_step", after=("loop",),

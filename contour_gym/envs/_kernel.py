@@ -31,7 +31,7 @@ from contour_gym._loopstate import (
 )
 from contour_gym._slots import REWARD, RUN_MEMBERS, TASK_APPLY, TASK_OBSERVE
 from contour_gym.motion import IP, IS
-from contour_gym.paths._geom import eval_segment_inline, find_segment, locate
+from contour_gym.paths._geom import eval_segment, find_segment, locate
 from contour_gym.plant._kernel import AX, ST
 from contour_gym.rewards import RC
 
@@ -119,7 +119,7 @@ def _rewards(loop, env, ec, lo, hi):
 def _point(kind, s0, data, s):
     # called, not inlined: the observation evaluates the path at several places
     i, t = locate(s0, s)
-    return eval_segment_inline(kind, data, i, t)
+    return eval_segment(kind, data, i, t)
 
 
 @numba.njit(cache=True, inline="always")
@@ -133,7 +133,7 @@ def _curvature(path, s, dim):
 @numba.njit(cache=True)
 def _tangent(kind, data, i, t):
     # called, not inlined: segment i's unit tangent at local arc length t
-    r = eval_segment_inline(kind, data, i, t)
+    r = eval_segment(kind, data, i, t)
     norm = max(math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5]), 1e-300)
     return r[3] / norm, r[4] / norm, r[5] / norm
 
