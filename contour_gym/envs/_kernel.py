@@ -31,7 +31,7 @@ from contour_gym._loopstate import (
 )
 from contour_gym._slots import REWARD, RUN_MEMBERS, TASK_APPLY, TASK_OBSERVE
 from contour_gym.motion import IP, IS
-from contour_gym.paths._geom import eval_segment, find_segment, locate
+from contour_gym.paths._geom import eval_path, eval_segment, find_segment
 from contour_gym.plant._kernel import AX, ST
 from contour_gym.rewards import RC
 
@@ -118,8 +118,7 @@ def _rewards(loop, env, ec, lo, hi):
 @numba.njit(cache=True)
 def _point(kind, s0, data, s):
     # called, not inlined: the observation evaluates the path at several places
-    i, t = locate(s0, s)
-    return eval_segment(kind, data, i, t)
+    return eval_path(kind, s0, data, s)
 
 
 @numba.njit(cache=True, inline="always")

@@ -382,7 +382,7 @@ class ContourTask:
             self._skip[...] = skip
             self._skipping = True
         skipped = None if skip is None else np.flatnonzero(skip)
-        with self._quiet if self._stepped else self._compiling():  # positional: a step's 1 %
+        with self._quiet if self._stepped else self._compiling():
             ran = self.loop.advance(self.config.decision_ticks, skipped, self.kernel.env_step,
                                     self._leading)  # fmt: skip
         if not ran:

@@ -131,10 +131,10 @@ def eval_segment(kind, data, i, t):
 
 
 @numba.njit(cache=True, inline="always")
-def locate(s0, s):
-    """Segment and local arc length of arc length ``s`` clamped to [0, L] (NaN propagates).
+def eval_path(kind, s0, data, s):
+    """Point, dP/ds and d2P/ds2 at arc length ``s`` clamped to [0, L] (9 floats).
 
-    At a corner the segment that starts there.
+    At a corner the segment that starts there is used. NaN propagates.
     """
     total = s0[s0.shape[0] - 1]
     if s < 0.0:
@@ -142,14 +142,7 @@ def locate(s0, s):
     elif s > total:
         s = total
     i = find_segment(s0, s)
-    return i, s - s0[i]
-
-
-@numba.njit(cache=True, inline="always")
-def eval_path(kind, s0, data, s):
-    """Point, dP/ds and d2P/ds2 at arc length ``s`` (:func:`locate`) (9 floats)."""
-    i, t = locate(s0, s)
-    return eval_segment(kind, data, i, t)
+    return eval_segment(kind, data, i, s - s0[i])
 
 
 @numba.njit(cache=True, inline="always")
