@@ -36,10 +36,15 @@ from numba's cache is machine code LLVM cannot inline: a kernel compiled after t
 truth search was cached (by another process) ran 6-11 % slower than one compiled beside it
 (measured on 000's circle, B = 1 and 1024), so a kernel's speed depended on what ran before.
 The kernels themselves and the functions called from Python (:mod:`contour_gym.paths._batch`,
-the estimator API's kernel) are cached. ``inline="always"`` (numba inlines the function's IR
-at every call site, typing it again each time) stays on the path evaluation
-(:func:`contour_gym.paths._geom.eval_segment`): called instead, ``contour-gym simulate``'s
-first run took 23 s instead of 35 s, but 004's machine ran 10-30 % slower.
+the estimator API's kernel) are cached.
+
+**Inlined by whom.** ``inline="always"`` makes numba inline a function's IR at every call
+site, typing it again each time; ``forceinline=True`` types it once and has LLVM inline it
+(``alwaysinline``). The path evaluation (:func:`contour_gym.paths._geom.eval_segment`, three
+segment kinds, nine floats) is the second kind: with numba's inlining, ``contour-gym
+simulate``'s first run took 36-39 s, with LLVM's 25 s, and 004's machine ran as fast (B =
+1024, window and exact estimators); merely called, it compiled as fast but 004's machine ran
+5-20 % slower.
 
 **First run.** The built-ins' kernels compile in worker processes, several at a time, with a
 progress bar (:mod:`contour_gym._precompile`); a kernel for a user's component, or a run's own

@@ -89,12 +89,12 @@ def _poly_axis(data, i, j, t):
     return p, d1, d2
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(forceinline=True)
 def eval_segment(kind, data, i, t):
     """Point, dP/ds and d2P/ds2 of segment ``i`` at local arc length ``t`` (9 floats).
 
-    Inlined by numba: called, the first run compiled in two thirds of the time but 004's
-    machine ran 10-30 % slower (:mod:`contour_gym._compile`).
+    Typed once and inlined by LLVM at every call site (``forceinline``), not by numba
+    (:mod:`contour_gym._compile`).
     """
     k = kind[i]
     if k == LINE:
