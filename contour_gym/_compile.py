@@ -43,8 +43,8 @@ site, typing it again each time; ``forceinline=True`` types it once and has LLVM
 (``alwaysinline``). The path evaluation (:func:`contour_gym.paths._geom.eval_segment`, three
 segment kinds, nine floats) is the second kind: with numba's inlining, ``contour-gym
 simulate``'s first run took 36-39 s, with LLVM's 25 s, and 004's machine ran as fast (B =
-1024, window and exact estimators); merely called, it compiled as fast but 004's machine ran
-5-20 % slower.
+1024, window and exact estimators); merely called, 29-30 s, and 004's machine ran 5-30 %
+slower (``docs/measurements.md``).
 
 **First run.** The built-ins' kernels compile in worker processes, several at a time, with a
 progress bar (:mod:`contour_gym._precompile`); a kernel for a user's component, or a run's own
@@ -450,9 +450,10 @@ def needs_compile(module: ModuleType) -> bool:
     return not Path(str(module.__file__)).with_suffix(".compiled").exists()
 
 
-OWN_KERNEL_SECONDS = 30.0
-"""About how long one kernel compiles in-process on a 2-core machine (``benchmarks/cold_start.py``:
-``contour-gym simulate`` 35 s in all, the README's toy estimator 16-17 s), for the progress line."""
+OWN_KERNEL_SECONDS = 20.0
+"""About how long one kernel compiles in-process on a 2-core machine (20-22 s for 004's machine;
+``benchmarks/cold_start.py``: ``contour-gym simulate`` 27 s in all, the README's toy estimator
+19 s), for the progress line."""
 
 
 class _Progress(event.Listener):

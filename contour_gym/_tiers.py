@@ -3,7 +3,7 @@
 Two kernels can run any combination of built-in components (:func:`contour_gym._compile.bind`):
 
 * the **built-ins' kernel** dispatches every built-in component by a code. It compiles once
-  per installation (:mod:`contour_gym._precompile`, ~50 s on 2 cores) and then runs every new
+  per installation (:mod:`contour_gym._precompile`, ~70 s on 2 cores) and then runs every new
   combination at once;
 * the run's **own kernel** is bound to just the components the run uses. It runs ~10 % faster
   (the built-ins' kernel carries every component's code inline: twice the machine code of the
