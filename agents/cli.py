@@ -29,6 +29,7 @@ from pathlib import Path as FilePath
 import numpy as np
 
 from agents._files import save_figure
+from agents.parallel import exit_quickly
 from agents.rl.algorithms import ALGORITHMS
 from contour_gym.api import Scenario, make_scenario, run_trace
 from contour_gym.params import choice
@@ -461,6 +462,7 @@ def bench_command(args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``contour-gym`` command."""
+    exit_quickly()
     args = _parser().parse_args(argv)
     command = {"simulate": simulate_command, "train": train_command,
                "tune": tune_command, "bench": bench_command}[args.command]  # fmt: skip

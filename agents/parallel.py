@@ -22,9 +22,11 @@ Ray is an optional extra (``pip install "contour-gym[ray]"``); without it ``ray=
 
 from __future__ import annotations
 
+import atexit
 import collections
 import contextlib
 import functools
+import gc
 import importlib
 import multiprocessing
 import os
@@ -116,6 +118,25 @@ def _torch_threads(n: int | None) -> int | None:
     return old
 
 
+_EXIT_QUICKLY: list[bool] = []
+
+
+def exit_quickly() -> None:
+    """Skip the interpreter's last garbage collection when this process exits.
+
+    For a command's process and its workers only: at exit, after the other exit handlers,
+    everything left is frozen (:func:`gc.freeze`), so the final collection does not walk
+    torch's, numba's and matplotlib's objects; the memory goes back to the system as the
+    process ends. Measured on ``contour-gym bench`` (default suite, warm, one worker): the
+    process ended 1.3-1.45 s after its command returned, 0.18 s with this. What a command
+    writes is closed before it returns (:mod:`agents._files`), so nothing waits on a
+    collection.
+    """
+    if not _EXIT_QUICKLY:
+        _EXIT_QUICKLY.append(True)
+        atexit.register(gc.freeze)  # registered first, so it runs after every later handler
+
+
 def _init_worker(*modules: str, filters: list[Any] | None = None) -> None:
     # a worker process: one thread for torch and BLAS (the cores are the workers'), no
     # background compiles (contour_gym._tiers: the parent compiled up front); ``modules``
@@ -128,6 +149,7 @@ def _init_worker(*modules: str, filters: list[Any] | None = None) -> None:
                                     lineno)  # fmt: skip
     os.environ.update(_SINGLE_THREADED)
     os.environ.setdefault("CONTOUR_GYM_BACKGROUND", "0")
+    exit_quickly()
     for name in modules:
         importlib.import_module(name)
     try:

@@ -1,4 +1,5 @@
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -278,6 +279,20 @@ def test_saved_agent_loads_by_path_and_predicts_single_and_batched(agent_dir):
     np.testing.assert_allclose(single, batch[1], rtol=1e-6)
     np.testing.assert_array_equal(agent.act(obs), batch)
     assert np.all(np.abs(batch) <= 1.0)
+
+
+def test_saved_agents_share_a_model_until_its_file_changes(agent_dir, tmp_path):
+    first, second = SavedAgent(agent_dir), SavedAgent(agent_dir)
+    assert first.model is second.model  # read once per process
+    assert first.normalizer is second.normalizer
+    copy = tmp_path / "copy"
+    shutil.copytree(agent_dir, copy)
+    before = SavedAgent(copy)
+    assert before.model is not first.model  # another file
+    model = copy / "model.zip"
+    os.utime(model, ns=(model.stat().st_atime_ns, model.stat().st_mtime_ns + 10**9))
+    after = SavedAgent(copy)
+    assert after.model is not before.model  # rewritten: read again
 
 
 def test_saved_agent_registers_by_name(agent_dir):

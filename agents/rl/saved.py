@@ -196,6 +196,9 @@ class SavedAgent(SB3Policy):
         path: The agent's folder.
         deterministic: Act on the mean action (True) or sample.
 
+    The model and its statistics are read once per process and shared by the agents made from
+    the same unchanged files (train a copy, not :attr:`model`, to fine-tune one).
+
     Raises:
         ValueError: for a missing model or meta file (naming the path), or a meta file without
             ``algo`` and ``env_id``.
@@ -212,9 +215,9 @@ class SavedAgent(SB3Policy):
         if not model_path.is_file():
             raise ValueError(f"agent {folder.name!r}: model file {model_path} is missing")
         algo = algorithm(self.meta["algo"])
-        model = algo.load_class().load(model_path, device="cpu")
         stats = folder / STATS_FILE
-        normalizer = load_normalizer(stats) if stats.is_file() else None
+        model, normalizer = _loaded(algo.name, model_path, _stamp(model_path), stats,
+                                    _stamp(stats))  # fmt: skip
         super().__init__(model, normalizer, self._interface(), folder.name, deterministic,
                          algo.recurrent)  # fmt: skip
 
@@ -234,6 +237,30 @@ class SavedAgent(SB3Policy):
     def env_id(self) -> str:
         """The id the agent was trained on."""
         return str(self.meta["env_id"])
+
+
+def _stamp(path: Path) -> tuple[int, int] | None:
+    """A file's modification time and size (None: no such file), to key :func:`_loaded`."""
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        return None
+    return st.st_mtime_ns, st.st_size
+
+
+@functools.lru_cache(maxsize=16)
+def _loaded(
+    algo: str, model_path: Path, model_stamp: object, stats: Path, stats_stamp: object
+) -> tuple[Any, Any]:
+    """An agent's model and normalizer, loaded once per process while their files are unchanged.
+
+    Acting changes neither (the state of a recurrent policy lives in its :class:`SB3Policy`),
+    so every policy made from the same files shares them: a bench run makes one per cell.
+    """
+    from agents.rl.algorithms import algorithm
+
+    model = algorithm(algo).load_class().load(model_path, device="cpu")
+    return model, None if stats_stamp is None else load_normalizer(stats)
 
 
 def load_normalizer(path: Path) -> Any:
