@@ -166,7 +166,8 @@ class Processes(Runner):
     interpreter that imports what the units need: ~3-4 s for a bench scenario's); each slot
     takes the next unit when it is free. Measured on the default bench suite (53 episodes,
     ``benchmarks/scaling.py``): two spawned workers and an idle parent took 15.3 s against
-    14.2 s for one process; this process and one worker, 14.0 s against 14.5 s.
+    14.2 s for one process; this process and one worker, 14.0 s against 14.5 s (12.2 s
+    against 14 s once processes exited quickly, :func:`exit_quickly`).
     """
 
     def __init__(self, workers: int) -> None:
