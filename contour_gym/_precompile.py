@@ -283,18 +283,19 @@ class _Bar:
 # --------------------------------------------------------------------------------------
 # the package's own warm-ups
 # --------------------------------------------------------------------------------------
-# seconds: measured on this project's 2-core machine, each group in a process of its own, one
-# after another on one cache (f3db7b8; all five in two workers: 70 s). The
+# seconds: measured on this project's 2-core machine, each group alone in a worker process
+# (the built-ins' kernels), one after another on one cache (007db08; all five on two workers:
+# 66-70 s, the loop then the env step being the longest chain). The
 # searches and estimators a kernel calls compile with it, whatever is cached (_compile), so
 # only the env step waits: it calls the loop's kernels
 register_warmup(Warmup("loop", "contour_gym._warmups:servo_loop", doc="servo loop",
-                       seconds=24.0))  # fmt: skip
+                       seconds=41.0))  # fmt: skip
 register_warmup(Warmup("path_api", "contour_gym._warmups:path_api",
-                       doc="path searches for plots", seconds=9.0))  # fmt: skip
+                       doc="path searches for plots", seconds=8.0))  # fmt: skip
 register_warmup(Warmup("env", "contour_gym._warmups:env_step", after=("loop",),
-                       doc="env step", seconds=19.0))  # fmt: skip
+                       doc="env step", seconds=20.0))  # fmt: skip
 register_warmup(Warmup("estimators", "contour_gym._warmups:estimators",
-                       doc="estimator API", seconds=14.0))  # fmt: skip
+                       doc="estimator API", seconds=13.0))  # fmt: skip
 register_warmup(Warmup("axes", "contour_gym._warmups:axes",
                        doc="axis controllers and single-axis plant", seconds=5.0))  # fmt: skip
 
