@@ -43,8 +43,8 @@ site, typing it again each time; ``forceinline=True`` types it once and has LLVM
 (``alwaysinline``). The path evaluation (:func:`contour_gym.paths._geom.eval_segment`, three
 segment kinds, nine floats) is the second kind: with numba's inlining, ``contour-gym
 simulate``'s first run took 36-39 s, with LLVM's 25 s, and 004's machine ran as fast (B =
-1024, window and exact estimators); merely called, 29-30 s, and 004's machine ran 5-30 %
-slower (``docs/measurements.md``).
+1024, window and exact estimators); called (inlined by numba only in the exact search's
+distance), 29-30 s, and 004's machine ran 5-30 % slower (``docs/measurements.md``).
 
 **First run.** The built-ins' kernels compile in worker processes, several at a time, with a
 progress bar (:mod:`contour_gym._precompile`); a kernel for a user's component, or a run's own
