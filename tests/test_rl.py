@@ -284,7 +284,7 @@ def test_saved_agent_loads_by_path_and_predicts_single_and_batched(agent_dir):
 def test_saved_agents_share_a_model_until_its_file_changes(agent_dir, tmp_path):
     first, second = SavedAgent(agent_dir), SavedAgent(agent_dir)
     assert first.model is second.model  # read once per process
-    assert first.normalizer is second.normalizer
+    assert first.normalizer is not None and first.normalizer is second.normalizer
     copy = tmp_path / "copy"
     shutil.copytree(agent_dir, copy)
     before = SavedAgent(copy)

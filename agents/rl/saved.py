@@ -28,7 +28,7 @@ import functools
 import pickle
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
@@ -37,6 +37,9 @@ import yaml
 from agents.policies import POLICIES, Actions, Observation, Policy, batch_size, register_policy
 from agents.rl.observation import flatten_obs
 from contour_gym.envs.config import EnvConfig
+
+if TYPE_CHECKING:
+    from agents.rl.algorithms import Algorithm
 
 TRAINED_DIR = Path(__file__).resolve().parent.parent / "trained"
 # env kwargs that vary the training, not the agent's interface (observation, action, machine)
@@ -216,8 +219,7 @@ class SavedAgent(SB3Policy):
             raise ValueError(f"agent {folder.name!r}: model file {model_path} is missing")
         algo = algorithm(self.meta["algo"])
         stats = folder / STATS_FILE
-        model, normalizer = _loaded(algo.name, model_path, _stamp(model_path), stats,
-                                    _stamp(stats))  # fmt: skip
+        model, normalizer = _loaded(algo, model_path, _stamp(model_path), stats, _stamp(stats))
         super().__init__(model, normalizer, self._interface(), folder.name, deterministic,
                          algo.recurrent)  # fmt: skip
 
@@ -250,16 +252,14 @@ def _stamp(path: Path) -> tuple[int, int] | None:
 
 @functools.lru_cache(maxsize=16)
 def _loaded(
-    algo: str, model_path: Path, model_stamp: object, stats: Path, stats_stamp: object
+    algo: Algorithm, model_path: Path, model_stamp: object, stats: Path, stats_stamp: object
 ) -> tuple[Any, Any]:
     """An agent's model and normalizer, loaded once per process while their files are unchanged.
 
     Acting changes neither (the state of a recurrent policy lives in its :class:`SB3Policy`),
     so every policy made from the same files shares them: a bench run makes one per cell.
     """
-    from agents.rl.algorithms import algorithm
-
-    model = algorithm(algo).load_class().load(model_path, device="cpu")
+    model = algo.load_class().load(model_path, device="cpu")
     return model, None if stats_stamp is None else load_normalizer(stats)
 
 
