@@ -10,14 +10,16 @@ import numpy as np
 
 
 def path_api() -> None:
-    """The path API's nearest-point searches (plots, the estimator API's exact search)."""
-    from contour_gym.paths import load
+    """The path API's searches (plots, the exact estimator API) and free-form curves' series."""
+    from contour_gym.paths import _batch, load
 
     for name in ("circle", "helix"):
         path = load(name)
         points = np.zeros((2, path.dim))
         path.nearest(points, s_hint=np.zeros(2))
         path.nearest(points)
+    _batch.chebyshev_many(np.zeros((1, 2, 2)), np.zeros(1, np.int64), np.zeros(1),
+                          np.empty((1, 2)))
 
 
 def servo_loop() -> None:

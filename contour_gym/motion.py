@@ -206,13 +206,10 @@ def _segment_ends(path: Path) -> tuple[Array, Array, Array]:
 
 
 def _max_curvature(path: Path) -> Array:
-    # sampled curvature per segment (arcs exact: constant)
+    # sampled curvature per segment, 9 points each, all in one evaluation (arcs exact: constant)
     t = path.table
-    lengths = np.diff(t.s0)
-    out = np.zeros(t.n_segments)
-    for i, (a, n) in enumerate(zip(t.s0[:-1], lengths, strict=True)):
-        s = a + np.linspace(0.0, n, 9)
-        out[i] = float(np.max(path.curvature(s)))
+    s = t.s0[:-1, None] + np.linspace(0.0, np.diff(t.s0), 9, axis=1)
+    out: Array = np.max(np.reshape(path.curvature(s.ravel()), s.shape), axis=1)
     return out
 
 

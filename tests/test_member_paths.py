@@ -197,3 +197,28 @@ def test_feedrate_env_random_paths_are_programmed_within_the_default_range():
 def test_bad_path_options_are_refused(kwargs: dict[str, Any], match: str):
     with pytest.raises(ValueError, match=match):
         gym.make("contour_gym/CCC-v0", **kwargs)
+
+
+def _same_path(a: Path, b: Path) -> bool:
+    return a.name == b.name and all(
+        np.array_equal(getattr(a.table, k), getattr(b.table, k)) for k in ("kind", "s0", "data"))
+
+
+def test_kept_draws_equal_fresh_draws_and_leave_the_generator_where_a_draw_would():
+    # the env's draws are kept per process (draw_path): a repeated draw is the same path,
+    # and the generator continues exactly as after a fresh draw
+    from contour_gym.envs._paths import _draw, draw_path
+
+    stage = get_preset("xy_dc_servo").stage
+    options = {"within": [[-0.04, 0.04], [-0.03, 0.03]], "family": "lissajous"}
+    fresh = np.random.default_rng(11)
+    expected = random_path(fresh, dim=2, **options)
+    _draw.cache_clear()
+    for hits in (0, 1):
+        rng = np.random.default_rng(11)
+        path = draw_path(rng, stage, options)
+        assert _draw.cache_info().hits == hits
+        assert _same_path(path, expected)
+        assert rng.bit_generator.state == fresh.bit_generator.state
+    other = draw_path(np.random.default_rng(12), stage, options)  # another state: drawn anew
+    assert _draw.cache_info().misses == 2 and not _same_path(other, expected)

@@ -8,6 +8,8 @@ own generator, with these keyword arguments: ``within`` defaults to the machine'
 
 from __future__ import annotations
 
+import functools
+import pickle
 from collections.abc import Mapping
 from typing import Any
 
@@ -66,5 +68,42 @@ def path_options(stage: Stage, defaults: Mapping[str, Any], given: Mapping[str, 
 
 
 def draw_path(rng: np.random.Generator, stage: Stage, options: Mapping[str, Any]) -> Any:
-    """One random path on ``stage`` from ``rng`` (:func:`contour_gym.paths.random_path`)."""
-    return random_path(rng, dim=stage.dim, **options)
+    """One random path on ``stage`` from ``rng`` (:func:`contour_gym.paths.random_path`).
+
+    The last :data:`DRAWS_KEPT` draws of this process are kept, keyed by the generator's
+    state and the options: a draw from the same state returns the same (immutable) path and
+    leaves ``rng`` in the state the draw would have left it, so results are bit for bit those
+    of drawing again. A bench scenario's policies each run the same seeded paths (a free-form
+    curve takes 30-200 ms to fit) and a vector env's members reset to the same seeds.
+    """
+    try:
+        key = (type(rng.bit_generator), pickle.dumps(rng.bit_generator.state), stage.dim,
+               _frozen(options))
+        hash(key)
+    except (TypeError, AttributeError, pickle.PicklingError):  # options of no fixed value
+        return random_path(rng, dim=stage.dim, **options)
+    path, after = _draw(*key)
+    rng.bit_generator.state = after
+    return path
+
+
+DRAWS_KEPT = 64  # random paths a process keeps (100-160 kB each for the free-form curves)
+
+
+@functools.lru_cache(maxsize=DRAWS_KEPT)
+def _draw(kind: type, state: bytes, dim: int, options: tuple[tuple[str, Any], ...]
+          ) -> tuple[Any, Mapping[str, Any]]:  # fmt: skip
+    # the path drawn from a generator in ``state`` and the generator's state after the draw
+    rng = np.random.Generator(kind())
+    rng.bit_generator.state = pickle.loads(state)
+    path = random_path(rng, dim=dim, **dict(options))
+    return path, rng.bit_generator.state
+
+
+def _frozen(value: Any) -> Any:
+    # a hashable copy of an option's value: mappings as sorted pairs, sequences as tuples
+    if isinstance(value, Mapping):
+        return tuple(sorted((k, _frozen(v)) for k, v in value.items()))
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return tuple(_frozen(v) for v in value)
+    return value

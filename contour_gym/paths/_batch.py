@@ -125,3 +125,25 @@ def segment_ends(kind, s0, data):
             out[i, e, 4] = uy
             out[i, e, 5] = uz
     return out
+
+
+@numba.njit(cache=True)
+def chebyshev_many(coef, piece, x, out):
+    """Chebyshev series ``coef[piece[k]]`` ((deg + 1, dim) each) at ``x[k]`` into ``out[k]``.
+
+    Clenshaw's recurrence ``b_j = 2 x b_(j+1) - b_(j+2) + c_j``, term by term as numpy would
+    evaluate it (the same numbers): the free-form curves' fitting (:mod:`~contour_gym.paths.
+    _freeform`) evaluates their interpolants at ~10^5 points per path.
+    """
+    n = coef.shape[1]
+    for k in range(x.shape[0]):
+        p = piece[k]
+        x2 = 2.0 * x[k]
+        for d in range(coef.shape[2]):
+            b1 = 0.0
+            b2 = 0.0
+            for j in range(n - 1, 0, -1):
+                t = x2 * b1 - b2 + coef[p, j, d]
+                b2 = b1
+                b1 = t
+            out[k, d] = x[k] * b1 - b2 + coef[p, 0, d]

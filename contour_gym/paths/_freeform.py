@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import BSpline
 
 from contour_gym._validate import as_finite_array, finite
+from contour_gym.paths._batch import chebyshev_many
 from contour_gym.paths._geom import POLY5
 from contour_gym.paths._path import Path
 from contour_gym.paths._table import PathTable, eval_poly5_rows, make_table, poly5_rows
@@ -54,6 +55,10 @@ class _Curve:
     def eval(self, piece: IntArray, u: FloatArray) -> Triple:
         """C, dC/du, d2C/du2 at ``u`` using piece ``piece`` (each (N, 3))."""
         raise NotImplementedError
+
+    def velocity(self, piece: IntArray, u: FloatArray) -> FloatArray:
+        """dC/du alone (N, 3): the same numbers as ``eval(piece, u)[1]``."""
+        return self.eval(piece, u)[1]
 
 
 class _PiecewisePoly(_Curve):
@@ -101,6 +106,12 @@ class _ChebPieces(_Curve):
         return (_pad(_clenshaw(self.coef, piece, x)), _pad(_clenshaw(self.d1, piece, x)),
                 _pad(_clenshaw(self.d2, piece, x)))
 
+    def velocity(self, piece: IntArray, u: FloatArray) -> FloatArray:
+        # one series of three: the arc-length quadrature needs the speed only
+        a = self.breaks[piece]
+        b = self.breaks[piece + 1]
+        return _pad(_clenshaw(self.d1, piece, ((2.0 * u - a - b) / (b - a))[:, None]))
+
 
 class _Analytic(_Curve):
     """One smooth piece with closed-form derivatives."""
@@ -123,12 +134,9 @@ def _pad(v: FloatArray) -> FloatArray:
 
 
 def _clenshaw(coef: FloatArray, piece: IntArray, x: FloatArray) -> FloatArray:
-    n = coef.shape[1]
-    b1 = np.zeros((piece.shape[0], coef.shape[2]))
-    b2 = np.zeros_like(b1)
-    for j in range(n - 1, 0, -1):
-        b1, b2 = 2.0 * x * b1 - b2 + coef[piece, j], b1
-    out: FloatArray = x * b1 - b2 + coef[piece, 0]
+    out = np.empty((piece.shape[0], coef.shape[2]))
+    chebyshev_many(np.ascontiguousarray(coef), piece.astype(np.int64, copy=False),
+                   np.ascontiguousarray(x[:, 0]), out)
     return out
 
 
@@ -153,7 +161,7 @@ def _try_spans(curve: _Curve, piece: IntArray, ua: FloatArray, ub: FloatArray
              + sub_w[:, None, None] * _GX[None, None, :])
     whole = ua[:, None] + width[:, None] * _GX[None, :]
     u_all = np.concatenate([nodes.reshape(k, -1), whole], axis=1)
-    speed = np.linalg.norm(curve.eval(np.repeat(piece, u_all.shape[1]), u_all.ravel())[1],
+    speed = np.linalg.norm(curve.velocity(np.repeat(piece, u_all.shape[1]), u_all.ravel()),
                            axis=1).reshape(k, -1)
     n_sub_nodes = _N_SUB * _GX.shape[0]
     sub_len = (speed[:, :n_sub_nodes].reshape(k, _N_SUB, -1) @ _GW) * sub_w[:, None]
