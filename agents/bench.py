@@ -402,7 +402,6 @@ def scenario_plots(
     fig = contour_figure(task.path, traces, axes=contour.axes[:2],
                          offset=(contour.offset or (0.0, 0.0))[:2], magnify=magnify)  # fmt: skip
     fig.suptitle(f"{scenario.name} ({scenario.env_id})")
-    fig.tight_layout()
     files = [folder / f"{scenario.name}_contour.png"]
     write_atomically(files[0], lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
     if scenario.task == FEEDRATE:

@@ -8,6 +8,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection
 from matplotlib.colors import Normalize
@@ -74,7 +75,7 @@ def contour_figure(
     Returns:
         The figure (caller saves or converts it).
     """
-    fig = Figure(figsize=(11, 4.6))
+    fig = Figure(figsize=(11, 4.6), layout="constrained")
     FigureCanvasAgg(fig)
     left, right = fig.subplots(1, 2)
     dense = path.point(np.linspace(0.0, path.length, 2000))
@@ -89,9 +90,18 @@ def contour_figure(
     right.set(xlabel="time (s)", ylabel="|contour error| (um)", title="contour error")
     for ax in (left, right):
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-    fig.tight_layout()
+    _legend_below(fig, left)  # the right panel's lines have the left's colours, in order
     return fig
+
+
+def _legend_below(fig: Figure, ax: Axes) -> None:
+    """One legend of ``ax``'s lines under the panels.
+
+    Not matplotlib's ``loc="best"``, which counts every data point under each candidate box:
+    3.6 s of the 6.4 s three bench scenarios' plots took (profiled).
+    """
+    lines = ax.get_lines()
+    fig.legend(handles=lines, loc="outside lower center", ncols=min(len(lines), 4), fontsize=8)
 
 
 def feedrate_figure(
@@ -110,7 +120,7 @@ def feedrate_figure(
     Returns:
         The figure (caller saves or converts it).
     """
-    fig = Figure(figsize=(8, 4.2))
+    fig = Figure(figsize=(8, 4.2), layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.subplots()
     for label, tr in runs.items():
@@ -118,8 +128,7 @@ def feedrate_figure(
         ax.plot(tr.s[member][live] * 1e3, tr.v[member][live] * 60e3, lw=1.0, label=label)
     ax.set(xlabel="path length (mm)", ylabel="feedrate (mm/min)", title=title)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
+    _legend_below(fig, ax)
     return fig
 
 
