@@ -16,13 +16,15 @@ Prints, for 1, 2, ... workers (up to the CPUs this process may use):
   the first run's is ``cold_start.py``'s), background compiles off;
 * **tune**: ``agents.tune.tune("003", workers=N)`` (its full budget unless ``--tune-budget``):
   the run's wall time (threads in one process: no start-up differs between the counts);
+  bench and tune rows are medians of ``--wall-repeats`` runs, the worker counts interleaved;
 * **Ray**: bench (the last suite) and tune on a local two-node Ray cluster (a head and a worker
   node on 127.0.0.1, one CPU each), beside the one-worker local run; the cluster's start time
   apart.
 
 Speed-up is against one worker in the same run; efficiency = speed-up / workers.
 
-    python benchmarks/scaling.py [--suites default,generalization] [--repeats 5] [--skip-ray]
+    python benchmarks/scaling.py [--suites default,generalization] [--repeats 5]
+        [--wall-repeats 3] [--skip-ray]
 """
 
 from __future__ import annotations
@@ -129,6 +131,18 @@ def wall(job: Callable[[], object]) -> float:
     return time.perf_counter() - start
 
 
+def median_walls(jobs: dict[int, Callable[[], object]], repeats: int) -> dict[int, float]:
+    """Median seconds of each job over ``repeats`` rounds, the jobs interleaved in each round.
+
+    Interleaved, a noisy neighbour hits every worker count alike.
+    """
+    times: dict[int, list[float]] = {n: [] for n in jobs}
+    for _ in range(repeats):
+        for n, job in jobs.items():
+            times[n].append(wall(job))
+    return {n: float(np.median(t)) for n, t in times.items()}
+
+
 def bench_job(suite: str, root: Path, *flags: str) -> Callable[[], object]:
     """``contour-gym bench`` of ``suite`` in a fresh process, into a fresh folder."""
 
@@ -168,6 +182,8 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--tune-budget", default=None, metavar="M,T",
                         help="population,iterations of protocol 003 (default: its own)")
+    parser.add_argument("--wall-repeats", type=int, default=3,
+                        help="runs of each bench and tune row (their median)")
     parser.add_argument("--skip-ray", action="store_true")
     args = parser.parse_args()
     budget = None if args.tune_budget is None else tuple(
@@ -179,7 +195,7 @@ def main() -> None:
 
     precompile(("loop", "env", "path_api"), progress=False)
     print(f"# scaling, {platform.machine()}, {cpus} CPUs usable, {os.cpu_count()} visible; "
-          f"medians of {args.repeats}\n")
+          f"medians of {args.repeats} (bench and tune: of {args.wall_repeats})\n")
     print("| what | workers | speed | speed-up | efficiency |\n|---|---|---|---|---|")
     loops = loop_rates(counts, args.repeats)
     for n in counts:
@@ -193,11 +209,13 @@ def main() -> None:
         suites = args.suites.split(",")
         for suite in suites:
             wall(bench_job(suite, root, "--workers", "1"))  # its kernels compiled and cached
-            benches = {n: wall(bench_job(suite, root, "--workers", str(n))) for n in counts}
+            benches = median_walls({n: bench_job(suite, root, "--workers", str(n))
+                                    for n in counts}, args.wall_repeats)  # fmt: skip
             for n in counts:
                 print(row(f"bench {suite}", n, benches[n], benches[1], "s", False))
         wall(tune_job((4, 1), workers=1))  # its kernels cached
-        tunes = {n: wall(tune_job(budget, workers=n)) for n in counts}
+        tunes = median_walls({n: tune_job(budget, workers=n) for n in counts},
+                             args.wall_repeats)  # fmt: skip
         for n in counts:
             print(row("tune 003", n, tunes[n], tunes[1], "s", False))
         if not args.skip_ray:
