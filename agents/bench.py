@@ -39,29 +39,31 @@ A bad suite or a run folder of another suite raises ValueError before any cell r
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import json
 import math
 import os
 import sys
+import tempfile
 import time
 import warnings
 import zipfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 
 from agents._files import write_atomically
+from agents.bench_plots import scenario_plots
 from agents.evaluate import env_arguments, make_vector_env, run_episodes
 from agents.generalization import format_value, summary_rows
 from agents.generalization import markdown as summary_markdown
 from agents.parallel import Runner, runner
 from agents.policies import Policy
 from agents.suites import PolicySpec, ScenarioSpec, Suite, load_suite
-from contour_gym.envs.base import ContourVectorEnv
 from contour_gym.envs.core import FEEDRATE
 from contour_gym.loop import Trace
 
@@ -359,58 +361,6 @@ def csv_table(rows: Sequence[Mapping[str, Any]]) -> str:
     return buf.getvalue()
 
 
-# ---------------------------------------------------------------------------------- plots
-def auto_magnify(extent: float, worst: float) -> float:
-    """The 1-2-5 step that draws an error ``worst`` at 5 % of ``extent`` (at least 1).
-
-    >>> auto_magnify(0.04, 6e-6), auto_magnify(0.02, 4.6e-5), auto_magnify(0.01, 1.0)
-    (200.0, 20.0, 1.0)
-    """
-    if not (worst > 0.0 and math.isfinite(worst)):
-        return 1.0
-    target = 0.05 * extent / worst
-    if target <= 1.0:
-        return 1.0
-    decade = 10.0 ** math.floor(math.log10(target))
-    return max(m * decade for m in (1.0, 2.0, 5.0) if m * decade <= target)
-
-
-def scenario_plots(
-    scenario: ScenarioSpec, traces: Mapping[str, Trace], env: Any, folder: Path
-) -> list[Path]:
-    """Write a scenario's plots into ``folder``; returns the files.
-
-    ``<scenario>_contour.png``: the path and each policy's magnified contour beside
-    |contour error| against time; ``<scenario>_feedrate.png`` (feedrate scenarios): feedrate
-    against path length.
-
-    Args:
-        scenario: The scenario.
-        traces: Policy label -> its trace (of the first seed).
-        env: An env of the scenario (its path and contour placement).
-        folder: Where to write.
-    """
-    from contour_gym.render import contour_figure, feedrate_figure
-
-    task = cast(ContourVectorEnv, env.unwrapped).task
-    contour = task.stage.contours[0]
-    dense = task.path.point(np.linspace(0.0, task.path.length, 500))
-    extent = float(np.ptp(dense[:, :2], axis=0).max())
-    worst = max((float(np.nanmax(np.abs(tr.eps))) for tr in traces.values() if tr.eps.size),
-                default=0.0)  # fmt: skip
-    magnify = scenario.magnify or auto_magnify(extent, worst)
-    fig = contour_figure(task.path, traces, axes=contour.axes[:2],
-                         offset=(contour.offset or (0.0, 0.0))[:2], magnify=magnify)  # fmt: skip
-    fig.suptitle(f"{scenario.name} ({scenario.env_id})")
-    files = [folder / f"{scenario.name}_contour.png"]
-    write_atomically(files[0], lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
-    if scenario.task == FEEDRATE:
-        fig = feedrate_figure(traces, title=f"{scenario.name} ({scenario.env_id}): feedrate")
-        files.append(folder / f"{scenario.name}_feedrate.png")
-        write_atomically(files[-1], lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
-    return files
-
-
 # ------------------------------------------------------------------------------- progress
 class Progress:
     """A progress bar over the cells (tqdm if importable, else a carriage-return line)."""
@@ -534,12 +484,12 @@ def run_suite(
         pending = [key for key, note in notes.items() if not note and not folder.done(*key)]
         bar = Progress(len(notes), len(notes) - len(pending), progress)
         try:
-            computed = _run_cells(suite, pending, where, folder, bar)
+            computed, drawn = _run_cells(suite, pending, where, folder, bar)
         finally:
             bar.close()
             close_worker_envs()
         computed.sort(key=list(notes).index)  # the suite's order, wherever they ran
-        _draw_the_rest(suite, folder, where, {key[0] for key in computed})
+        _draw_the_rest(suite, folder, where, {key[0] for key in computed}, drawn)
     cells = {key: Cell(*key, note=note) if note else folder.load(*key, with_trace=False)
              for key, note in notes.items()}  # fmt: skip
     rows = table_rows(suite, cells)
@@ -551,13 +501,13 @@ def run_suite(
     return BenchResult(folder.root, rows, markdown, computed, time.perf_counter() - start)
 
 
-def _draw_the_rest(suite: Suite, folder: RunFolder, where: Runner, fresh: set[str]) -> None:
-    """Draw the plots the cells' units did not draw.
+def _draw_the_rest(suite: Suite, folder: RunFolder, where: Runner, fresh: set[str],
+                   drawn: set[str]) -> None:  # fmt: skip
+    """Draw the plots the cells' units did not draw (``drawn``: the scenarios they drew).
 
-    On a Ray cluster every scenario's, here (a node may not see this machine's files); else
-    those of the scenarios read back (when a plot file is missing).
+    Those of the scenarios read back (when a plot file is missing), and on a Ray cluster
+    those of a scenario whose unit ran only some of its cells (the rest were read back here).
     """
-    drawn = fresh if where.shares_files else set()
     units = [(suite, sc.name, folder.root, sc.name in fresh) for sc in suite.scenarios
              if sc.name not in drawn]  # fmt: skip
     for _ in (where if where.shares_files else Runner()).map(draw_scenario, units):
@@ -567,13 +517,17 @@ def _draw_the_rest(suite: Suite, folder: RunFolder, where: Runner, fresh: set[st
 def _run_cells(
     suite: Suite, pending: list[tuple[str, str]], where: Runner, folder: RunFolder,
     bar: Progress,
-) -> list[tuple[str, str]]:  # fmt: skip
-    """Run the pending cells on ``where``, each saved as it arrives; returns those computed.
+) -> tuple[list[tuple[str, str]], set[str]]:  # fmt: skip
+    """Run the pending cells on ``where``, each saved as it arrives.
 
     A unit is a scenario's pending cells (they share its envs and compiled kernels: one
     process loads them); on several workers, the scenarios with the most episodes first.
+
+    Returns:
+        The cells computed, and the scenarios whose plots their units drew.
     """
     computed: list[tuple[str, str]] = []
+    drawn: set[str] = set()
     root = folder.root if where.shares_files else None  # workers save their cells
     todo: dict[str, list[str]] = {}
     for scenario, label in pending:
@@ -583,15 +537,19 @@ def _run_cells(
     order = list(todo) if serial else sorted(todo, key=lambda n: -len(todo[n]) * seeds[n])
     bar.start(order[0] if serial and order else where.describe())
     units = [(suite, name, tuple(todo[name]), root) for name in order]
-    for i, cells in where.map(run_scenario, units):
+    for i, (cells, plots) in where.map(run_scenario, units):
         for cell in cells:
             if root is None:
                 folder.save(cell)
             computed.append((cell.scenario, cell.policy))
             bar.advance()
+        for name, png in plots.items():  # drawn on a node that may not see these files
+            write_atomically(folder.root / "plots" / name, functools.partial(_write_bytes, png))
+        if root is not None or plots:
+            drawn.add(order[i])
         if serial and i + 1 < len(order):
             bar.start(order[i + 1])
-    return computed
+    return computed, drawn
 
 
 # the envs of the scenarios a process ran cells of last (a worker process, or this one), so
@@ -616,28 +574,47 @@ def close_worker_envs() -> None:
         _WORKER_ENVS.popitem()[1].close()
 
 
-def run_scenario(unit: tuple[Suite, str, tuple[str, ...], Path | None]) -> list[Cell]:
+def run_scenario(
+    unit: tuple[Suite, str, tuple[str, ...], Path | None],
+) -> tuple[list[Cell], dict[str, bytes]]:  # fmt: skip
     """A unit of a bench run: cells ``labels`` of a suite's scenario (any process).
 
     With a run folder's ``root`` (a worker on this machine) the cells are saved there, the
     scenario's plots drawn, and the cells returned without their traces (no trace crosses
-    processes); else returned whole.
+    processes). Without (a node that may not see the folder) the cells are returned whole
+    and, when they are all of the scenario's, its plots too, as PNG files' bytes by name.
 
     Raises:
         ValueError: whatever building a policy or its env raises.
     """
     suite, scenario, labels, root = unit
     cells = [run_cell((suite, (scenario, label), root)) for label in labels]
-    if root is not None:  # the plots drawn here, with the traces in hand
-        folder = RunFolder(root, suite)
-        sc = suite.scenario(scenario)
-        drawn = {(sc.name, c.policy): c for c in cells}
-        drawn.update({(sc.name, label): folder.load(sc.name, label) for label in sc.policies
-                      if label not in labels and folder.done(sc.name, label)})  # fmt: skip
-        _plots(sc, drawn, folder, worker_envs(suite, scenario), fresh=True)
-        for cell in cells:
-            cell.trace = None
-    return cells
+    sc = suite.scenario(scenario)
+    if root is None:
+        return cells, _png_files(sc, cells, worker_envs(suite, scenario))
+    folder = RunFolder(root, suite)  # the plots drawn here, with the traces in hand
+    drawn = {(sc.name, c.policy): c for c in cells}
+    drawn.update({(sc.name, label): folder.load(sc.name, label) for label in sc.policies
+                  if label not in labels and folder.done(sc.name, label)})  # fmt: skip
+    _plots(sc, drawn, folder, worker_envs(suite, scenario), fresh=True)
+    for cell in cells:
+        cell.trace = None
+    return cells, {}
+
+
+def _png_files(sc: ScenarioSpec, cells: list[Cell], envs: EnvPool) -> dict[str, bytes]:
+    # a scenario's plots as PNG bytes by file name, when ``cells`` are all of its policies'
+    by_label = {c.policy: c.trace for c in cells if c.trace is not None}
+    env = envs.any_env()
+    if set(by_label) != set(sc.policies) or env is None:
+        return {}
+    traces = {label: by_label[label] for label in sc.policies}  # as drawn here: suite order
+    with tempfile.TemporaryDirectory() as tmp:
+        return {f.name: f.read_bytes() for f in scenario_plots(sc, traces, env, Path(tmp))}
+
+
+def _write_bytes(data: bytes, target: str) -> None:
+    Path(target).write_bytes(data)
 
 
 def run_cell(unit: tuple[Suite, tuple[str, str], Path | None]) -> Cell:

@@ -16,7 +16,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents.bench import run_cell, run_suite
+from agents.bench import _plot_names, run_cell, run_suite
 from agents.cli import main
 from agents.parallel import RAY_HINT, Processes, Runner, runner
 from agents.rl.sweep import parse_grid, run_trials, trials
@@ -251,6 +251,9 @@ def test_bench_tune_and_training_on_a_two_node_cluster_equal_a_local_run(
         remote_runs = run_trials(trials(ENV, ["ppo"], [0, 1], {}, tmp_path / "runs", STEPS),
                                  ray=cluster.address)  # fmt: skip
     assert episodes(tmp_path / "ray") == local_bench
+    suite = load_suite(SUITE)  # each scenario's plots, drawn on the nodes and written here
+    assert sorted(p.name for p in (tmp_path / "ray" / "plots").iterdir()) == sorted(
+        name for sc in suite.scenarios for name in _plot_names(sc))
     assert remote_tune.params == local_tune.params
     assert remote_tune.history == local_tune.history
     assert [weights(r) for r in remote_runs] == [weights(r) for r in parallel_runs]
