@@ -74,19 +74,25 @@ def draw_path(rng: np.random.Generator, stage: Stage, options: Mapping[str, Any]
     state and the options: a draw from the same state returns the same (immutable) path and
     leaves ``rng`` in the state the draw would have left it, so results are bit for bit those
     of drawing again. A bench scenario's policies each run the same seeded paths (a free-form
-    curve takes 30-200 ms to fit) and a vector env's members reset to the same seeds.
+    curve takes 10-35 ms to fit) and a vector env's members reset to the same seeds.
     """
+    kind: Any = type(getattr(rng, "bit_generator", None))
+    key: tuple[Any, ...] | None
     try:
-        key = (type(rng.bit_generator), pickle.dumps(rng.bit_generator.state), stage.dim,
-               _frozen(options))
+        key = (kind, pickle.dumps(rng.bit_generator.state), stage.dim, _frozen(options))
         hash(key)
     except (TypeError, AttributeError, pickle.PicklingError):  # options of no fixed value
+        key = None
+    if key is None or kind not in _NUMPY_BIT_GENERATORS:  # a generator of one's own: drawn
         return random_path(rng, dim=stage.dim, **options)
     path, after = _draw(*key)
     rng.bit_generator.state = after
     return path
 
 
+# the bit generators a kept draw can rebuild from their state alone
+_NUMPY_BIT_GENERATORS = (np.random.PCG64, np.random.PCG64DXSM, np.random.MT19937,
+                         np.random.Philox, np.random.SFC64)  # fmt: skip
 DRAWS_KEPT = 64  # random paths a process keeps (100-160 kB each for the free-form curves)
 
 
