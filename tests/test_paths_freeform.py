@@ -177,3 +177,20 @@ def test_bspline_stationary_point_inside_is_rejected():
     ctrl = np.array([[0, 0], [0.01, 0], [0.01, 0], [0.01, 0], [0.02, 0.01]])
     with pytest.raises(ValueError, match="stationary|cannot fit"):
         cgp.bspline(ctrl, np.r_[[0] * 4, 0.5, [1] * 4], 3)
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_the_compiled_chebyshev_series_equals_numpys(dim: int) -> None:
+    # the fitting's compiled Clenshaw recurrence against numpy's chebval, piece by piece
+    from numpy.polynomial import chebyshev
+
+    from contour_gym.paths._batch import chebyshev_many
+
+    rng = np.random.default_rng(dim)
+    coef = rng.normal(size=(4, 25, dim))
+    piece = rng.integers(0, 4, 200)
+    x = rng.uniform(-1.0, 1.0, 200)
+    out = np.empty((200, dim))
+    chebyshev_many(coef, piece, x, out)
+    expected = np.array([chebyshev.chebval(x[k], coef[piece[k]]) for k in range(200)])
+    np.testing.assert_allclose(out, expected, rtol=1e-12, atol=1e-12)
