@@ -100,17 +100,20 @@ class _ChebPieces(_Curve):
         self.d2 = cheb.chebder(self.d1, axis=1) * scale[:, None, None]
 
     def eval(self, piece: IntArray, u: FloatArray) -> Triple:
-        a = self.breaks[piece]
-        b = self.breaks[piece + 1]
-        x = ((2.0 * u - a - b) / (b - a))[:, None]
+        x = self._local(piece, u)
         return (_pad(_clenshaw(self.coef, piece, x)), _pad(_clenshaw(self.d1, piece, x)),
                 _pad(_clenshaw(self.d2, piece, x)))
 
     def velocity(self, piece: IntArray, u: FloatArray) -> FloatArray:
         # one series of three: the arc-length quadrature needs the speed only
+        return _pad(_clenshaw(self.d1, piece, self._local(piece, u)))
+
+    def _local(self, piece: IntArray, u: FloatArray) -> FloatArray:
+        # u in each piece's Chebyshev variable, in [-1, 1]
         a = self.breaks[piece]
         b = self.breaks[piece + 1]
-        return _pad(_clenshaw(self.d1, piece, ((2.0 * u - a - b) / (b - a))[:, None]))
+        x: FloatArray = (2.0 * u - a - b) / (b - a)
+        return x
 
 
 class _Analytic(_Curve):
@@ -134,9 +137,10 @@ def _pad(v: FloatArray) -> FloatArray:
 
 
 def _clenshaw(coef: FloatArray, piece: IntArray, x: FloatArray) -> FloatArray:
+    # the series coef[piece[k]] at x[k] (N,) -> (N, dim)
     out = np.empty((piece.shape[0], coef.shape[2]))
     chebyshev_many(np.ascontiguousarray(coef), piece.astype(np.int64, copy=False),
-                   np.ascontiguousarray(x[:, 0]), out)
+                   np.ascontiguousarray(x), out)
     return out
 
 
