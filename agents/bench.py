@@ -39,7 +39,6 @@ A bad suite or a run folder of another suite raises ValueError before any cell r
 from __future__ import annotations
 
 import csv
-import functools
 import io
 import json
 import math
@@ -51,12 +50,13 @@ import warnings
 import zipfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
+from operator import methodcaller
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from agents._files import write_atomically
+from agents._files import write_atomically, write_handle_atomically
 from agents.bench_plots import scenario_plots
 from agents.evaluate import env_arguments, make_vector_env, run_episodes
 from agents.generalization import format_value, summary_rows
@@ -544,7 +544,7 @@ def _run_cells(
             computed.append((cell.scenario, cell.policy))
             bar.advance()
         for name, png in plots.items():  # drawn on a node that may not see these files
-            write_atomically(folder.root / "plots" / name, functools.partial(_write_bytes, png))
+            write_handle_atomically(folder.root / "plots" / name, methodcaller("write", png))
         if root is not None or plots:
             drawn.add(order[i])
         if serial and i + 1 < len(order):
@@ -611,10 +611,6 @@ def _png_files(sc: ScenarioSpec, cells: list[Cell], envs: EnvPool) -> dict[str, 
     traces = {label: by_label[label] for label in sc.policies}  # as drawn here: suite order
     with tempfile.TemporaryDirectory() as tmp:
         return {f.name: f.read_bytes() for f in scenario_plots(sc, traces, env, Path(tmp))}
-
-
-def _write_bytes(data: bytes, target: str) -> None:
-    Path(target).write_bytes(data)
 
 
 def run_cell(unit: tuple[Suite, tuple[str, str], Path | None]) -> Cell:

@@ -12,7 +12,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from agents._files import write_atomically
+from agents._files import save_figure
 from agents.suites import ScenarioSpec
 from contour_gym.envs.base import ContourVectorEnv
 from contour_gym.envs.core import FEEDRATE
@@ -62,9 +62,9 @@ def scenario_plots(
                          offset=(contour.offset or (0.0, 0.0))[:2], magnify=magnify)  # fmt: skip
     fig.suptitle(f"{scenario.name} ({scenario.env_id})")
     files = [folder / f"{scenario.name}_contour.png"]
-    write_atomically(files[0], lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
+    save_figure(fig, files[0], dpi=100)
     if scenario.task == FEEDRATE:
         fig = feedrate_figure(traces, title=f"{scenario.name} ({scenario.env_id}): feedrate")
         files.append(folder / f"{scenario.name}_feedrate.png")
-        write_atomically(files[-1], lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
+        save_figure(fig, files[-1], dpi=100)
     return files

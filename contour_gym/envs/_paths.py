@@ -74,18 +74,18 @@ def draw_path(rng: np.random.Generator, stage: Stage, options: Mapping[str, Any]
     state and the options: a draw from the same state returns the same (immutable) path and
     leaves ``rng`` in the state the draw would have left it, so results are bit for bit those
     of drawing again. A bench scenario's policies each run the same seeded paths (a free-form
-    curve takes 10-35 ms to fit) and a vector env's members reset to the same seeds.
+    curve takes 10-35 ms to fit). Anything else (not a generator of numpy's own bit
+    generators, options of no fixed value) is drawn anew.
     """
     kind: Any = type(getattr(rng, "bit_generator", None))
-    key: tuple[Any, ...] | None
     try:
-        key = (kind, pickle.dumps(rng.bit_generator.state), stage.dim, _frozen(options))
-        hash(key)
-    except (TypeError, AttributeError, pickle.PicklingError):  # options of no fixed value
-        key = None
-    if key is None or kind not in _NUMPY_BIT_GENERATORS:  # a generator of one's own: drawn
+        frozen = _frozen(options)
+        hash(frozen)
+    except TypeError:
+        kind = None
+    if kind not in _NUMPY_BIT_GENERATORS:
         return random_path(rng, dim=stage.dim, **options)
-    path, after = _draw(*key)
+    path, after = _draw(kind, pickle.dumps(rng.bit_generator.state), stage.dim, frozen)
     rng.bit_generator.state = after
     return path
 
