@@ -17,7 +17,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv  # noqa: E402
 import agents.rl.train as rl_train  # noqa: E402
 from agents import policies  # noqa: E402
 from agents.rl.config import algo_class, load_config  # noqa: E402
-from agents.rl.saved import SavedAgent, register_saved_agents  # noqa: E402
+from agents.rl.saved import SavedAgent, SB3Policy, register_saved_agents  # noqa: E402
 from agents.rl.train import latest_checkpoint, load_checkpoint, read_curve, train  # noqa: E402
 from agents.rl.train_shipped import export_agent, load_shipped  # noqa: E402
 from agents.rl.vec_env import make_native_vec_env  # noqa: E402
@@ -293,6 +293,30 @@ def test_saved_agents_share_a_model_until_its_file_changes(agent_dir, tmp_path):
     os.utime(model, ns=(model.stat().st_atime_ns, model.stat().st_mtime_ns + 10**9))
     after = SavedAgent(copy)
     assert after.model is not before.model  # rewritten: read again
+
+
+def test_saved_agent_acts_as_the_fully_loaded_model(agent_dir):
+    # loaded to act (no optimizer): the same weights and actions as stable-baselines3's load
+    agent = SavedAgent(agent_dir)
+    full = algo_class("ppo").load(agent_dir / "model.zip", device="cpu")
+    for name, tensor in full.policy.state_dict().items():
+        assert torch.equal(agent.model.policy.state_dict()[name], tensor), name
+    venv = gym.make_vec(CCC, num_envs=2, vectorization_mode="vector_entry_point",
+                        **agent.env_kwargs)  # fmt: skip
+    plain = SB3Policy(full, agent.normalizer, agent.env_kwargs)
+    agent.reset(venv)
+    plain.reset(venv)
+    obs, _ = venv.reset(seed=1)
+    np.testing.assert_array_equal(agent.act(obs), plain.act(obs))
+
+
+def test_loading_an_agent_to_act_does_not_import_torch_dynamo(agent_dir):
+    # torch's optimizers import torch._dynamo when first made: ~1 s of a process's start
+    code = ("import sys; from agents.rl.saved import SavedAgent; "
+            f"SavedAgent({str(agent_dir)!r}); print('torch._dynamo' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
+                          text=True, check=True)  # fmt: skip
+    assert done.stdout.strip() == "False"
 
 
 def test_saved_agent_registers_by_name(agent_dir):

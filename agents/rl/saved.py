@@ -200,7 +200,8 @@ class SavedAgent(SB3Policy):
         deterministic: Act on the mean action (True) or sample.
 
     The model and its statistics are read once per process and shared by the agents made from
-    the same unchanged files (train a copy, not :attr:`model`, to fine-tune one).
+    the same unchanged files. The model is loaded to act (:func:`load_for_acting`: it has no
+    optimizer); to fine-tune an agent, load its ``model.zip`` with the algorithm's ``load``.
 
     Raises:
         ValueError: for a missing model or meta file (naming the path), or a meta file without
@@ -259,8 +260,41 @@ def _loaded(
     Acting changes neither (the state of a recurrent policy lives in its :class:`SB3Policy`),
     so every policy made from the same files shares them: a bench run makes one per cell.
     """
-    model = algo.load_class().load(model_path, device="cpu")
+    model = load_for_acting(algo.load_class(), model_path)
     return model, None if stats_stamp is None else load_normalizer(stats)
+
+
+class _NoOptimizer:
+    """What a model loaded to act has for an optimizer: none that keeps state or steps.
+
+    Making torch's own (stable-baselines3's policies make an Adam as they are built) imports
+    ``torch._dynamo`` on its first call, in every process: 0.8-1.3 s measured, more than the
+    rest of loading a saved agent.
+    """
+
+    def __init__(self, params: Any, **kwargs: Any) -> None:
+        del params, kwargs
+
+    def load_state_dict(self, state: Any, strict: bool = True) -> None:
+        """Drop the saved optimizer's state (acting does not use it)."""
+        del state, strict
+
+    def state_dict(self) -> dict[str, Any]:
+        """No state."""
+        return {}
+
+
+def load_for_acting(cls: Any, path: Path) -> Any:
+    """A stable-baselines3 model of class ``cls`` loaded from ``path`` on the CPU, to act only.
+
+    The same weights and :meth:`predict` as ``cls.load(path)``; its policy's optimizer is a
+    stand-in (:class:`_NoOptimizer`), so the model cannot be trained further.
+    """
+    from stable_baselines3.common.save_util import load_from_zip_file
+
+    data, _, _ = load_from_zip_file(path, device="cpu")
+    kwargs = {**((data or {}).get("policy_kwargs") or {}), "optimizer_class": _NoOptimizer}
+    return cls.load(path, device="cpu", custom_objects={"policy_kwargs": kwargs})
 
 
 def load_normalizer(path: Path) -> Any:
