@@ -191,6 +191,24 @@ def test_tuning_on_random_paths_draws_each_scenarios_path_from_its_seed():
         PopulationObjective(dataclasses.replace(_protocol(), scenario_kwargs=bad))
 
 
+def test_the_general_tuning_paths_are_four_of_each_family_and_the_suite_runs_them():
+    from agents.tune.papers import GENERAL_FAMILY_SEEDS_000, GENERAL_SEEDS_000
+    from contour_gym.paths import PATH_FAMILIES
+
+    assert set(GENERAL_FAMILY_SEEDS_000) == set(PATH_FAMILIES)
+    cases = PopulationObjective(get_protocol("000_general")).cases
+    drawn = {c.name: c.scenario.path.name for c in cases}
+    for family, seeds in GENERAL_FAMILY_SEEDS_000.items():
+        assert len(seeds) == 4
+        assert all(drawn[f"000-random-{s}"] == f"random_{family}" for s in seeds), family
+    tuned = load_suite("generalization").scenario("000tuned-random")
+    assert tuned.seeds == GENERAL_SEEDS_000  # the suite's seen group: these paths
+    env = gym.make("contour_gym/CCC-v1", plant="xy_dc_servo", path="random")
+    for case in cases[:3]:  # each seed's path is the one env.reset(seed=...) runs
+        env.reset(seed=int(case.name.rsplit("-", 1)[1]))
+        assert env.unwrapped.task.loop.paths[0] is case.scenario.path
+
+
 def test_the_chattering_bound_fails_what_chatters_more_than_the_untuned_law():
     objective = PopulationObjective(_protocol(chatter_bound=1.0))
     names = objective.protocol.names

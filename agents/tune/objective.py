@@ -47,6 +47,7 @@ from agents.tune.setters import SETTERS
 from contour_gym.api import Scenario
 from contour_gym.ccc import CCC_LAWS
 from contour_gym.envs.config import EnvConfig
+from contour_gym.envs.core import member_rngs
 from contour_gym.loop import ServoLoop
 from contour_gym.tasks import TASKS
 from contour_gym.threads import available_cpus
@@ -77,7 +78,8 @@ def _case(
         if not isinstance(path_seed, int) or isinstance(path_seed, bool):
             raise ValueError(f"scenario {name!r} runs a random path: give its int path_seed, "
                              f"got {path_seed!r}")  # fmt: skip
-        scenario = config.random_scenario(np.random.default_rng(path_seed), TASKS.get("ccc"))
+        rng = member_rngs(path_seed, 1)[0]  # the path env.reset(seed=path_seed) runs
+        scenario = config.random_scenario(rng, TASKS.get("ccc"), as_reset=True)
     else:
         scenario = config.scenario()
     preset = scenario.preset

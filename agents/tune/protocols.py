@@ -77,8 +77,9 @@ class Protocol:
         scenario_kwargs: Scenario -> env keyword arguments overriding the id's own for this
             protocol (e.g. a shorter window: ``{"laps": 1}``). A scenario is a registered env
             id, or a name of your choosing whose kwargs name the id (``"id"``); on random
-            paths (``"path": "random"``) its one path is drawn from ``"path_seed"``, as the
-            env draws it, so several paths of one id are several named scenarios.
+            paths (``"path": "random"``) its one path is the one ``env.reset(seed=path_seed)``
+            runs (on an env without ``randomize``), so several paths of one id are several
+            named scenarios, and a suite runs the same paths with ``seeds``.
         chatter_bound: A candidate whose chattering (total variation of the control command)
             on a scenario exceeds ``chatter_bound`` times that of the law's own defaults
             (:attr:`reference`) there fails on it. None: unbounded.

@@ -90,6 +90,20 @@ def draw_path(rng: np.random.Generator, stage: Stage, options: Mapping[str, Any]
     return path
 
 
+def reset_draws(rng: np.random.Generator, stage: Stage, options: Mapping[str, Any] | None
+                ) -> tuple[int, Any]:  # fmt: skip
+    """What a member draws from its generator at a reset, after its machine's randomisation.
+
+    Its servo loop's seed, then, on random paths (``options`` not None), its path (drawn last,
+    so that the streams of envs on fixed paths stay as they were).
+
+    Returns:
+        The loop's seed and the path (None on a fixed path).
+    """
+    seed = int(rng.integers(2**63 - 1))
+    return seed, None if options is None else draw_path(rng, stage, options)
+
+
 # the bit generators a kept draw can rebuild from their state alone
 _NUMPY_BIT_GENERATORS = (np.random.PCG64, np.random.PCG64DXSM, np.random.MT19937,
                          np.random.Philox, np.random.SFC64)  # fmt: skip

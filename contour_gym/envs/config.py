@@ -13,7 +13,13 @@ from contour_gym._envstate import OBSERVATIONS
 from contour_gym._validate import as_finite_array, choice, non_negative, positive
 from contour_gym.api import Scenario, make_scenario
 from contour_gym.ccc import INJECTIONS
-from contour_gym.envs._paths import RANDOM, check_path_options, draw_path, path_options
+from contour_gym.envs._paths import (
+    RANDOM,
+    check_path_options,
+    draw_path,
+    path_options,
+    reset_draws,
+)
 from contour_gym.motion import PATH_CONTROLS
 from contour_gym.paths import Path
 from contour_gym.presets import Preset, resolve_preset
@@ -213,16 +219,31 @@ class EnvConfig:
         """The arguments of each random path draw on ``preset``, with the task's ``defaults``."""
         return path_options(preset.stage, defaults, self.path_options)
 
-    def random_scenario(self, rng: np.random.Generator, task: Task) -> Scenario:
+    def random_scenario(
+        self, rng: np.random.Generator, task: Task, *, as_reset: bool = False
+    ) -> Scenario:
         """The scenario of one random path drawn from ``rng``, as the env runs it for ``task``.
 
         The task's path defaults (:meth:`Task.path_defaults`) under the env's
         ``path_options``, and its path control (:meth:`Task.random_path_control`) where the
         env names none. For tuning on random paths (:mod:`agents.tune`) as the env trains.
+
+        Args:
+            rng: The generator the path is drawn from.
+            task: The env's task.
+            as_reset: Draw as an env's reset does (:func:`~contour_gym.envs._paths.reset_draws`):
+                from a generator seeded ``s``, the path ``env.reset(seed=s)`` runs.
+
+        Raises:
+            ValueError: for ``as_reset`` with a randomised machine (its draws come first).
         """
         preset = resolve_preset(self.plant)
         options = self.path_options_for(preset, task.path_defaults(preset))
-        path = draw_path(rng, preset.stage, options)
+        if as_reset and self.randomization() is not None:
+            raise ValueError("as_reset draws the path of an env without randomize; "
+                             f"got randomize={self.randomize!r}")  # fmt: skip
+        path = reset_draws(rng, preset.stage, options)[1] if as_reset else draw_path(
+            rng, preset.stage, options)  # fmt: skip
         return self.scenario(path=path, **task.random_path_control(self.tolerance_for(preset)))
 
     def scenario(self, path: Path | None = None, **defaults: Any) -> Scenario:

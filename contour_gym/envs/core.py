@@ -27,7 +27,7 @@ from contour_gym._envstate import EC, ENV_CONFIG, ENV_FLOATS, OBS_LIMIT, OBSERVA
 from contour_gym._loopstate import LS, REASON_HARD_LIMIT, STATUS_ARRIVED
 from contour_gym._validate import seed_value
 from contour_gym.api import Scenario
-from contour_gym.envs._paths import draw_path
+from contour_gym.envs._paths import reset_draws
 from contour_gym.envs.config import EnvConfig
 from contour_gym.metrics import member_metrics
 from contour_gym.motion import IS
@@ -329,9 +329,10 @@ class ContourTask:
         for b, rng in zip(members, rngs, strict=True):
             self.rngs[b] = rng
             self._randomize(int(b), rng)
-            seeds.append(int(rng.integers(2**63 - 1)))
-            if self.path_options is not None:  # drawn last: fixed-path streams stay as they were
-                paths.append(draw_path(rng, self.stage, self.path_options))
+            seed, path = reset_draws(rng, self.stage, self.path_options)
+            seeds.append(seed)
+            if path is not None:
+                paths.append(path)
         if paths:
             self.loop.set_paths(paths, members=members)
             self._member_constants(members)
