@@ -163,7 +163,7 @@ def run_episodes(
                          f"(make_vector_env(..., record=True)); the env has {n} member(s), "
                          f"recording {task.loop.record}")  # fmt: skip
     start = task.loop.tick  # a reset restarts the members, not the loop's clock or record
-    obs, _ = venv.reset(seed=seed)
+    obs, _ = venv.reset(seed=seed, options={"keep_paths": True})  # later episodes are unused
     policy.reset(venv)
     out = _episodes(venv, policy, obs, n)
     out["tolerance"] = np.full(n, task.tolerance)

@@ -175,6 +175,35 @@ def test_vector_env_members_equal_single_envs_on_random_paths():
     assert resets > 0  # members drew new paths on the way
 
 
+def test_keep_paths_restarts_ended_members_on_their_paths_and_leaves_first_episodes_alone():
+    kw = {"path": "random", "path_options": {**SHORT, "family": "polyline"},
+          "decision_ticks": 100}  # fmt: skip
+    runs = {}
+    for keep in (False, True, None):  # None: keep_paths, then a full reset without it
+        venv: VectorEnv = gym.make_vec("contour_gym/CCC-v0", num_envs=2, **kw)
+        task = venv.unwrapped.task
+        venv.reset(seed=3, options={"keep_paths": keep is not False})
+        if keep is None:
+            venv.reset(seed=3)
+        first = list(task.loop.paths)
+        rewards, starts = [], []
+        for _ in range(60):  # past each member's first episode
+            _, reward, term, trunc, _ = venv.step(np.zeros((2, venv.single_action_space.shape[0])))
+            rewards.append(reward.copy())
+            starts.append(term | trunc)
+        ended = np.logical_or.reduce(starts)
+        assert ended.all()
+        same = [a is b for a, b in zip(first, task.loop.paths, strict=True)]
+        assert same == ([True, True] if keep else [False, False])
+        runs[keep] = np.array(rewards), np.argmax(starts, axis=0)
+    with pytest.raises(ValueError, match=r"keep_paths.*got 1"):
+        venv.reset(seed=3, options={"keep_paths": 1})
+    (plain, ends), (kept, kept_ends) = runs[False], runs[True]
+    np.testing.assert_array_equal(ends, kept_ends)
+    for b, end in enumerate(ends):  # each member's first episode, bit for bit
+        np.testing.assert_array_equal(plain[: end + 1, b], kept[: end + 1, b])
+
+
 def test_feedrate_env_random_paths_are_programmed_within_the_default_range():
     env = gym.make("contour_gym/Feedrate-v0", path="random", path_options=SHORT)
     top = env.unwrapped.task.preset.max_feedrate

@@ -173,6 +173,14 @@ def _reset_mask(options: dict[str, Any] | None, n: int) -> NDArray[np.bool_] | N
     return mask
 
 
+def _keep_paths(options: dict[str, Any] | None) -> bool:
+    """``options["keep_paths"]`` checked (a bool; False when absent)."""
+    keep = (options or {}).get("keep_paths", False)
+    if not isinstance(keep, (bool, np.bool_)):
+        raise ValueError(f"options['keep_paths'] must be a bool, got {keep!r}")
+    return bool(keep)
+
+
 class ContourVectorEnv(GainsMap, VectorEnv):
     """Base of the native vector envs: one batched array program over ``num_envs`` members.
 
@@ -183,7 +191,11 @@ class ContourVectorEnv(GainsMap, VectorEnv):
     ``VectorEnv._add_info`` batches the members' infos, every key with its ``_key`` mask).
     A member whose episode ended and that is reset by ``reset(options={"reset_mask": ...})``
     before the next step starts its new episode there (as a same-step caller, e.g. an SB3
-    ``VecEnv`` adapter, does) and is not reset again by the auto-reset.
+    ``VecEnv`` adapter, does) and is not reset again by the auto-reset. On random paths, a
+    full reset with ``options={"keep_paths": True}`` makes each auto-reset until the next full
+    reset restart the member on the path it ran, drawing none: for an evaluation that uses
+    each member's first episode only (:func:`agents.evaluate.run_episodes`), the paths nobody
+    runs are not drawn.
 
     ``num_threads`` (a constructor argument beside ``num_envs``): the threads the members step
     on, each over a contiguous part of the batch (the kernel holds no GIL). None (default):
@@ -223,6 +235,7 @@ class ContourVectorEnv(GainsMap, VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self._prev_done = np.zeros(num_envs, dtype=bool)
         self._started = False
+        self._keep_paths = False  # options["keep_paths"] of the last full reset
 
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
@@ -235,14 +248,19 @@ class ContourVectorEnv(GainsMap, VectorEnv):
         are, and without a seed continues each reset member's generator, as the auto-reset and
         a single env's ``reset()`` do. The observation and info are every member's.
 
+        ``options["keep_paths"]`` (a full reset's): see the class docstring.
+
         Raises:
-            ValueError: for a reset mask that is not a bool array (num_envs,) with a True.
+            ValueError: for a reset mask that is not a bool array (num_envs,) with a True, or
+                a ``keep_paths`` that is not a bool.
             ResetNeeded: for a partial reset without a seed before the first full reset.
         """
         mask = _reset_mask(options, self.num_envs)
+        keep = _keep_paths(options)
         if mask is None:
             members = np.arange(self.num_envs)
             rngs = member_rngs(seed, self.num_envs)
+            self._keep_paths = keep
         else:
             if seed is None and not self._started:
                 raise ResetNeeded("a partial reset without a seed needs a full reset() first")
@@ -270,7 +288,8 @@ class ContourVectorEnv(GainsMap, VectorEnv):
         restart = self._prev_done.copy()
         if restart.any():
             idx = np.flatnonzero(restart)
-            self.task.reset_members(idx, [self.task.rngs[i] for i in idx])
+            self.task.reset_members(idx, [self.task.rngs[i] for i in idx],
+                                    keep_paths=self._keep_paths)  # fmt: skip
         self.task.step(a, restart)
         reward, terminated, truncated, _ = self.task.results()
         self._prev_done = terminated | truncated

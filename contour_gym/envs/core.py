@@ -323,13 +323,19 @@ class ContourTask:
         return self.gain_map.to_action(gains)
 
     # ----------------------------------------------------------------- reset
-    def reset_members(self, members: NDArray[np.intp], rngs: list[np.random.Generator]) -> None:
-        """Start new episodes for ``members`` with their generators ``rngs``."""
+    def reset_members(
+        self, members: NDArray[np.intp], rngs: list[np.random.Generator], keep_paths: bool = False
+    ) -> None:
+        """Start new episodes for ``members`` with their generators ``rngs``.
+
+        ``keep_paths``: on random paths, each member runs its path again (none is drawn).
+        """
         seeds, paths = [], []
+        options = None if keep_paths else self.path_options
         for b, rng in zip(members, rngs, strict=True):
             self.rngs[b] = rng
             self._randomize(int(b), rng)
-            seed, path = reset_draws(rng, self.stage, self.path_options)
+            seed, path = reset_draws(rng, self.stage, options)
             seeds.append(seed)
             if path is not None:
                 paths.append(path)
