@@ -142,6 +142,43 @@ def test_empty_aggregate_gives_the_middle_of_the_output_universe() -> None:
         F.reference_evaluate(system, x, vectorised=True)
 
 
+def _small_system(points: int) -> F.FuzzySystem:
+    sets = three_triangles(-1.0, 1.0)
+    out = F.Variable("y", 0.0, 2.0, three_triangles(0.0, 2.0), n_points=101)
+    rules = tuple(F.Rule((a, b), (b,)) for a in ("N", "Z", "P") for b in ("N", "Z", "P"))
+    inputs = (F.Variable("a", -1.0, 1.0, sets, 101), F.Variable("b", -1.0, 1.0, sets, 101))
+    return F.FuzzySystem("stored", F.MAMDANI, inputs, (out,), rules, surface_points=points)
+
+
+def test_a_stored_surface_is_the_tabulated_one_bit_for_bit(tmp_path, monkeypatch) -> None:
+    from agents.fuzzy import compiled as C
+
+    tabulated = []
+
+    def tabulate(system: F.FuzzySystem):  # type: ignore[no-untyped-def]
+        sampled = C.SampledVariables.of
+        base = C.CompiledMamdani(system, sampled(system.inputs), sampled(system.outputs),
+                                 system.antecedent_indices(), system.consequent_indices())
+        return C.stored_surface(base, lambda: tabulated.append(1) or base._surface())
+
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path))
+    first, again = tabulate(_small_system(31)), tabulate(_small_system(31))
+    assert tabulated == [1]  # the second read the stored file
+    for name in C.SURFACE_FIELDS:
+        stored, fresh = getattr(again, name), getattr(first, name)
+        assert stored.dtype == fresh.dtype and np.array_equal(stored, fresh), name
+    tabulate(_small_system(33))  # another node count: another file
+    files = sorted((tmp_path / "fuzzy_surfaces").iterdir())
+    assert len(tabulated) == 2 and len(files) == 2
+    for file in files:
+        file.write_bytes(b"not an npz")  # unreadable: tabulated again, and stored
+    tabulate(_small_system(31))
+    assert len(tabulated) == 3 and tabulate(_small_system(31)) and len(tabulated) == 3
+    monkeypatch.setattr(numba.config, "CACHE_DIR", "")  # no cache folder: tabulated
+    tabulate(_small_system(31))
+    assert len(tabulated) == 4
+
+
 def test_three_input_mamdani_has_no_surface_and_uses_exact() -> None:
     sets = three_triangles(-1.0, 1.0)
     inputs = tuple(F.Variable(n, -1.0, 1.0, sets, 101) for n in "abc")

@@ -8,14 +8,22 @@ kernels of :mod:`agents.fuzzy.kernels` read (:class:`SampledVariables`), with th
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import hashlib
+from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agents._files import write_handle_atomically
+from agents.fuzzy import kernels
 from agents.fuzzy.kernels import _mamdani_exact_batch, _product_batch, _surface_batch
 from agents.fuzzy.system import PRODUCT, Array, FuzzySystem, IntArray, Variable, check_inputs
+from contour_gym._compile import code_digest
 from contour_gym.params import as_finite_array, choice
 
 
@@ -127,7 +135,15 @@ class CompiledMamdani:
         return out
 
     def with_surface(self) -> CompiledMamdani:
-        """A copy with the surface tabulated on ``system.surface_points`` nodes per input."""
+        """A copy with the surface tabulated on ``system.surface_points`` nodes per input.
+
+        The surface is kept in the compiled code's cache folder (:func:`stored_surface`): a
+        process after the first reads it instead of tabulating it again.
+        """
+        surface = stored_surface(self, self._surface)
+        return CompiledMamdani(self.system, self.inputs, self.outputs, self.ant, self.cons, surface)
+
+    def _surface(self) -> Surface:
         g = int(self.system.surface_points)
         nodes = [np.linspace(v.low, v.high, g) for v in self.system.inputs]
         at_nodes = self._raw_grid(nodes[0], nodes[1])
@@ -137,8 +153,7 @@ class CompiledMamdani:
         flips = (np.abs(back - at_mids) < np.abs(slash - at_mids)).astype(np.uint8)
         grid = np.array([[v.low, (v.high - v.low) / (g - 1)] for v in self.system.inputs])
         empty = np.array([0.5 * (v.low + v.high) for v in self.system.outputs])
-        surface = Surface(at_nodes, flips, grid.ravel(), empty)
-        return CompiledMamdani(self.system, self.inputs, self.outputs, self.ant, self.cons, surface)
+        return Surface(at_nodes, flips, grid.ravel(), empty)
 
     def _raw_grid(self, n0: Array, n1: Array) -> Array:
         # (n_out, 2, len(n0), len(n1)) moment and area on the grid n0 x n1
@@ -164,6 +179,53 @@ class CompiledProduct:
     inputs: SampledVariables
     ant: IntArray
     theta0: Array
+
+
+SURFACE_FIELDS = ("tables", "flips", "grid", "empty")
+
+
+def stored_surface(compiled: CompiledMamdani, tabulate: Callable[[], Surface]) -> Surface:
+    """The surface of ``compiled``: read from the cache folder, else ``tabulate()`` and stored.
+
+    Tabulating 000's fuzzy PID CCC's two surfaces takes 0.5 s, in every process that runs
+    the law (each bench or test worker). The file is named by a digest of everything the
+    surface is computed from: the kernel arrays, the node count and the code of
+    :mod:`agents.fuzzy.kernels` and of this module (docstrings and comments aside), so a
+    change to any of them tabulates anew. The folder is numba's cache folder
+    (``numba.config.CACHE_DIR``: ``NUMBA_CACHE_DIR``, or the one :mod:`contour_gym._compile`
+    chooses); without one, or where it cannot be read or written, the surface is tabulated.
+    """
+    folder = str(getattr(numba.config, "CACHE_DIR", "") or "")
+    if not folder:
+        return tabulate()
+    target = Path(folder) / "fuzzy_surfaces" / f"{_surface_digest(compiled)}.npz"
+    try:
+        with np.load(target, allow_pickle=False) as stored:
+            return Surface(*(stored[name] for name in SURFACE_FIELDS))
+    except (OSError, KeyError, ValueError):
+        pass  # not stored yet, or unreadable: tabulate (and store) it
+    surface = tabulate()
+    arrays = {name: getattr(surface, name) for name in SURFACE_FIELDS}
+    with contextlib.suppress(OSError):
+        write_handle_atomically(target, lambda handle: np.savez(handle, **arrays))
+    return surface
+
+
+def _surface_digest(compiled: CompiledMamdani) -> str:
+    digest = hashlib.sha256(_code_digest().encode())
+    i, o = compiled.inputs, compiled.outputs
+    parts = (i.mf, i.meta, i.support, o.mf, o.meta, o.support, compiled.ant, compiled.cons,
+             np.array([compiled.system.surface_points]))  # fmt: skip
+    for part in parts:
+        digest.update(f"{part.dtype}{part.shape}".encode())
+        digest.update(np.ascontiguousarray(part).tobytes())
+    return digest.hexdigest()[:32]
+
+
+@functools.cache
+def _code_digest() -> str:
+    sources = (Path(kernels.__file__), Path(__file__))
+    return "".join(code_digest(path.read_text(encoding="utf-8")) for path in sources)
 
 
 @functools.lru_cache(maxsize=32)
