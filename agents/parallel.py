@@ -159,18 +159,24 @@ def _init_worker(*modules: str, filters: list[Any] | None = None) -> None:
 class Processes(Runner):
     """``workers`` at once: this process (on a thread) and ``workers - 1`` worker processes.
 
-    This process takes the first unit at once, while the spawned workers start (each a new
-    interpreter that imports what the units need: ~3-4 s for a bench scenario's); each slot
-    takes the next unit when it is free. Measured on the default bench suite (53 episodes,
-    ``benchmarks/scaling.py``): two spawned workers and an idle parent took 15.3 s against
-    14.2 s for one process; this process and one worker, 14.0 s against 14.5 s (12.2 s
-    against 14 s once processes exited quickly, :func:`exit_quickly`).
+    This process takes units at once, while the spawned workers start (each a new interpreter
+    that imports what the units need: 2-4 s for a bench scenario's); the workers take units
+    once they have started, and each slot takes the next unit when it is free. A run whose
+    units are all done before the workers have started stops them instead of waiting for
+    them. Measured on the default bench suite (53 episodes, ``benchmarks/scaling.py``): two
+    spawned workers and an idle parent took 15.3 s against 14.2 s for one process; this
+    process and one worker, 14.0 s against 14.5 s (12.2 s against 14 s once processes exited
+    quickly, :func:`exit_quickly`). The tiny suite (2 s on one worker) took 4.5 s on two while
+    its last unit waited for the starting worker.
     """
+
+    wait_for_workers = False  # True: map waits for the workers to start (tests use them)
 
     def __init__(self, workers: int) -> None:
         self.workers = workers
         self._pool: ProcessPoolExecutor | None = None
         self._modules: tuple[str, ...] = ()
+        self._started: Future[Any] | None = None  # done once the workers have started
 
     def _executor(self) -> ProcessPoolExecutor:
         if self._pool is None:
@@ -186,7 +192,8 @@ class Processes(Runner):
         """Start the worker processes now, each importing ``modules`` as it starts."""
         if self._pool is None:
             self._modules = modules
-            self._executor().submit(int)  # a spawn pool starts every worker on its first task
+            # a spawn pool starts every worker on its first task; done once they are up
+            self._started = self._executor().submit(int)
 
     def map(self, fn: Callable[[T], R], items: Sequence[T]) -> Iterator[tuple[int, R]]:
         """As :meth:`Runner.map`: results as they finish, on this process and the workers."""
@@ -199,16 +206,25 @@ class Processes(Runner):
             i, item = todo.popleft()
             running[where.submit(fn, item)] = (i, where)
 
+        self.warm()
+        starting = self._started  # the workers take units once they are up
+        if self.wait_for_workers and starting is not None:
+            wait([starting])
         here = ThreadPoolExecutor(1, "contour-gym-unit")
         threads = _torch_threads(1)  # one core per unit here too (as in the workers)
         submit(here)  # this process starts at once
-        for _ in range(self.workers - 1):
-            if todo:
-                submit(self._executor())
         error: BaseException | None = None
         try:
             while running and error is None:
-                done, _ = wait(running, return_when=FIRST_COMPLETED)
+                watch = set(running) if starting is None else {*running, starting}
+                done, _ = wait(watch, return_when=FIRST_COMPLETED)
+                if starting is not None and starting in done:
+                    error = starting.exception()
+                    for _ in range(self.workers - 1):
+                        if todo and error is None:
+                            submit(self._executor())
+                    done.discard(starting)
+                    starting = None
                 for future in sorted(done, key=lambda f: running[f][0]):
                     i, where = running.pop(future)
                     exc = future.exception()
@@ -227,10 +243,13 @@ class Processes(Runner):
             raise error
 
     def close(self) -> None:
-        """Stop the worker processes."""
+        """Stop the worker processes (at once if they are still starting: they ran nothing)."""
         if self._pool is not None:
+            if self._started is not None and not self._started.done():
+                for process in list(getattr(self._pool, "_processes", {}).values()):
+                    process.terminate()
             self._pool.shutdown(wait=True, cancel_futures=True)
-            self._pool = None
+            self._pool, self._started = None, None
 
     def describe(self) -> str:
         """Where the units run, in a few words."""

@@ -6,6 +6,7 @@ import builtins
 import hashlib
 import importlib.util
 import json
+import os
 import sys
 import time
 import zipfile
@@ -100,8 +101,14 @@ def test_a_vector_env_on_threads_equals_one_thread_bit_for_bit(env_id: str) -> N
 
 
 # ------------------------------------------------------------------------ processes
+@pytest.fixture
+def workers_from_the_start(monkeypatch: pytest.MonkeyPatch) -> None:
+    # a tiny run ends before a spawned worker has started: make the workers take units
+    monkeypatch.setattr(Processes, "wait_for_workers", True)
+
+
 def test_bench_on_worker_processes_equals_one_process(
-    local_bench: dict[str, Any], tmp_path: Path
+    local_bench: dict[str, Any], tmp_path: Path, workers_from_the_start: None
 ) -> None:
     result = run_suite(SUITE, tmp_path / "two", progress=False, workers=2)
     assert len(result.computed) == len(local_bench)
@@ -110,7 +117,7 @@ def test_bench_on_worker_processes_equals_one_process(
 
 
 def test_workers_keep_the_commands_warning_filters(
-    tmp_path: Path, capfd: pytest.CaptureFixture[str]
+    tmp_path: Path, capfd: pytest.CaptureFixture[str], workers_from_the_start: None
 ) -> None:
     # the tiny suite runs -v0 ids, whose deprecation the CLI silences: in its workers too
     assert main(["bench", "--suite", SUITE, "--workers", "2", "--quiet",
@@ -118,7 +125,9 @@ def test_workers_keep_the_commands_warning_filters(
     assert "out of date" not in capfd.readouterr().err
 
 
-def test_a_units_error_is_raised_after_the_running_ones_finish() -> None:
+def test_a_units_error_is_raised_after_the_running_ones_finish(
+    workers_from_the_start: None,
+) -> None:
     with Processes(2) as where:
         got = []
         with pytest.raises(ZeroDivisionError):
@@ -129,6 +138,23 @@ def test_a_units_error_is_raised_after_the_running_ones_finish() -> None:
 
 def _inverse(x: int) -> float:
     return 1.0 / x
+
+
+def test_units_done_before_the_workers_start_do_not_wait_for_them(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    (tmp_path / "slow_start.py").write_text("import time\ntime.sleep(60)\n")
+    monkeypatch.setenv("PYTHONPATH", str(tmp_path))  # the spawned worker imports it
+    start = time.perf_counter()
+    with Processes(2) as where:
+        where.warm("slow_start")
+        got = dict(where.map(_pid_of, [1, 2, 3]))
+    assert set(got.values()) == {os.getpid()}  # every unit here
+    assert time.perf_counter() - start < 30  # the worker was stopped, not waited for
+
+
+def _pid_of(_: int) -> int:
+    return os.getpid()
 
 
 @pytest.mark.slow
