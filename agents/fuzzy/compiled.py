@@ -20,10 +20,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agents._files import write_handle_atomically
-from agents.fuzzy import kernels
 from agents.fuzzy.kernels import _mamdani_exact_batch, _product_batch, _surface_batch
 from agents.fuzzy.system import PRODUCT, Array, FuzzySystem, IntArray, Variable, check_inputs
-from contour_gym._compile import code_digest
 from contour_gym.params import as_finite_array, choice
 
 
@@ -189,9 +187,9 @@ def stored_surface(compiled: CompiledMamdani, tabulate: Callable[[], Surface]) -
 
     Tabulating 000's fuzzy PID CCC's two surfaces takes 0.5 s, in every process that runs
     the law (each bench or test worker). The file is named by a digest of everything the
-    surface is computed from: the kernel arrays, the node count and the code of
-    :mod:`agents.fuzzy.kernels` and of this module (docstrings and comments aside), so a
-    change to any of them tabulates anew. The folder is numba's cache folder
+    surface is computed from: the kernel arrays, the node count and the source of
+    :mod:`agents.fuzzy.kernels` and of this module, so a change to any of them tabulates
+    anew. The folder is numba's cache folder
     (``numba.config.CACHE_DIR``: ``NUMBA_CACHE_DIR``, or the one :mod:`contour_gym._compile`
     chooses); without one, or where it cannot be read or written, the surface is tabulated.
     """
@@ -224,8 +222,10 @@ def _surface_digest(compiled: CompiledMamdani) -> str:
 
 @functools.cache
 def _code_digest() -> str:
-    sources = (Path(kernels.__file__), Path(__file__))
-    return "".join(code_digest(path.read_text(encoding="utf-8")) for path in sources)
+    digest = hashlib.sha256()
+    for source in (Path(__file__).with_name("kernels.py"), Path(__file__)):
+        digest.update(source.read_bytes())
+    return digest.hexdigest()
 
 
 @functools.lru_cache(maxsize=32)
