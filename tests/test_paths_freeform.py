@@ -194,3 +194,10 @@ def test_the_compiled_chebyshev_series_equals_numpys(dim: int) -> None:
     chebyshev_many(coef, piece, x, out)
     expected = np.array([chebyshev.chebval(x[k], coef[piece[k]]) for k in range(200)])
     np.testing.assert_allclose(out, expected, rtol=1e-12, atol=1e-12)
+
+
+def test_a_series_of_more_coordinates_than_the_kernel_evaluates_is_refused() -> None:
+    from contour_gym.paths._freeform import _clenshaw
+
+    with pytest.raises(ValueError, match="at most 3 coordinates, got 4"):
+        _clenshaw(np.zeros((1, 3, 4)), np.zeros(2, np.int64), np.zeros(2))

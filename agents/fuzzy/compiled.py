@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import hashlib
+import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -200,7 +201,7 @@ def stored_surface(compiled: CompiledMamdani, tabulate: Callable[[], Surface]) -
     try:
         with np.load(target, allow_pickle=False) as stored:
             return Surface(*(stored[name] for name in SURFACE_FIELDS))
-    except (OSError, KeyError, ValueError):
+    except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):
         pass  # not stored yet, or unreadable: tabulate (and store) it
     surface = tabulate()
     arrays = {name: getattr(surface, name) for name in SURFACE_FIELDS}

@@ -138,6 +138,8 @@ def _pad(v: FloatArray) -> FloatArray:
 
 def _clenshaw(coef: FloatArray, piece: IntArray, x: FloatArray) -> FloatArray:
     # the series coef[piece[k]] at x[k] (N,) -> (N, dim)
+    if coef.shape[2] > 3:  # the kernel evaluates up to three coordinates
+        raise ValueError(f"Chebyshev series of at most 3 coordinates, got {coef.shape[2]}")
     out = np.empty((piece.shape[0], coef.shape[2]))
     chebyshev_many(np.ascontiguousarray(coef), piece.astype(np.int64, copy=False),
                    np.ascontiguousarray(x), out)
