@@ -281,7 +281,7 @@ def _load_families() -> None:
     # the reference families register themselves on import (they import this module), and so
     # do the trained agents of agents/trained/ (agents.rl.saved; each loads when it is made)
     from agents import ccc_policies, feedrate_policies  # noqa: F401
-    from agents.rl import saved  # noqa: F401
+    from agents.rl import guard, saved  # noqa: F401
 
 
 POLICIES: Registry[PolicyEntry] = Registry("policy", loader=_load_families)

@@ -1,0 +1,102 @@
+"""A CCC agent guarded through sharp corners: the PID CCC's gains there, the agent's elsewhere.
+
+On 000's machine (G64 blending, 000's ``two_circle`` estimator) the general CCC agent's
+largest losses to no CCC at all were at sharp line corners: the estimate the CCC acts on is
+poor through the turn, the agent raises its gains on it and the error overshoots after the
+corner, where the PID CCC's held gains do not (random path 7010 of the generalization suite:
+119 um against no CCC's 65 and the PID CCC's 54). :class:`CornerGuard` hands the gains to the
+PID CCC (:class:`~agents.ccc_policies.PIDCCC`, the env's own gains) from ``near`` before a
+corner turning more than ``angle`` until ``hold`` decisions after it, and leaves the agent
+acting everywhere else. It reads the v1 observation's ``corner`` (distance and turn of the
+next corner within the preview horizon).
+
+Chosen, not published: the defaults (2 mm, 30 degrees, 20 decisions: 0.2 s at 000's 1 kHz
+servo rate) were the first setting tried on a validation set of 32 random paths of 000's
+randomised machine (seeds 1000000-1000031, used by no training, tuning or test), where the
+agent lost to no CCC on 4 paths and the guarded agent on 2, at the same median (31.03 um);
+without the hold after the corner it lost on 4. On 002's and 004's machines (their CNCs stop
+at sharp corners) the guard changed no path's peak.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from agents.ccc_policies import PIDCCC
+from agents.policies import Actions, Observation, Policy, batch_size, make_policy, register_policy
+from contour_gym.envs.core import CCC
+from contour_gym.params import positive
+
+
+class CornerGuard(Policy):
+    """A CCC agent that hands the gains to the PID CCC through sharp corners (module doc).
+
+    Args:
+        agent: A registered CCC policy's name (a trained agent: ``ppo_000_ccc_general``).
+        near: Distance before a corner from which the PID CCC acts, m (> 0).
+        angle: The smallest turn of a guarded corner, rad (in (0, pi]).
+        hold: Decisions (env steps) the PID CCC keeps acting after the corner (>= 0).
+
+    Raises:
+        ValueError: naming the value, for a bad ``near``, ``angle`` or ``hold``, or an
+            unknown agent.
+    """
+
+    name = "corner_guard"
+    tasks = (CCC,)
+
+    def __init__(self, agent: str = "ppo_000_ccc_general", near: float = 0.002,
+                 angle: float = math.radians(30.0), hold: int = 20) -> None:  # fmt: skip
+        self.near = positive(near, "near")
+        if not 0.0 < float(angle) <= math.pi:
+            raise ValueError(f"angle must be in (0, pi] rad, got {angle!r}")
+        if isinstance(hold, bool) or not isinstance(hold, int) or hold < 0:
+            raise ValueError(f"hold must be an int >= 0 (decisions), got {hold!r}")
+        self.angle, self.hold = float(angle), hold
+        self.agent, self.fallback = make_policy(agent), PIDCCC()
+        self._horizon = math.nan
+        self._left: np.ndarray | None = None  # per member: decisions the hold still lasts
+        self._was_near: np.ndarray | None = None
+
+    @property
+    def env_kwargs(self) -> dict[str, Any]:
+        """The agent's env arguments."""
+        return self.agent.env_kwargs
+
+    def reset(self, env: Any = None) -> None:
+        """Reset the agent and the PID CCC, and read the env's preview horizon.
+
+        Raises:
+            ValueError: without a contour_gym env of the v1 observation.
+        """
+        config = getattr(getattr(env, "unwrapped", None), "config", None)
+        if config is None or config.observation != "v1":
+            raise ValueError(f"corner_guard needs a contour_gym env of the v1 observation, "
+                             f"got {env!r}")  # fmt: skip
+        self._horizon = float(max(config.preview))
+        self.agent.reset(env)
+        self.fallback.reset(env)
+        self._left = self._was_near = None
+
+    def act(self, obs: Observation) -> Actions:
+        """The agent's actions, the PID CCC's for members near a sharp corner or just past one."""
+        actions = np.array(self.agent.act(obs), dtype=np.float64)
+        n = batch_size(obs)
+        if self._left is None or self._was_near is None or self._left.shape[0] != n:
+            self._left, self._was_near = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool)
+        corner = np.asarray(obs["corner"], dtype=np.float64)
+        near = (corner[:, 0] * self._horizon < self.near) & (
+            np.abs(corner[:, 1]) * math.pi > self.angle)  # fmt: skip
+        passed = self._was_near & ~near
+        self._left = np.where(passed, self.hold, np.maximum(self._left - 1, 0))
+        self._was_near = near
+        guarded = near | (self._left > 0)
+        if guarded.any():
+            actions[guarded] = self.fallback.act(obs)[guarded]
+        return actions
+
+
+register_policy(CornerGuard.name, CornerGuard)

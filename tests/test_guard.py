@@ -1,0 +1,82 @@
+"""The corner guard: the PID CCC's gains near sharp corners, the agent's elsewhere.
+
+The guarded policy here is ``no_ccc`` (every gain 0), so that the two policies' actions differ
+and a vector env must equal single envs bit for bit (a trained agent's float32 network may
+round a batch's rows differently from one row's).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from agents.evaluate import make_vector_env, run_policy, run_policy_batch
+from agents.policies import make_policy
+from agents.rl.guard import CornerGuard
+
+POLYLINES = {"id": "contour_gym/CCC-v1", "plant": "xy_dc_servo", "estimator": "two_circle",
+             "path": "random", "path_options": {"family": "polyline"}}  # fmt: skip
+
+
+def _expected_guarded(corners, guard):
+    """Per step and member, whether the guard's rule puts the PID CCC in charge."""
+    left = np.zeros(corners[0].shape[0], dtype=int)
+    was_near = np.zeros_like(left, dtype=bool)
+    out = []
+    for c in corners:
+        near = (c[:, 0] * 0.02 < guard.near) & (np.abs(c[:, 1]) * math.pi > guard.angle)
+        left = np.where(was_near & ~near, guard.hold, np.maximum(left - 1, 0))
+        was_near = near
+        out.append(near | (left > 0))
+    return np.array(out)
+
+
+def test_the_guard_acts_as_the_pid_ccc_near_sharp_corners_and_as_the_agent_elsewhere():
+    guard = CornerGuard("no_ccc", hold=5)
+    venv = make_vector_env(POLYLINES, guard, num_envs=3)
+    try:
+        obs, _ = venv.reset(seed=11)
+        guard.reset(venv)
+        pid = make_policy("pid_ccc")
+        pid.reset(venv)
+        corners, took_pid, took_agent = [], [], []
+        for _ in range(150):
+            actions = guard.act(obs)
+            corners.append(np.asarray(obs["corner"], dtype=np.float64))
+            took_pid.append(np.all(actions == pid.act(obs), axis=1))
+            took_agent.append(np.all(actions == guard.agent.act(obs), axis=1))
+            obs, *_ = venv.step(actions)
+    finally:
+        venv.close()
+    expected = _expected_guarded(corners, guard)
+    assert expected.any() and (~expected).any()  # both happen on these polylines
+    assert np.all(np.array(took_pid)[expected])
+    assert np.all(np.array(took_agent)[~expected])
+
+
+def test_a_guarded_vector_env_runs_each_member_as_a_single_env_would():
+    batch = run_policy_batch(POLYLINES, CornerGuard("no_ccc"), num_envs=2, seed=11)
+    for i in range(2):
+        single = run_policy(POLYLINES, CornerGuard("no_ccc"), seed=11 + i)
+        assert batch["max_contour_error"][i] == single["max_contour_error"]
+        assert batch["steps"][i] == single["steps"]
+        assert batch["return"][i] == single["return"]
+    assert (
+        batch["return"][0] != run_policy(POLYLINES, make_policy("no_ccc"), seed=11)["return"]
+    )  # the guard acted
+
+
+@pytest.mark.parametrize(("kwargs", "named"), [
+    ({"near": 0.0}, "near"), ({"near": math.nan}, "near"), ({"angle": 4.0}, "angle"),
+    ({"hold": -1}, "hold"), ({"hold": 2.5}, "hold"), ({"agent": "no_such_agent"}, "no_such_agent"),
+])  # fmt: skip
+def test_the_guard_refuses_bad_settings_naming_them(kwargs, named):
+    with pytest.raises(ValueError, match=named):
+        CornerGuard(**{"agent": "no_ccc", **kwargs})
+
+
+def test_the_guard_needs_an_env_of_the_v1_observation():
+    with pytest.raises(ValueError, match="v1 observation"):
+        CornerGuard("no_ccc").reset(None)
