@@ -77,6 +77,8 @@ def test_the_guard_refuses_bad_settings_naming_them(kwargs, named):
         CornerGuard(**{"agent": "no_ccc", **kwargs})
 
 
-def test_the_guard_needs_an_env_of_the_v1_observation():
+def test_the_guard_needs_an_env_and_a_dict_of_the_v1_observation():
     with pytest.raises(ValueError, match="v1 observation"):
         CornerGuard("no_ccc").reset(None)
+    with pytest.raises(ValueError, match="'corner' key"):
+        CornerGuard("no_ccc").act({"obs": np.zeros((1, 14))})

@@ -12,8 +12,9 @@ next corner within the preview horizon).
 
 Chosen, not published: the defaults (2 mm, 30 degrees, 20 decisions: 0.2 s at 000's 1 kHz
 servo rate) were the first setting tried on a validation set of 32 random paths of 000's
-randomised machine (seeds 1000000-1000031, used by no training, tuning or test), where the
-agent lost to no CCC on 4 paths and the guarded agent on 2, at the same median (31.03 um);
+randomised machine (seeds 1000000-1000031: no training, tuning or test path; the training
+runs' evaluation draws other paths from seeds 1000000-1000015, on the nominal machine), where
+the agent lost to no CCC on 4 paths and the guarded agent on 2, at the same median (31.03 um);
 without the hold after the corner it lost on 4. On 002's and 004's machines (their CNCs stop
 at sharp corners) the guard changed no path's peak.
 """
@@ -39,6 +40,9 @@ class CornerGuard(Policy):
         near: Distance before a corner from which the PID CCC acts, m (> 0).
         angle: The smallest turn of a guarded corner, rad (in (0, pi]).
         hold: Decisions (env steps) the PID CCC keeps acting after the corner (>= 0).
+
+    Each member's hold is its own; :meth:`reset` clears them, a member's automatic reset in
+    a vector env does not (a hold running at its episode's end lasts into its next one).
 
     Raises:
         ValueError: naming the value, for a bad ``near``, ``angle`` or ``hold``, or an
@@ -87,6 +91,9 @@ class CornerGuard(Policy):
         n = batch_size(obs)
         if self._left is None or self._was_near is None or self._left.shape[0] != n:
             self._left, self._was_near = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool)
+        if "corner" not in obs:
+            raise ValueError(f"corner_guard acts on the v1 Dict observation (its 'corner' key), "
+                             f"got keys {sorted(obs)}")  # fmt: skip
         corner = np.asarray(obs["corner"], dtype=np.float64)
         near = (corner[:, 0] * self._horizon < self.near) & (
             np.abs(corner[:, 1]) * math.pi > self.angle)  # fmt: skip
