@@ -87,13 +87,13 @@ class CornerGuard(Policy):
 
     def act(self, obs: Observation) -> Actions:
         """The agent's actions, the PID CCC's for members near a sharp corner or just past one."""
+        if "corner" not in obs:
+            raise ValueError(f"corner_guard acts on the v1 Dict observation (its 'corner' key), "
+                             f"got keys {sorted(obs)}")  # fmt: skip
         actions = np.array(self.agent.act(obs), dtype=np.float64)
         n = batch_size(obs)
         if self._left is None or self._was_near is None or self._left.shape[0] != n:
             self._left, self._was_near = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool)
-        if "corner" not in obs:
-            raise ValueError(f"corner_guard acts on the v1 Dict observation (its 'corner' key), "
-                             f"got keys {sorted(obs)}")  # fmt: skip
         corner = np.asarray(obs["corner"], dtype=np.float64)
         near = (corner[:, 0] * self._horizon < self.near) & (
             np.abs(corner[:, 1]) * math.pi > self.angle)  # fmt: skip
