@@ -215,7 +215,7 @@ class CNCLookahead(Policy):
     more than 1e-8. Every segment is also capped at ``sqrt(a / kappa_max)`` (its curvature
     sampled at 9 points), the path end is 0, and a backward pass lowers each ``v_j`` to
     ``sqrt(v_(j+1)^2 + 2 a L_(j+1))`` so that every limit is reachable by braking at ``a``; the
-    interpolator then brakes for the limits within 16 junctions ahead. The override does not
+    interpolator then brakes for every limit within its braking reach. The override does not
     scale the junction speeds. ``delta`` is the distance from the vertex to the circular arc
     tangent to both segments whose radius ``R = delta h / (1 - h)`` is taken at centripetal
     acceleration ``a`` (``v_j^2 = a R``); but the reference is not blended (it passes through

@@ -71,7 +71,6 @@ IS = IP_STATE.col
 RAPID, CUTTING = 1, 2  # Program.flags bits
 PATH_CONTROLS = ("none", "G61", "G61.1", "G64")
 DEFAULT_TOLERANCE = 1e-5  # m: G64 without P (Grbl's default junction deviation is 0.01 mm)
-LOOKAHEAD = 16  # junctions checked ahead of the reference each tick
 
 
 @dataclass(frozen=True)
@@ -395,12 +394,16 @@ def _target(p, st, b, s0, prog_feed, prog_flags, prog_vcap, prog_vj, ts, a_max):
     s, v = st[b, IS.s], st[b, IS.v]
     j_max = p[b, IP.j_max]
     target = _cap(p, b, prog_feed, prog_flags, prog_vcap, seg)
-    for j in range(seg, min(seg + LOOKAHEAD, n)):
+    # every junction within braking reach, however many: the program's junction speeds are
+    # planned at its own acceleration, and under a time constant the reference brakes at F / T,
+    # less at a low feed or override, over more junctions than any fixed window holds
+    for j in range(seg, n):
+        room = s0[j + 1] - s
         v_end = prog_vj[j]
         if j + 1 < n:
             v_end = min(v_end, _cap(p, b, prog_feed, prog_flags, prog_vcap, j + 1))
-        target = min(target, brake_speed(s0[j + 1] - s, v, v_end, a_max, j_max, ts))
-        if math.isinf(a_max) or (s0[j + 1] - s) > v * v / a_max + 2.0 * v * ts + 1e-6:
+        target = min(target, brake_speed(room, v, v_end, a_max, j_max, ts))
+        if math.isinf(a_max) or room > v * v / a_max + 2.0 * v * ts + 1e-6:
             break
     return max(target, 0.0)
 

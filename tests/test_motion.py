@@ -143,3 +143,31 @@ def test_curvature_caps_sample_each_segment_as_one_by_one():
     one_by_one = [np.max(path.curvature(a + np.linspace(0.0, n, 9)))
                   for a, n in zip(t.s0[:-1], np.diff(t.s0), strict=True)]  # fmt: skip
     assert np.array_equal(_max_curvature(path), one_by_one)
+
+
+@pytest.mark.parametrize("override", [1.0, 0.3])
+def test_a_time_constant_stops_at_the_end_of_many_short_segments_at_rest(override):
+    # 500 collinear segments of 0.02 mm: braking at F ovr / T takes more of them than the
+    # look-ahead's fixed window held (16); the reference must still arrive at rest, never
+    # stepping to rest from speed (the axes overshot the end point by 110 um at 0.3)
+    from contour_gym.paths import polyline
+
+    T, ts, feed = 0.2, 1e-3, 0.03
+    pts = np.stack([np.linspace(0.0, 0.01, 501), np.zeros(501)], axis=1)
+    interp = Interpolator(feed, accel=1.0, time_constant=T)
+    path = polyline(pts)
+    prog = build_program(path, interp, ts).arrays()
+    p = interp.params(1)
+    p[0, IP.ovr] = override
+    st = motion.initial_state(1)
+    v = []
+    for k in range(20000):
+        interp_tick(p, st, 0, k, ts, path.table.s0, prog, NO_LAW, 1.0, True)
+        v.append(st[0, IS.v])
+        if st[0, IS.done] >= 0:
+            break
+    v = np.array(v)
+    assert st[0, IS.done] >= 0 and st[0, IS.s] == pytest.approx(0.01, abs=1e-12)
+    rate = feed * override / T
+    assert np.max(np.abs(np.diff(v))) / ts <= rate * (1 + 1e-9)
+    assert v.max() == pytest.approx(feed * override)
