@@ -201,7 +201,7 @@ class PSOFuzzyPIDCCC(FuzzyPIDCCC):
     chattering bounded), shipped in ``agents/data/pso_fuzzy_pid_ccc.json`` with the command
     that reproduces them, ``contour-gym tune 000_general --seed 0``: a factor set for parts it
     never saw. On the generalization suite's 20 unseen paths of 000's machine it is better
-    than the untuned law on 14 and worse on 6, by up to 2.3 % (a G-code part): the law's peak
+    than the untuned law on 14 and worse on 6, by up to 1.9 % (a G-code part): the law's peak
     errors barely move with its factors off the paths they were tuned on. 000's own
     experiment, tuned on its three paths, is :class:`PSOFuzzyPIDCCC000`.
 

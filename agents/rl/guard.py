@@ -14,9 +14,10 @@ Chosen, not published: the defaults (2 mm, 30 degrees, 20 decisions: 0.2 s at 00
 servo rate) were the first setting tried on a validation set of 32 random paths of 000's
 randomised machine (seeds 1000000-1000031: no training, tuning or test path; the training
 runs' evaluation draws other paths from seeds 1000000-1000015, on the nominal machine), where
-the agent lost to no CCC on 4 paths and the guarded agent on 2, at the same median (31.03 um);
-without the hold after the corner it lost on 4. On 002's and 004's machines (their CNCs stop
-at sharp corners) the guard changed no path's peak.
+the agent lost to no CCC on 5 paths and the guarded agent on 3, at the same median (29.82 um);
+without the hold after the corner it lost on 5 (4 -> 2 and 4 before the interpolator braked
+for every junction in reach). On 002's and 004's machines (their CNCs stop at sharp corners)
+the guard changed no path's peak.
 """
 
 from __future__ import annotations
