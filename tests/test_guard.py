@@ -70,6 +70,7 @@ def test_a_guarded_vector_env_runs_each_member_as_a_single_env_would():
 
 @pytest.mark.parametrize(("kwargs", "named"), [
     ({"near": 0.0}, "near"), ({"near": math.nan}, "near"), ({"angle": 4.0}, "angle"),
+    ({"angle": "wide"}, "angle"),
     ({"hold": -1}, "hold"), ({"hold": 2.5}, "hold"), ({"agent": "no_such_agent"}, "no_such_agent"),
 ])  # fmt: skip
 def test_the_guard_refuses_bad_settings_naming_them(kwargs, named):

@@ -30,7 +30,7 @@ import numpy as np
 from agents.ccc_policies import PIDCCC
 from agents.policies import Actions, Observation, Policy, batch_size, make_policy, register_policy
 from contour_gym.envs.core import CCC
-from contour_gym.params import positive
+from contour_gym.params import finite, positive
 
 
 class CornerGuard(Policy):
@@ -56,7 +56,7 @@ class CornerGuard(Policy):
     def __init__(self, agent: str = "ppo_000_ccc_general", near: float = 0.002,
                  angle: float = math.radians(30.0), hold: int = 20) -> None:  # fmt: skip
         self.near = positive(near, "near")
-        if not 0.0 < float(angle) <= math.pi:
+        if not 0.0 < finite(angle, "angle") <= math.pi:
             raise ValueError(f"angle must be in (0, pi] rad, got {angle!r}")
         if isinstance(hold, bool) or not isinstance(hold, int) or hold < 0:
             raise ValueError(f"hold must be an int >= 0 (decisions), got {hold!r}")
