@@ -81,5 +81,14 @@ def test_the_guard_refuses_bad_settings_naming_them(kwargs, named):
 def test_the_guard_needs_an_env_and_a_dict_of_the_v1_observation():
     with pytest.raises(ValueError, match="v1 observation"):
         CornerGuard("no_ccc").reset(None)
-    with pytest.raises(ValueError, match="'corner' key"):
-        CornerGuard("no_ccc").act({"obs": np.zeros((1, 14))})
+    venv = make_vector_env(POLYLINES, CornerGuard("no_ccc"), num_envs=1)
+    try:
+        obs, _ = venv.reset(seed=0)
+        guard = CornerGuard("no_ccc")
+        with pytest.raises(ValueError, match="call it first"):  # it would never guard
+            guard.act(obs)
+        guard.reset(venv)
+        with pytest.raises(ValueError, match="'corner' key"):
+            guard.act({"obs": np.zeros((1, 14))})
+    finally:
+        venv.close()
