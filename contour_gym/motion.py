@@ -24,10 +24,13 @@ the axes are in position), ``"G61.1"`` (exact path: stops at real corners only),
 
 **Acc/dec time constant** (``Interpolator.time_constant`` T, a CNC's "cutting feed acc/dec
 time constant"): with T > 0 the path speed changes at ``min(accel, F / T)``, ``F`` the
-commanded feed of the current block (times the override; held through a deceleration, so a
-stop brakes at one rate), so that every speed change takes about T whatever the feedrate, as
-on a CNC whose acc/dec is set by time constants: a faster feed accelerates and stops harder,
-and the error at its stops grows with it. T = 0 (default) keeps ``accel`` at every feed.
+commanded feed of the current block (times the override). The rate falls only when the
+reference needs no braking at the lower rate (not while the override is below the speed, nor
+while a limit ahead needs braking), whatever the override and the blocks' feeds do: a stop
+brakes at least at the rate it was planned with and arrives at rest (``fa`` keeps the rate's F).
+So every speed change takes about T whatever the feedrate, as on a CNC whose acc/dec is set
+by time constants: a faster feed accelerates and stops harder, and the error at its stops
+grows with it. T = 0 (default) keeps ``accel`` at every feed.
 
 **Time-law mode** (a path carrying a :class:`~contour_gym.paths.TimeLaw`): the reference is a
 prescribed ``s(t)``, e.g. 003's three-leaf ``theta = 2 pi f t``; the override scales time
@@ -369,43 +372,61 @@ def _cap(p, b, prog_feed, prog_flags, prog_vcap, j):
 
 
 @numba.njit(cache=True, inline="always")
-def _accel(p, st, b, prog_feed, prog_flags):
-    # this tick's acceleration limit: a_max, or F / T under an acc/dec time constant T, with
-    # F the commanded feed (held through a deceleration, so that a stop brakes at one rate)
-    a_max, t_acc = p[b, IP.a_max], p[b, IP.t_acc]
+def _feed_rate(p, b, f):
+    # the acceleration limit at the commanded feed f: a_max, or f / T under a time constant
+    t_acc = p[b, IP.t_acc]
     if t_acc <= 0.0:
-        return a_max
+        return p[b, IP.a_max]
+    return min(p[b, IP.a_max], max(f, 1e-9) / t_acc)
+
+
+@numba.njit(cache=True, inline="always")
+def _curve(p, st, b, s0, plan, ts, a_max):
+    # the highest speed from which every junction limit ahead can still be met braking at
+    # a_max: every junction within braking reach, however many (the program's junction speeds
+    # are planned at its own acceleration, and under a time constant the reference brakes at
+    # F / T, less at a low feed or override, over more junctions than any fixed window holds)
+    prog_feed, prog_flags, prog_vcap, prog_vj = plan
+    n = prog_feed.shape[0]
+    s, v = st[b, IS.s], st[b, IS.v]
+    j_max = p[b, IP.j_max]
+    curve = math.inf
+    for j in range(int(st[b, IS.seg]), n):
+        room = s0[j + 1] - s
+        v_end = prog_vj[j]
+        if j + 1 < n:
+            v_end = min(v_end, _cap(p, b, prog_feed, prog_flags, prog_vcap, j + 1))
+        curve = min(curve, brake_speed(room, v, v_end, a_max, j_max, ts))
+        if math.isinf(a_max) or room > v * v / a_max + 2.0 * v * ts + 1e-6:
+            break
+    return curve
+
+
+@numba.njit(cache=True, inline="always")
+def _rate(p, st, b, s0, plan, ts):
+    # this tick's acceleration limit. Under a time constant it is F / T, F the commanded feed
+    # of the current block (``fa`` keeps the last tick's), but it falls only when the
+    # reference needs no braking at the lower rate: while F is below the speed, or while a
+    # limit ahead needs braking at the lower rate, the last rate holds, so that a stop planned
+    # at one rate is made however the override and the blocks' feeds fall meanwhile (else the
+    # reference would reach the stop at speed and step to rest)
+    if p[b, IP.t_acc] <= 0.0:
+        return p[b, IP.a_max]
+    prog_feed, prog_flags = plan[0], plan[1]
     seg = int(st[b, IS.seg])
     f = prog_feed[seg]
     if (int(prog_flags[seg]) & RAPID) == 0:
         f *= p[b, IP.ovr]
     f = min(f, p[b, IP.f_max])
-    v = st[b, IS.v]
-    fa = f if f >= v else max(st[b, IS.fa], v)
+    v, held = st[b, IS.v], st[b, IS.fa]
+    if f >= held:
+        fa = f
+    elif f < v:
+        fa = max(held, v)
+    else:
+        fa = f if _curve(p, st, b, s0, plan, ts, _feed_rate(p, b, f)) >= v else held
     st[b, IS.fa] = fa
-    return min(a_max, max(fa, 1e-9) / t_acc)
-
-
-@numba.njit(cache=True, inline="always")
-def _target(p, st, b, s0, prog_feed, prog_flags, prog_vcap, prog_vj, ts, a_max):
-    # target speed: the current segment's cap and every junction limit in braking reach
-    n = prog_feed.shape[0]
-    seg = int(st[b, IS.seg])
-    s, v = st[b, IS.s], st[b, IS.v]
-    j_max = p[b, IP.j_max]
-    target = _cap(p, b, prog_feed, prog_flags, prog_vcap, seg)
-    # every junction within braking reach, however many: the program's junction speeds are
-    # planned at its own acceleration, and under a time constant the reference brakes at F / T,
-    # less at a low feed or override, over more junctions than any fixed window holds
-    for j in range(seg, n):
-        room = s0[j + 1] - s
-        v_end = prog_vj[j]
-        if j + 1 < n:
-            v_end = min(v_end, _cap(p, b, prog_feed, prog_flags, prog_vcap, j + 1))
-        target = min(target, brake_speed(room, v, v_end, a_max, j_max, ts))
-        if math.isinf(a_max) or room > v * v / a_max + 2.0 * v * ts + 1e-6:
-            break
-    return max(target, 0.0)
+    return _feed_rate(p, b, fa)
 
 
 @numba.njit(cache=True, inline="always")
@@ -490,8 +511,10 @@ def interp_tick(p, st, b, k, ts, s0, prog, law, law_dt, in_position):
     if _hold(st, b, in_position):
         st[b, IS.v], st[b, IS.a] = 0.0, 0.0
         return
-    a_max = _accel(p, st, b, feed, flags)
-    target = _target(p, st, b, s0, feed, flags, vcap, vj, ts, a_max)
+    plan = (feed, flags, vcap, vj)
+    a_max = _rate(p, st, b, s0, plan, ts)
+    cap = _cap(p, b, feed, flags, vcap, int(st[b, IS.seg]))
+    target = max(min(cap, _curve(p, st, b, s0, plan, ts, a_max)), 0.0)
     s_new, v_new, a_new = _advance(p, st, b, target, ts, a_max)
     seg = int(st[b, IS.seg])
     while seg < n - 1 and s_new >= s0[seg + 1] - 1e-12:

@@ -173,13 +173,6 @@ def test_a_time_constant_stops_at_the_end_of_many_short_segments_at_rest(overrid
     assert v.max() == pytest.approx(feed * override)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "measured, not fixed: the braking rate follows F ovr / T down while the override falls "
-    "through a stop's deceleration, the plan falls behind and the reference steps to rest from "
-    "9.5 mm/s here (a feedrate task's random path 1007 at a constant action -0.5: from 26.8 mm/s "
-    "at a corner stop, 144 um). Holding the rate while the acceleration is negative mends this "
-    "test but not the defect: on 004's corner ppo_feedrate_circle's reference then stepped to "
-    "rest from 5.66 mm/s (8.98 -> 24.6 um); the stop's rate needs keeping as state"))
 def test_a_time_constant_keeps_its_braking_rate_while_the_override_falls():
     # the override falls through a stop's deceleration (a feedrate agent turning it down):
     # the stop still brakes at the rate it started at, and arrives at rest (before, the rate
@@ -190,3 +183,41 @@ def test_a_time_constant_keeps_its_braking_rate_while_the_override_falls():
                             changes=changes)  # fmt: skip
     assert done >= 0 and s[-1] == pytest.approx(0.05, abs=1e-12) and v[-1] == 0.0
     assert np.max(np.abs(np.diff(v))) / ts <= feed / T * (1 + 1e-9)
+
+
+def test_a_time_constant_keeps_its_braking_rate_into_a_slower_block_before_a_stop():
+    # 50 mm at 6000 mm/min, then 4 mm at 3600 mm/min to the end: the stop is planned at
+    # 0.1 / T; in the slower block F / T falls to 0.06 / T, at which the 4 mm are too short to
+    # stop from 60 mm/s, so the rate holds (before, the reference stepped to rest from 35 mm/s)
+    from contour_gym.paths import from_gcode
+
+    path = from_gcode("G21 G90 G17\nG1 X50 F6000\nG1 X54 F3600\nM2\n")
+    T, ts = 0.2, 1e-3
+    s, v, _, done = profile(0.0, Interpolator(0.1, accel=10.0, time_constant=T), ts, path=path)
+    assert done >= 0 and s[-1] == pytest.approx(0.054, abs=1e-12) and v[-1] == 0.0
+    assert v.max() == pytest.approx(0.1)
+    assert np.max(-np.diff(v)) / ts <= 0.1 / T * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("action", [-0.2, 0.3])
+def test_a_feedrate_task_s_reference_never_brakes_harder_than_its_time_constant(action):
+    # random paths of the feedrate task (004's machine: T = 0.212 s, programmed feeds that
+    # change from block to block) under an override that falls or rises: the reference's speed
+    # never falls faster than the machine's F_max / T, nor steps to rest. Before the braking
+    # rate was kept through a stop, path 1007 at -0.2 stepped to rest from 23 mm/s (111 um)
+    from agents.evaluate import make_vector_env, run_episodes
+    from agents.policies import make
+
+    policy = make("constant", action=[action])
+    venv = make_vector_env("contour_gym/Feedrate-v1", policy, num_envs=8, record=True,
+                           path="random")  # fmt: skip
+    out, _ = run_episodes(venv, policy, seed=1000)
+    loop = venv.unwrapped.task.loop
+    p = loop.ip_p
+    rate = np.minimum(p[:, IP.a_max], p[:, IP.f_max] / p[:, IP.t_acc])
+    trace = loop.trace()
+    v, ts = trace.v, trace.t[1] - trace.t[0]
+    assert np.all(out["finished"]) and np.all(np.isfinite(rate))
+    for b in range(8):
+        vb = v[b][np.isfinite(v[b])]
+        assert np.max(-np.diff(vb)) <= rate[b] * ts * (1 + 1e-9), b
