@@ -52,6 +52,13 @@ RAY_RETRIES = 3  # a unit whose Ray worker or node died runs again up to this ma
 RAY_HINT = 'Ray is not installed: pip install "contour-gym[ray]" (or pip install "ray[tune]")'
 _SINGLE_THREADED = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
                     THREADS_VARIABLE: "1"}
+# MKL's mode that agents/__init__.py sets: Ray workers run in it too
+REPRODUCIBLE_BLAS = ("MKL_CBWR",)
+
+
+def _worker_environment() -> dict[str, str]:
+    # what a Ray worker runs with: one thread, and the reproducible BLAS if this process asks
+    return {**_SINGLE_THREADED, **{k: os.environ[k] for k in REPRODUCIBLE_BLAS if k in os.environ}}
 
 
 def resolve_workers(workers: int | None) -> int:
@@ -276,10 +283,10 @@ class RayRunner(Runner):
             if address in (None, "local"):
                 loopback_only(ray)
                 ray.init(num_cpus=resolve_workers(workers), include_dashboard=False,
-                         log_to_driver=False, runtime_env={"env_vars": _SINGLE_THREADED})
+                         log_to_driver=False, runtime_env={"env_vars": _worker_environment()})
             else:
                 ray.init(address=address, log_to_driver=False,
-                         runtime_env={"env_vars": _SINGLE_THREADED})  # fmt: skip
+                         runtime_env={"env_vars": _worker_environment()})  # fmt: skip
         self.address = address or "local"
         self.shares_files = False  # nodes may be other machines
         self.workers = max(1, int(ray.cluster_resources().get("CPU", 1)))

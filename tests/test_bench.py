@@ -353,3 +353,44 @@ def test_a_suite_takes_v1_ids_and_random_paths(tmp_path):
     with pytest.raises(ValueError, match=r"unknown path 'randomly'; accepted: 'random'"):
         load_suite(_bad(tmp_path, SUITE.replace("env: contour_gym/CCC-Circle-v0",
                                                 "task: ccc\n    path: randomly")))
+
+
+def test_an_agent_s_row_does_not_depend_on_the_cpu_s_instruction_set(tmp_path):
+    # an agent's float32 network under MKL: ppo_feedrate_corner on 004's corner gave 6.35 um
+    # with AVX-512 kernels and 5.63 um with MKL held to AVX2 before importing `agents` asked
+    # for MKL's reproducible mode (agents/__init__.py); a second CPU is emulated by holding
+    # MKL to AVX2 (on a CPU without AVX-512 the two runs are alike either way)
+    import os
+    import subprocess
+    import sys
+
+    suite = tmp_path / "agent.yaml"
+    suite.write_text("seeds: 1\npolicies:\n  ppo_feedrate_corner:\n  constant_feedrate:\n"
+                     "scenarios:\n  004-corner:\n    env: contour_gym/Feedrate-Corner-v0\n"
+                     "    baseline: constant_feedrate\n")  # fmt: skip
+    tables = []
+    for isa in (None, "AVX2"):
+        env = {k: v for k, v in os.environ.items() if not k.startswith("MKL_")}
+        env.update({"MKL_ENABLE_INSTRUCTIONS": isa} if isa else {})
+        out = tmp_path / f"run-{isa}"
+        done = subprocess.run([sys.executable, "-m", "agents.cli", "bench", "--suite", str(suite),
+                               "--out", str(out), "--workers", "1", "--quiet"],
+                              env=env, capture_output=True, text=True, timeout=600)  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        tables.append((out / "results.csv").read_text())
+    assert "ppo_feedrate_corner" in tables[0] and tables[0] == tables[1]
+
+
+@pytest.mark.parametrize(("first", "mode"), [("agents", "AVX2,STRICT"), ("torch", "")])
+def test_importing_agents_sets_mkl_s_mode_unless_torch_is_loaded(first, mode):
+    # MKL reads its mode once, when torch loads: after torch, `agents` leaves MKL's default
+    # and says so to the worker processes (they inherit the variable and compute alike)
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "MKL_CBWR"}
+    code = f"import {first}, agents, os; print(repr(os.environ['MKL_CBWR']))"
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                          timeout=300, check=True)  # fmt: skip
+    assert done.stdout.strip() == repr(mode)

@@ -2,7 +2,8 @@
 
 The reference numbers were measured with the release before the compiled-once kernel (commit
 749ec14, one kernel specialised per combination of components): dispatching the built-in
-components by code inside one kernel must give the same results, bit for bit.
+components by code inside one kernel must give the same results (bit for bit where they were
+measured; to 1e-9 of the value on other CPUs and toolchains, see the test).
 """
 
 from __future__ import annotations
@@ -60,10 +61,14 @@ def _run(preset: str, options: dict[str, Any]) -> tuple[float, ...]:
 @pytest.mark.parametrize(("preset", "options", "expected"), REFERENCE,
                          ids=[f"{p}-{'-'.join(map(str, o.values())) or 'own'}"
                               for p, o, _ in REFERENCE])  # fmt: skip
-def test_results_equal_the_previous_release_bit_for_bit(
+def test_results_equal_the_previous_release(
     preset: str, options: dict[str, Any], expected: tuple[float, ...]
 ) -> None:
-    assert _run(preset, options) == expected
+    # bit for bit on the machine that measured them, and on later ones until 2026-11; on an
+    # AVX-512 Xeon with numba 0.68.1 and numpy 2.4.6 seven of the ten differ, by 4e-11 of the
+    # value at most (the last bits of a long run's float sums; one kernel as before), so the
+    # comparison allows 1e-9: any change to the model moves these figures by far more
+    assert _run(preset, options) == pytest.approx(expected, rel=1e-9, abs=0.0)
 
 
 def _compiles(fn: Any) -> list[str]:
