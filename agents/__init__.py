@@ -7,9 +7,10 @@ whatever the thread count. It acts only if torch is not loaded yet; if it is, ``
 set empty (MKL's default), so that worker processes, which inherit it, compute as this one
 does. Why: an agent's network runs in float32, MKL's kernels round differently per instruction
 set, and a closed loop grows that rounding. Measured, ``ppo_ccc_infinity`` on 002's B-spline
-(max contour error): 199.0 um with AVX-512 kernels, 188.8 with MKL held to AVX2, 174.1 on its
-SSE code; 177.4 in this mode in all three, at one or two threads. Training ran as fast either
-way (PPO, 120 000 steps on 000's circle: 19.0-20.3 s without, 19.2-19.8 s with).
+(max contour error): 199.0 um with AVX-512 kernels, 188.8 with MKL held to AVX2, 184.1 held to
+SSE4.2; 177.4 in this mode with AVX-512 allowed or MKL held to AVX2, at one or two threads. A
+CPU without AVX2 falls back to MKL's compatible code in this mode (174.1). Training ran as fast
+either way (PPO, 120 000 steps on 000's circle: 19.0-20.3 s without, 19.2-19.8 s with).
 """
 
 import os as _os
