@@ -16,5 +16,7 @@ either way (PPO, 120 000 steps on 000's circle: 19.0-20.3 s without, 19.2-19.8 s
 import os as _os
 import sys as _sys
 
-if "MKL_CBWR" not in _os.environ:
-    _os.environ["MKL_CBWR"] = "" if "torch" in _sys.modules else "AVX2,STRICT"
+MKL_MODE = "MKL_CBWR"  # the variable; agents.parallel hands it to Ray workers
+
+if MKL_MODE not in _os.environ:
+    _os.environ[MKL_MODE] = "" if "torch" in _sys.modules else "AVX2,STRICT"

@@ -43,6 +43,7 @@ from concurrent.futures import (
 )
 from typing import Any, TypeVar
 
+from agents import MKL_MODE
 from contour_gym.threads import THREADS_VARIABLE, available_cpus
 
 T = TypeVar("T")
@@ -52,13 +53,12 @@ RAY_RETRIES = 3  # a unit whose Ray worker or node died runs again up to this ma
 RAY_HINT = 'Ray is not installed: pip install "contour-gym[ray]" (or pip install "ray[tune]")'
 _SINGLE_THREADED = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
                     THREADS_VARIABLE: "1"}
-# MKL's mode that agents/__init__.py sets: Ray workers run in it too
-REPRODUCIBLE_BLAS = ("MKL_CBWR",)
 
 
 def _worker_environment() -> dict[str, str]:
-    # what a Ray worker runs with: one thread, and the reproducible BLAS if this process asks
-    return {**_SINGLE_THREADED, **{k: os.environ[k] for k in REPRODUCIBLE_BLAS if k in os.environ}}
+    # what a Ray worker runs with: one thread, and MKL's mode as this process has it (agents)
+    mode = {MKL_MODE: os.environ[MKL_MODE]} if MKL_MODE in os.environ else {}
+    return {**_SINGLE_THREADED, **mode}
 
 
 def resolve_workers(workers: int | None) -> int:

@@ -64,7 +64,7 @@ def _run(preset: str, options: dict[str, Any]) -> tuple[float, ...]:
 def test_results_equal_the_previous_release(
     preset: str, options: dict[str, Any], expected: tuple[float, ...]
 ) -> None:
-    # bit for bit on the machine that measured them, and on later ones until 2026-11; on an
+    # compared bit for bit until 2026-11-27 (CI passed so on the machines before); on an
     # AVX-512 Xeon with numba 0.68.1 and numpy 2.4.6 seven of the ten differ, by 4e-11 of the
     # value at most (the last bits of a long run's float sums; one kernel as before), so the
     # comparison allows 1e-9: any change to the model moves these figures by far more
