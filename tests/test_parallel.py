@@ -157,6 +157,25 @@ def _pid_of(_: int) -> int:
     return os.getpid()
 
 
+def test_each_process_runs_its_units_on_one_blas_thread(workers_from_the_start: None) -> None:
+    # a spawned worker loads numpy's OpenBLAS before its initializer sets the variables: its
+    # threads are set at run time; this process's for the run only
+    before = _blas_threads(0)[1]
+    with Processes(2) as where:
+        got = dict(where.map(_blas_threads, range(6)))
+    assert {threads for _, threads in got.values()} == {(1,) * len(before)}
+    assert len({pid for pid, _ in got.values()}) == 2  # this process and the worker
+    assert _blas_threads(0)[1] == before
+
+
+def _blas_threads(_: int) -> tuple[int, tuple[int, ...]]:
+    from threadpoolctl import threadpool_info
+
+    time.sleep(0.2)  # long enough for both processes to take units
+    return os.getpid(), tuple(p["num_threads"] for p in threadpool_info()
+                              if p["user_api"] == "blas")  # fmt: skip
+
+
 @pytest.mark.slow
 def test_seeds_train_in_parallel_with_the_weights_of_one_at_a_time(
     parallel_runs: list[Path], tmp_path: Path

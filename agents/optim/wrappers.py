@@ -20,7 +20,6 @@ from __future__ import annotations
 from functools import partial
 from typing import Any
 
-import cma as _cma
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import differential_evolution
@@ -160,17 +159,13 @@ def cma(
     core = partial(
         _cma_es,
         sigma0=positive(sigma0, "sigma0"),
-        boundary=_BOUNDARY[choice(boundary, "boundary", tuple(_BOUNDARY))],
+        boundary=choice(boundary, "boundary", _BOUNDARIES),
     )
     return run("cma", core, objective, bounds, population, iterations, seed, keep_population, 2)
 
 
-# cma's BoundaryHandler option must be the class: cma 4.5 cannot parse the string
-# "BoundPenalty" ("'str' object has no attribute 'has_bounds'")
-_BOUNDARY: dict[str, type] = {
-    "BoundTransform": _cma.BoundTransform,
-    "BoundPenalty": _cma.BoundPenalty,
-}
+# cma's BoundaryHandler classes by name
+_BOUNDARIES = ("BoundTransform", "BoundPenalty")
 
 
 def _cma_es(
@@ -179,8 +174,10 @@ def _cma_es(
     population: int,
     iterations: int,
     sigma0: float,
-    boundary: type,
+    boundary: str,
 ) -> None:
+    import cma as _cma  # here: with scipy.stats, 0.3 s of every command's start otherwise
+
     u0, f0 = problem.initial(rng, population)
 
     def randn(*shape: int) -> FloatArray:
@@ -189,7 +186,9 @@ def _cma_es(
     options = {
         "popsize": population,
         "bounds": [0.0, 1.0],
-        "BoundaryHandler": boundary,
+        # the class: cma 4.5 cannot parse the string "BoundPenalty" ("'str' object has no
+        # attribute 'has_bounds'")
+        "BoundaryHandler": getattr(_cma, boundary),
         "randn": randn,
         "seed": np.nan,
         "verbose": -9,
