@@ -194,7 +194,8 @@ class Processes(Runner):
     them. Measured on the default bench suite (53 episodes, ``benchmarks/scaling.py``): two
     spawned workers and an idle parent took 15.3 s against 14.2 s for one process; this
     process and one worker, 14.0 s against 14.5 s (12.2 s against 14 s once processes exited
-    quickly, :func:`exit_quickly`). The tiny suite (2 s on one worker) took 4.5 s on two while
+    quickly, :func:`exit_quickly`; 8.5 s against 12 s once each process ran its BLAS on one
+    thread, :func:`_one_thread`). The tiny suite (2 s on one worker) took 4.5 s on two while
     its last unit waited for the starting worker.
     """
 
