@@ -157,15 +157,25 @@ def _pid_of(_: int) -> int:
     return os.getpid()
 
 
-def test_each_process_runs_its_units_on_one_blas_thread(workers_from_the_start: None) -> None:
+@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="OpenBLAS runs one thread on one core")
+def test_each_process_runs_its_units_on_one_blas_thread(
+    workers_from_the_start: None, monkeypatch: pytest.MonkeyPatch
+) -> None:
     # a spawned worker loads numpy's OpenBLAS before its initializer sets the variables: its
-    # threads are set at run time; this process's for the run only
-    before = _blas_threads(0)[1]
-    with Processes(2) as where:
-        got = dict(where.map(_blas_threads, range(6)))
+    # threads are set at run time; this process's for the run only. Both start with two
+    # threads here whatever the environment says, so that the test can fail
+    from threadpoolctl import threadpool_limits
+
+    for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+        monkeypatch.setenv(name, "2")  # what the spawned worker's OpenBLAS starts with
+    with threadpool_limits(2, user_api="blas"):
+        before = _blas_threads(0)[1]
+        assert set(before) == {2}
+        with Processes(2) as where:
+            got = dict(where.map(_blas_threads, range(6)))
+        assert _blas_threads(0)[1] == before
     assert {threads for _, threads in got.values()} == {(1,) * len(before)}
     assert len({pid for pid, _ in got.values()}) == 2  # this process and the worker
-    assert _blas_threads(0)[1] == before
 
 
 def _blas_threads(_: int) -> tuple[int, tuple[int, ...]]:
