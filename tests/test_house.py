@@ -178,6 +178,29 @@ def test_the_cache_key_ignores_docstrings_and_comments_and_non_kernel_modules():
     assert "api.py" not in kernels and "envs/ccc.py" not in kernels
 
 
+def test_the_package_digest_is_remembered_and_a_bad_memo_is_recomputed(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    first = _compile.package_digest()  # parsed, then remembered
+    memos = list((tmp_path / "contour_gym" / "digests").iterdir())
+    assert len(memos) == 1 and memos[0].read_text() == first == _compile._package_digest_once()
+    assert _compile.package_digest() == first
+    memos[0].unlink()
+    memos[0].write_text("not a digest")
+    assert _compile.package_digest() == first
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "a file" / "below"))
+    (tmp_path / "a file").write_text("")  # no memo can be written: computed all the same
+    assert _compile.package_digest() == first
+
+
+def test_a_function_of_a_generated_kernel_is_named_by_its_module_whose_name_is_a_digest():
+    # the module's name digests its text, whose header names its slots' identities
+    def run_members():
+        return 0
+
+    run_members.__module__ = f"{_compile.GENERATED_PACKAGE}.k_0123456789abcdef0123"
+    assert _compile.identity(run_members) == f"{run_members.__module__}.{run_members.__qualname__}"
+
+
 # -------------------------------------------------------------------- swappable rewards
 
 
