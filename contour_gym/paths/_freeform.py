@@ -19,7 +19,6 @@ import numpy as np
 from numpy.polynomial import chebyshev as cheb
 from numpy.polynomial import legendre
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import BSpline
 
 from contour_gym._validate import as_finite_array, finite
 from contour_gym.paths._batch import chebyshev_many
@@ -275,6 +274,8 @@ def _check_spline(control_points: ArrayLike, knots: ArrayLike, degree: Any
 
 def _spline_pieces(ctrl_h: FloatArray, kn: FloatArray, deg: int, dim: int, rational: bool,
                    name: str) -> _PiecewisePoly:
+    from scipy.interpolate import BSpline  # here: 0.14 s of every start otherwise
+
     n = ctrl_h.shape[0]
     spl = BSpline(kn, ctrl_h, deg, extrapolate=False)
     breaks = np.unique(kn[deg:n + 1])
