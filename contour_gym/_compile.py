@@ -146,6 +146,7 @@ def package_digest() -> str:
         known = memo.read_text(encoding="ascii")
         if len(known) == 16 and all(c in "0123456789abcdef" for c in known):
             return known
+        memo.unlink()  # not a digest (a disk error): written afresh below
     digest = hashlib.sha1()
     for name, text in texts:
         digest.update(name.encode())
@@ -226,8 +227,8 @@ def identity(value: Any) -> str:
     A function is named with a digest of its module's source and of every module outside
     this package whose compiled functions that module uses, directly or through others (a
     user's law calling a user's kernel library); the package's own modules are covered by
-    :func:`package_digest`. A function's is worked out once per process (a bench run binds
-    kernels 169 times, with 2763 slot values: 0.2 s of reading and parsing sources).
+    :func:`package_digest`. Each function's identity is worked out once per process (a bench
+    run binds kernels 169 times, with 2763 slot values: 0.2 s of reading and parsing sources).
     """
     func = getattr(value, "py_func", value)
     if not inspect.isfunction(func):

@@ -187,6 +187,7 @@ def test_the_package_digest_is_remembered_and_a_bad_memo_is_recomputed(tmp_path,
     memos[0].unlink()
     memos[0].write_text("not a digest")
     assert _compile.package_digest() == first
+    assert memos[0].read_text() == first  # written afresh
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "a file" / "below"))
     (tmp_path / "a file").write_text("")  # no memo can be written: computed all the same
     assert _compile.package_digest() == first
