@@ -7,9 +7,11 @@ Prints, for 1, 2, ... workers (up to the CPUs this process may use):
   counts interleaved so a noisy neighbour hits them alike);
 * **processes**: the same loop (B = 256) in N independent processes at once: the machine's
   ceiling, what any parallel scheme can reach;
-* **vector env**: ``contour_gym/CCC-v1`` (``decision_ticks`` 10) at several ``num_envs`` on 1
-  and on every thread: env-ticks/s (how :data:`contour_gym.threads.MIN_MEMBERS_PER_THREAD`
-  was chosen);
+* **vector env**: ``contour_gym/CCC-v1`` (``decision_ticks`` 10; 000's machine, the cheapest
+  per member) and ``contour_gym/CCC-LuGre-BSpline-v1`` (002's) at several ``num_envs``, on 1
+  thread, on every thread and on the default (its threads timed against one over the first
+  steps, the faster kept: :class:`contour_gym.threads.ThreadChoice`): env-ticks/s;
+  ``--only-envs`` prints these tables alone;
 * **bench**: the command ``contour-gym bench --suite S --workers N`` in a fresh process, as
   a user runs it (each suite of ``--suites``, default ``default`` and ``generalization``), into
   a fresh folder, after one untimed run (every kernel compiled and cached: the warm figure;
@@ -24,7 +26,7 @@ Prints, for 1, 2, ... workers (up to the CPUs this process may use):
 Speed-up is against one worker in the same run; efficiency = speed-up / workers.
 
     python benchmarks/scaling.py [--suites default,generalization] [--repeats 5]
-        [--wall-repeats 3] [--skip-ray]
+        [--wall-repeats 3] [--skip-ray] [--only-envs]
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -49,7 +52,10 @@ from contour_gym.threads import available_cpus
 
 LOOP_BATCH, LOOP_TICKS = 1024, 1000
 PROCESS_BATCH = 256
-ENV_SIZES = (16, 32, 64, 128, 256, 1024)
+ENV_SIZES = (16, 32, 48, 64, 128, 256, 1024)
+# the cheapest env per member and step, and 002's (LuGre friction, B-spline): threads pay from
+# different batch sizes
+ENV_IDS = ("contour_gym/CCC-v1", "contour_gym/CCC-LuGre-BSpline-v1")
 
 
 def _loop(batch: int, threads: int):  # type: ignore[no-untyped-def]
@@ -98,19 +104,24 @@ def process_rates(counts: list[int], repeats: int) -> dict[int, float]:
     return out
 
 
-def env_rates(threads: int, repeats: int) -> dict[tuple[int, int], float]:
-    """env-ticks/s of the CCC-v1 vector env at each size, on 1 and on ``threads`` threads."""
-    out = {}
+def env_rates(env_id: str, threads: int, repeats: int) -> dict[tuple[int, int | None], float]:
+    """env-ticks/s of a vector env at each size: on 1 thread, on ``threads``, on the default.
+
+    The default (``num_threads=None``) times its threads against one over its first steps
+    and keeps the faster (:class:`contour_gym.threads.ThreadChoice`): the first, untimed round
+    covers those trials.
+    """
+    out: dict[tuple[int, int | None], float] = {}
     for size in ENV_SIZES:
-        envs = {}
-        for n in sorted({1, threads}):
-            env = gym.make_vec("contour_gym/CCC-v1", num_envs=size, num_threads=n,
+        envs: dict[int | None, Any] = {}
+        for n in (*sorted({1, threads}), None):
+            env = gym.make_vec(env_id, num_envs=size, num_threads=n,
                                vectorization_mode="vector_entry_point")  # fmt: skip
             env.reset(seed=0)
             envs[n] = env
         steps = max(20, 20_000 // size)
         action = np.zeros(envs[1].action_space.shape, dtype=np.float32)
-        times: dict[int, list[float]] = {n: [] for n in envs}
+        times: dict[int | None, list[float]] = {n: [] for n in envs}
         for _ in range(repeats + 1):
             for n, env in envs.items():
                 start = time.perf_counter()
@@ -122,6 +133,18 @@ def env_rates(threads: int, repeats: int) -> dict[tuple[int, int], float]:
             out[size, n] = size * steps * ticks / float(np.median(times[n][1:]))
             env.close()
     return out
+
+
+def print_env_table(env_id: str, cpus: int, repeats: int) -> None:
+    """The vector env table of ``env_id``: 1 thread, every thread, the default."""
+    envs = env_rates(env_id, cpus, repeats)
+    name = env_id.split("/")[-1]
+    print(f"\n| vector env {name}, num_envs | 1 thread | {cpus} threads | speed-up "
+          "| default | its speed-up |\n|---|---|---|---|---|---|")  # fmt: skip
+    for size in ENV_SIZES:
+        one, many, auto = envs[size, 1], envs[size, cpus], envs[size, None]
+        print(f"| {size} | {one:.3g} | {many:.3g} | {many / one:.2f}x | {auto:.3g} "
+              f"| {auto / one:.2f}x |")  # fmt: skip
 
 
 def wall(job: Callable[[], object]) -> float:
@@ -185,6 +208,8 @@ def main() -> None:
     parser.add_argument("--wall-repeats", type=int, default=3,
                         help="runs of each bench and tune row (their median)")
     parser.add_argument("--skip-ray", action="store_true")
+    parser.add_argument("--only-envs", action="store_true",
+                        help="the vector env tables only")
     args = parser.parse_args()
     budget = None if args.tune_budget is None else tuple(
         int(v) for v in args.tune_budget.split(","))  # fmt: skip
@@ -194,40 +219,46 @@ def main() -> None:
     from contour_gym import precompile
 
     precompile(("loop", "env", "path_api"), progress=False)
+    walls = "" if args.only_envs else f" (bench and tune: of {args.wall_repeats})"
     print(f"# scaling, {platform.machine()}, {cpus} CPUs usable, {os.cpu_count()} visible; "
-          f"medians of {args.repeats} (bench and tune: of {args.wall_repeats})\n")
-    print("| what | workers | speed | speed-up | efficiency |\n|---|---|---|---|---|")
-    loops = loop_rates(counts, args.repeats)
+          f"medians of {args.repeats}{walls}")
+    if not args.only_envs:
+        worker_rows(counts, args.repeats, args.suites.split(","), budget, args.wall_repeats,
+                    not args.skip_ray)  # fmt: skip
+    for env_id in ENV_IDS:
+        print_env_table(env_id, cpus, args.repeats)
+
+
+def worker_rows(
+    counts: list[int], repeats: int, suites: list[str], budget: tuple[int, int] | None,
+    wall_repeats: int, ray: bool,
+) -> None:  # fmt: skip
+    """The table against workers: the loop, processes, bench, tune (and on Ray)."""
+    print("\n| what | workers | speed | speed-up | efficiency |\n|---|---|---|---|---|")
+    loops = loop_rates(counts, repeats)
     for n in counts:
         print(row(f"loop, B = {LOOP_BATCH}, threads", n, loops[n], loops[1], "ticks/s", True))
-    procs = process_rates(counts, args.repeats)
+    procs = process_rates(counts, repeats)
     for n in counts:
         print(row(f"loop, B = {PROCESS_BATCH}, processes", n, procs[n], procs[1], "ticks/s",
                   True))  # fmt: skip
     root = Path(tempfile.mkdtemp(prefix="scaling-"))
     try:
-        suites = args.suites.split(",")
         for suite in suites:
             wall(bench_job(suite, root, "--workers", "1"))  # its kernels compiled and cached
             benches = median_walls({n: bench_job(suite, root, "--workers", str(n))
-                                    for n in counts}, args.wall_repeats)  # fmt: skip
+                                    for n in counts}, wall_repeats)  # fmt: skip
             for n in counts:
                 print(row(f"bench {suite}", n, benches[n], benches[1], "s", False))
         wall(tune_job((4, 1), workers=1))  # its kernels cached
         tunes = median_walls({n: tune_job(budget, workers=n) for n in counts},
-                             args.wall_repeats)  # fmt: skip
+                             wall_repeats)  # fmt: skip
         for n in counts:
             print(row("tune 003", n, tunes[n], tunes[1], "s", False))
-        if not args.skip_ray:
+        if ray:
             ray_rows(suites[-1], budget, root, benches[1], tunes[1])
     finally:
         shutil.rmtree(root, ignore_errors=True)
-    envs = env_rates(cpus, args.repeats)
-    print(f"\n| vector env CCC-v1, num_envs | 1 thread | {cpus} threads | speed-up |")
-    print("|---|---|---|---|")
-    for size in ENV_SIZES:
-        one, many = envs[size, 1], envs[size, cpus]
-        print(f"| {size} | {one:.3g} | {many:.3g} | {many / one:.2f}x |")
 
 
 def ray_rows(

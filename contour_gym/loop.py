@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from types import ModuleType
@@ -80,7 +81,7 @@ from contour_gym.servo import CONTROLLERS, PIDGains, build_controller, compensat
 from contour_gym.servo.base import CONTROLLER_FAMILY
 from contour_gym.servo.compensation import COMPENSATION_FAMILY
 from contour_gym.servo.gains import as_pid_gains
-from contour_gym.threads import check_threads, run_parts, split
+from contour_gym.threads import ThreadChoice, check_threads, run_parts, split
 
 Array = NDArray[np.float64]
 # config columns holding the code of the loop's one component of each family
@@ -149,7 +150,9 @@ class ServoLoop(LoopPaths, LoopParameters):
         record: Keep a per-tick :class:`Trace`.
         threads: Threads the members run on, each over a contiguous part of the batch (None:
             :func:`contour_gym.threads.default_threads`, every CPU when the batch is large
-            enough to pay; at most one per member). Results do not depend on it.
+            enough, timed against one thread over the first calls and the faster kept,
+            :class:`~contour_gym.threads.ThreadChoice`; at most one per member). Results do
+            not depend on it.
         **options: The fields of :class:`LoopOptions` (axis controller, estimator, CCC law and
             injection, ``ideal``, path control, settle time, sample period). A path carrying a
             time law (:attr:`Path.time_law`) is run on it instead of the interpolator's feeds.
@@ -172,6 +175,8 @@ class ServoLoop(LoopPaths, LoopParameters):
         _check_sizes(stage, path, axis_gains, batch_size)
         self.threads = check_threads(threads, int(batch_size))
         self._parts = split(int(batch_size), self.threads)
+        # the default's threads are timed against one thread, the faster kept (ThreadChoice)
+        self._choice = ThreadChoice(self._parts) if threads is None and self.threads > 1 else None
         stage.check_travel(path)  # before any array is sized
         self.opts = _options(options)
         self.stage, self.batch_size, self.record = stage, int(batch_size), record
@@ -409,10 +414,7 @@ class ServoLoop(LoopPaths, LoopParameters):
                 self._iblob.buffer, self._iblob.layout, self._kind, self._pblob.buffer,
                 self._pblob.layout, noise, rec)  # fmt: skip
         call, head = (self.kernel.run_ticks, args) if via is None else (via, (*leading, *args))
-        if len(self._parts) == 1:
-            result = call(*head, 0, self.batch_size, 0)
-        else:
-            result = run_parts(lambda lo, hi, part: call(*head, lo, hi, part), self._parts)[0]
+        result = self._run_parts(call, head, n_ticks)
         if result is False:
             if paused is not None:
                 self._resume(paused, 0)
@@ -427,6 +429,19 @@ class ServoLoop(LoopPaths, LoopParameters):
             _compile.mark_compiled(self.kernel)
             self._marked = True
             _tiers.start_pending()
+        return result
+
+    def _run_parts(self, call: Callable[..., Any], head: tuple[Any, ...], n_ticks: int) -> Any:
+        # ``call`` on each part of the batch (those chosen by timing, or on trial), its result
+        choice = self._choice
+        parts = self._parts if choice is None else choice.parts()
+        start = time.perf_counter()
+        if len(parts) == 1:
+            result = call(*head, 0, self.batch_size, 0)
+        else:
+            result = run_parts(lambda lo, hi, part: call(*head, lo, hi, part), parts)[0]
+        if choice is not None and result is not False:
+            choice.record(parts, time.perf_counter() - start, int(n_ticks))
         return result
 
     def _pause(self, skip: ArrayLike) -> NDArray[np.bool_]:

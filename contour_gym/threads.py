@@ -5,11 +5,15 @@ hold no GIL (:func:`contour_gym._loopkernel.run_ticks`), so the parts of a batch
 threads. A member's results do not depend on its part: the same seed gives the same numbers,
 bit for bit, for any number of threads. The threads come from one pool shared by every loop
 (grown when a loop asks for more); the calling thread runs the first part itself.
+
+Where a second thread starts to pay depends on the work per member and call, so a batch left
+to the default threads is timed on both and keeps the faster (:class:`ThreadChoice`).
 """
 
 from __future__ import annotations
 
 import os
+import statistics
 import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -18,13 +22,18 @@ from typing import TypeVar
 T = TypeVar("T")
 Part = tuple[int, int, int]  # (lo, hi, part): members lo:hi on scratch ``part``
 
-# members per thread below which a batch runs on one thread by default: measured with
-# benchmarks/scaling.py (vector env rows, CCC-v1, 10 ticks a step) on a 2-core machine, two
-# threads against one: 0.61x at B = 16, 0.89x at 32, 1.16x at 64, 1.44x at 128, 1.84x at 1024
-# (the serial Python of a step and a thread hand-off weigh less as the batch grows)
-MIN_MEMBERS_PER_THREAD = 32
+# members per thread below which a batch runs on one thread by default; from twice this, the
+# default's threads are tried against one thread and the faster kept (ThreadChoice). Two
+# threads against one on a 2-core machine (benchmarks/scaling.py --only-envs, 2026-11-28):
+# CCC-v1 (000's machine, 10 ticks a step) 0.72x at 32 members, 0.82x at 48, 0.99x at 64,
+# 1.22x at 128; CCC-LuGre-BSpline-v1 (002's) 1.04x at 32, 1.22x at 48, 1.36x at 64. The
+# default ran within the machine's noise of the better (32 members per thread, the fixed rule
+# before, lost up to 9 % on CCC-v1 at 64 members and left 002's 48 on one thread)
+MIN_MEMBERS_PER_THREAD = 16
 
 THREADS_VARIABLE = "CONTOUR_GYM_THREADS"
+TRIALS = 5  # timed calls of each choice before ThreadChoice keeps one
+RECHECK = 256  # calls after which ThreadChoice tries both again
 _lock = threading.Lock()
 _pool: ThreadPoolExecutor | None = None
 _pool_size = 0
@@ -109,3 +118,54 @@ def run_parts(call: Callable[[int, int, int], T], parts: tuple[Part, ...]) -> li
     if error is not None:
         raise error
     return first + rest
+
+
+class ThreadChoice:
+    """Parts of a batch chosen by timing: one thread, or the default's threads, the faster.
+
+    Two threads pay from 80 members of 000's machine in the CCC env, from under 48 of 002's
+    (docs/parallel.md), so a fixed count of members per thread loses on some envs. A batch
+    whose threads were left to the default, with more than one, is run alternately on one
+    thread and on all of them; after :data:`TRIALS` timed calls of each (the first call aside:
+    it may load the kernel), it keeps the one with the fewer seconds per tick (medians), and
+    tries both again every :data:`RECHECK` calls: a run's first calls (members getting up to
+    speed) may not cost what its later ones do. The numbers do not depend on it: a member's
+    results do not depend on its part.
+
+    Args:
+        parts: The default's parts (:func:`split`), more than one.
+
+    Attributes:
+        kept: The parts chosen (None while on trial).
+    """
+
+    def __init__(self, parts: tuple[Part, ...]) -> None:
+        self.many = parts
+        self.one: tuple[Part, ...] = ((parts[0][0], parts[-1][1], 0),)
+        self.kept: tuple[Part, ...] | None = None
+        self._seconds: dict[int, list[float]] = {1: [], len(parts): []}
+        self._calls = 0  # since the trials began (or since kept)
+
+    def parts(self) -> tuple[Part, ...]:
+        """The parts the next call runs on (on trial: all of them first, then one and all)."""
+        if self.kept is not None:
+            return self.kept
+        return self.one if self._calls % 2 else self.many
+
+    def record(self, parts: tuple[Part, ...], seconds: float, ticks: int) -> None:
+        """Note a call on ``parts`` that ran ``ticks`` ticks in ``seconds``."""
+        self._calls += 1
+        if self.kept is not None:
+            if self._calls >= RECHECK:
+                self.kept, self._calls = None, 0
+                for times in self._seconds.values():
+                    times.clear()
+            return
+        if self._calls == 1 or ticks < 1:
+            return
+        self._seconds[len(parts)].append(seconds / ticks)
+        if min(len(v) for v in self._seconds.values()) < TRIALS:
+            return
+        one = statistics.median(self._seconds[1])
+        many = statistics.median(self._seconds[len(self.many)])
+        self.kept, self._calls = (self.one if one <= many else self.many), 0

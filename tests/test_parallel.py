@@ -24,7 +24,16 @@ from agents.rl.sweep import parse_grid, run_trials, trials
 from agents.suites import load_suite
 from agents.tune import tune
 from contour_gym.api import make_scenario
-from contour_gym.threads import MIN_MEMBERS_PER_THREAD, check_threads, default_threads, split
+from contour_gym.threads import (
+    MIN_MEMBERS_PER_THREAD,
+    RECHECK,
+    TRIALS,
+    ThreadChoice,
+    available_cpus,
+    check_threads,
+    default_threads,
+    split,
+)
 
 SUITE = "tiny"
 ENV, STEPS = "contour_gym/CCC-Circle-v0", 1000  # two 1000-step runs (seeds 0, 1)
@@ -78,6 +87,42 @@ def test_the_loop_on_threads_equals_one_thread_bit_for_bit() -> None:
     np.testing.assert_array_equal(out[0][1], out[1][1])
     for key, value in out[0][2].items():
         np.testing.assert_array_equal(value, out[1][2][key], err_msg=key)
+
+
+def test_the_thread_choice_keeps_the_faster_after_its_trials_and_tries_again() -> None:
+    for one_seconds, kept in ((1.0, 1), (3.0, 2)):
+        choice = ThreadChoice(split(64, 2))
+        for call in range(2 * TRIALS + 1):
+            parts = choice.parts()
+            assert choice.kept is None
+            assert len(parts) == (1 if call % 2 else 2)  # all parts first (a warm-up), then turns
+            seconds = 100.0 if call == 0 else (one_seconds if len(parts) == 1 else 2.0)
+            choice.record(parts, 10 * seconds, 10)
+        assert choice.kept is not None and len(choice.kept) == kept
+        assert choice.kept == (((0, 64, 0),) if kept == 1 else split(64, 2))
+        for _ in range(RECHECK):
+            assert choice.parts() == choice.kept
+            choice.record(choice.kept, 1.0, 10)
+        assert choice.kept is None and len(choice.parts()) == 2  # on trial again
+
+
+@pytest.mark.skipif(available_cpus() < 2, reason="the default is one thread on one CPU")
+def test_a_loop_on_the_default_threads_chooses_and_equals_one_thread_bit_for_bit() -> None:
+    sc = make_scenario("xy_dc_servo", ideal=False)
+    batch = 2 * MIN_MEMBERS_PER_THREAD
+    out = []
+    for threads in (1, None):
+        loop = sc.loop(batch_size=batch, ccc_gains=sc.preset.ccc_gains.as_tuple(),
+                       threads=threads)  # fmt: skip
+        loop.set_ccc_gains(np.linspace(0.5, 2.0, batch)[:, None, None]
+                           * sc.preset.ccc_gains.as_tuple())  # fmt: skip
+        loop.reset(7)
+        for _ in range(2 * TRIALS + 3):
+            loop.step(40)
+        out.append((loop.ax_s.copy(), loop.sums.contour.copy()))
+    assert loop._choice is not None and loop._choice.kept is not None  # chosen during the run
+    np.testing.assert_array_equal(out[0][0], out[1][0])
+    np.testing.assert_array_equal(out[0][1], out[1][1])
 
 
 @pytest.mark.parametrize("env_id", ["contour_gym/CCC-v1", "contour_gym/Feedrate-v1"])
