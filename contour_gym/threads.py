@@ -141,7 +141,7 @@ class ThreadChoice:
 
     def __init__(self, parts: tuple[Part, ...]) -> None:
         self.many = parts
-        self.one: tuple[Part, ...] = ((parts[0][0], parts[-1][1], 0),)
+        self.one = split(parts[-1][1], 1)
         self.kept: tuple[Part, ...] | None = None
         self._seconds: dict[int, list[float]] = {1: [], len(parts): []}
         self._calls = 0  # since the trials began (or since kept)

@@ -8,7 +8,8 @@ defuzzifier, so the reference of a product system is plain numpy on skfuzzy's me
 (:func:`reference_basis`). One ``compute()`` is slow: networkx re-sorts the rules on every call.
 
 ``skfuzzy.control`` (and networkx, which it imports) is imported by the functions that use it,
-not with this module: 0.44 s measured, which every command that loads a fuzzy policy paid.
+not with this module: ``import agents.policies`` took 0.86-0.89 s with it, 0.59-0.63 s
+without (measured), a cost every command that loads a fuzzy policy paid.
 """
 
 from __future__ import annotations
