@@ -138,14 +138,36 @@ def _one_thread() -> Callable[[], None]:
     """
     from threadpoolctl import threadpool_limits
 
-    threads = _torch_threads(1)
+    section = [_torch_threads(1)]  # torch's threads before (None: not imported yet)
     limits = threadpool_limits(1)
+    _SECTIONS.append(section)
 
     def undo() -> None:
+        _SECTIONS.remove(section)
         limits.restore_original_limits()
-        _torch_threads(threads)
+        _torch_threads(section[0])
 
     return undo
+
+
+# this process's one-thread sections (:func:`_one_thread`), each with torch's thread count
+# from before it (None: torch was not imported when it began)
+_SECTIONS: list[list[int | None]] = []
+
+
+def limit_new_torch() -> None:
+    """Put torch on one thread if it was imported inside a unit's one-thread section.
+
+    For code that imports torch on demand (a saved agent reads its model when it first acts):
+    torch loaded after :func:`_one_thread` began would run on every core beside the other
+    units; the section's end gives torch its own count back. A no-op outside a section or
+    without torch.
+    """
+    if "torch" not in sys.modules:
+        return
+    for section in _SECTIONS:
+        if section[0] is None:
+            section[0] = _torch_threads(1)
 
 
 @functools.cache  # once per process
@@ -179,9 +201,7 @@ def _init_worker(*modules: str, filters: list[Any] | None = None) -> None:
     exit_quickly()
     for name in modules:
         importlib.import_module(name)
-    with contextlib.suppress(ImportError):
-        import torch  # noqa: F401 - loaded now, so that its threads are set below
-    _one_thread()  # for the worker's life
+    _one_thread()  # for the worker's life (torch, imported by a unit that needs it: one thread)
 
 
 class Processes(Runner):

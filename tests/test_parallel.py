@@ -7,6 +7,7 @@ import hashlib
 import importlib.util
 import json
 import os
+import subprocess
 import sys
 import time
 import zipfile
@@ -230,6 +231,23 @@ def _blas_threads(_: int) -> tuple[int, tuple[int, ...]]:
     time.sleep(0.2)  # long enough for both processes to take units
     return os.getpid(), tuple(p["num_threads"] for p in threadpool_info()
                               if p["user_api"] == "blas")  # fmt: skip
+
+
+@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="torch runs one thread on one core")
+def test_torch_imported_inside_a_unit_runs_on_one_thread_until_the_section_ends() -> None:
+    # a saved agent imports torch when it first acts, inside a unit: one thread there, torch's
+    # own count after; in a fresh interpreter (here torch is imported already)
+    code = ("import os, sys; [os.environ.pop(k, None) for k in "
+            "('OMP_NUM_THREADS', 'MKL_NUM_THREADS')]\n"
+            "from agents.parallel import _one_thread, limit_new_torch\n"
+            "assert 'torch' not in sys.modules\n"
+            "undo = _one_thread(); import torch; own = torch.get_num_threads()\n"
+            "limit_new_torch(); inside = torch.get_num_threads(); undo()\n"
+            "print(own, inside, torch.get_num_threads())")
+    done = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parent.parent,
+                          capture_output=True, text=True, check=True)  # fmt: skip
+    own, inside, after = map(int, done.stdout.split())
+    assert own >= 2 and inside == 1 and after == own
 
 
 @pytest.mark.slow

@@ -10,9 +10,9 @@ statistics; absent when trained without normalisation) and ``meta.yaml``::
 
 Every folder under ``agents/trained/`` is registered as a policy by its name
 (:func:`register_saved_agents`, run when :mod:`agents.policies` is imported), so
-``agents.policies.make("ppo_ccc_circle", env)`` loads it and ``available()`` lists it; any
-other folder loads with ``SavedAgent(path)``. The model is loaded (and stable-baselines3
-imported) when the policy is made, not at registration.
+``agents.policies.make("ppo_ccc_circle", env)`` makes it and ``available()`` lists it; any
+other folder loads with ``SavedAgent(path)``. The model is read (and stable-baselines3
+imported) when the agent first acts or checks an env, not when it is registered or made.
 
 The policy acts deterministically on the normalised observation, on a batch
 (:meth:`SB3Policy.act`) or, with :meth:`SB3Policy.predict`, on one observation or a batch.
@@ -34,6 +34,7 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
+from agents.parallel import limit_new_torch
 from agents.policies import POLICIES, Actions, Observation, Policy, batch_size, register_policy
 from agents.rl.observation import flatten_obs
 from contour_gym.envs.config import EnvConfig
@@ -74,16 +75,42 @@ class SB3Policy(Policy):
         deterministic: bool = True,
         recurrent: bool = False,
     ) -> None:
-        self.model, self.normalizer, self.label = model, normalizer, label
+        self._model, self._normalizer, self.label = model, normalizer, label
         self.deterministic, self.recurrent = deterministic, recurrent
         self._state: Any = None  # a recurrent policy's state, None at an episode's start
         self._env_kwargs = {k: v for k, v in (env_kwargs or {}).items() if k not in TRAINING_ONLY}
-        space = model.observation_space
-        # trained on the flattened Dict (env_wrapper FlattenObservation): a Box
-        self._flat = not isinstance(getattr(space, "spaces", None), Mapping)
-        self._flat_size = int(np.prod(space.shape)) if self._flat else 0
-        self._shapes = {} if self._flat else space_shapes(space)
         self._keys: tuple[str, ...] | None = None  # the env's Dict order (sorted until reset)
+
+    @property
+    def model(self) -> Any:
+        """The SB3 model."""
+        return self._model
+
+    @property
+    def normalizer(self) -> Any:
+        """The ``VecNormalize`` whose observation statistics the model was trained on, or None."""
+        return self._normalizer
+
+    @functools.cached_property
+    def _observed(self) -> tuple[bool, int, dict[str, tuple[int, ...]]]:
+        # (flat, its size, the Dict's shapes), read from the model when first needed: a Box
+        # when trained on the flattened Dict (env_wrapper FlattenObservation)
+        space = self.model.observation_space
+        if isinstance(getattr(space, "spaces", None), Mapping):
+            return False, 0, space_shapes(space)
+        return True, int(np.prod(space.shape)), {}
+
+    @property
+    def _flat(self) -> bool:
+        return self._observed[0]
+
+    @property
+    def _flat_size(self) -> int:
+        return self._observed[1]
+
+    @property
+    def _shapes(self) -> dict[str, tuple[int, ...]]:
+        return self._observed[2]
 
     @property
     def env_kwargs(self) -> dict[str, Any]:
@@ -107,7 +134,7 @@ class SB3Policy(Policy):
             self._keys = tuple(theirs)
             fits = flat_size(theirs) == self._flat_size
         else:
-            fits = space_shapes(self.model.observation_space) == theirs
+            fits = self._shapes == theirs
         if not fits:
             raise ValueError(f"agent {self.label!r} observes {self._observes()}, which does not "
                              f"fit the env's observation space {theirs}")  # fmt: skip
@@ -199,13 +226,18 @@ class SavedAgent(SB3Policy):
         path: The agent's folder.
         deterministic: Act on the mean action (True) or sample.
 
-    The model and its statistics are read once per process and shared by the agents made from
-    the same unchanged files. The model is loaded to act (:func:`load_for_acting`: it has no
+    The model and its statistics are read when the agent first needs them (to act, or to check
+    an env against its spaces), not when it is made: a suite builds every policy to check its
+    file, and a bench unit builds only its own cells' (``load_suite("default")`` took 1.2-1.3 s
+    with its four agents read, and 0.2 s without: reading one imports stable-baselines3 and
+    torch). They are read once per process and shared by the agents that read the same
+    unchanged files. The model is loaded to act (:func:`load_for_acting`: it has no
     optimizer); to fine-tune an agent, load its ``model.zip`` with the algorithm's ``load``.
 
     Raises:
         ValueError: for a missing model or meta file (naming the path), or a meta file without
-            ``algo`` and ``env_id``.
+            ``algo`` and ``env_id``. A model file that cannot be read raises when the agent
+            first needs it.
     """
 
     name = "saved_agent"
@@ -218,11 +250,27 @@ class SavedAgent(SB3Policy):
         model_path = folder / MODEL_FILE
         if not model_path.is_file():
             raise ValueError(f"agent {folder.name!r}: model file {model_path} is missing")
-        algo = algorithm(self.meta["algo"])
-        stats = folder / STATS_FILE
-        model, normalizer = _loaded(algo, model_path, _stamp(model_path), stats, _stamp(stats))
-        super().__init__(model, normalizer, self._interface(), folder.name, deterministic,
-                         algo.recurrent)  # fmt: skip
+        self._algo = algorithm(self.meta["algo"])
+        super().__init__(None, None, self._interface(), folder.name, deterministic,
+                         self._algo.recurrent)  # fmt: skip
+
+    @functools.cached_property
+    def _files(self) -> tuple[Any, Any]:
+        # the model and normalizer, read when first needed (class docstring)
+        model, stats = self.folder / MODEL_FILE, self.folder / STATS_FILE
+        loaded = _loaded(self._algo, model, _stamp(model), stats, _stamp(stats))
+        limit_new_torch()  # torch may have been imported just now, inside a unit
+        return loaded
+
+    @property
+    def model(self) -> Any:
+        """The SB3 model, loaded to act (read from ``model.zip`` when first asked for)."""
+        return self._files[0]
+
+    @property
+    def normalizer(self) -> Any:
+        """The model's ``VecNormalize`` (read with the model), or None."""
+        return self._files[1]
 
     def _interface(self) -> dict[str, Any]:
         """The training env kwargs, with the observation version of its id when they lack it.
@@ -326,8 +374,8 @@ def read_meta(folder: Path) -> dict[str, Any]:
 def register_saved_agents(root: str | Path = TRAINED_DIR, replace: bool = False) -> list[str]:
     """Register every agent folder under ``root`` as a policy named after the folder.
 
-    The model is loaded when the policy is made (:class:`SavedAgent`), so a folder with a
-    missing file fails then, naming the file.
+    A folder is checked when its policy is made (:class:`SavedAgent`: a missing model or
+    meta file fails then, naming the file) and its model read when the agent first acts.
 
     Args:
         root: The folder holding agent folders (default ``agents/trained``).
