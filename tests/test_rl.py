@@ -310,6 +310,18 @@ def test_saved_agent_acts_as_the_fully_loaded_model(agent_dir):
     np.testing.assert_array_equal(agent.act(obs), plain.act(obs))
 
 
+def test_a_policy_given_a_new_model_checks_envs_against_the_new_one(agent_dir):
+    agent = SavedAgent(agent_dir)
+    plain = SB3Policy(agent.model, agent.normalizer, agent.env_kwargs)
+    env = gym.make(CCC, **agent.env_kwargs)
+    plain.reset(env)  # fits: the agent's own training env
+    other = algo_class("ppo")("MultiInputPolicy", gym.make("contour_gym/Feedrate-Corner-v0"),
+                              device="cpu")  # fmt: skip
+    plain.model = other  # a model of another observation: the checks read it afresh
+    with pytest.raises(ValueError, match="observes"):
+        plain.reset(env)
+
+
 def test_an_agent_reads_its_model_when_first_needed_without_torch_dynamo(agent_dir):
     # made, it has not imported torch (a suite makes every policy to check it); read to act,
     # no torch._dynamo (torch's optimizers import it when first made: ~1 s of a start)

@@ -46,6 +46,7 @@ TRAINED_DIR = Path(__file__).resolve().parent.parent / "trained"
 # env kwargs that vary the training, not the agent's interface (observation, action, machine)
 TRAINING_ONLY = ("randomize", "path", "path_options", "reward", "reward_weights")
 MODEL_FILE, STATS_FILE, META_FILE = "model.zip", "vecnormalize.pkl", "meta.yaml"
+UNREAD: Any = object()  # the model of an SB3Policy that reads it when first needed (SavedAgent)
 
 
 class SB3Policy(Policy):
@@ -83,13 +84,32 @@ class SB3Policy(Policy):
 
     @property
     def model(self) -> Any:
-        """The SB3 model."""
+        """The SB3 model (assignable: the policy then acts with the new one)."""
+        if self._model is UNREAD:
+            self._read()
         return self._model
+
+    @model.setter
+    def model(self, model: Any) -> None:
+        self.normalizer  # noqa: B018 - read first, so that reading cannot replace what is set
+        self._model = model
+        self.__dict__.pop("_observed", None)  # read from the new model when next needed
 
     @property
     def normalizer(self) -> Any:
         """The ``VecNormalize`` whose observation statistics the model was trained on, or None."""
+        if self._model is UNREAD:
+            self._read()
         return self._normalizer
+
+    @normalizer.setter
+    def normalizer(self, normalizer: Any) -> None:
+        self.model  # noqa: B018 - read first (as above)
+        self._normalizer = normalizer
+
+    def _read(self) -> None:
+        """Read the model and normalizer a subclass was made without (:data:`UNREAD`)."""
+        raise ValueError(f"agent {self.label!r} was made without a model")
 
     @functools.cached_property
     def _observed(self) -> tuple[bool, int, dict[str, tuple[int, ...]]]:
@@ -251,26 +271,15 @@ class SavedAgent(SB3Policy):
         if not model_path.is_file():
             raise ValueError(f"agent {folder.name!r}: model file {model_path} is missing")
         self._algo = algorithm(self.meta["algo"])
-        super().__init__(None, None, self._interface(), folder.name, deterministic,
+        super().__init__(UNREAD, None, self._interface(), folder.name, deterministic,
                          self._algo.recurrent)  # fmt: skip
 
-    @functools.cached_property
-    def _files(self) -> tuple[Any, Any]:
-        # the model and normalizer, read when first needed (class docstring)
+    def _read(self) -> None:
+        """Read the model (loaded to act) and its normalizer: when first needed (class doc)."""
         model, stats = self.folder / MODEL_FILE, self.folder / STATS_FILE
-        loaded = _loaded(self._algo, model, _stamp(model), stats, _stamp(stats))
+        self._model, self._normalizer = _loaded(self._algo, model, _stamp(model), stats,
+                                                _stamp(stats))  # fmt: skip
         limit_new_torch()  # torch may have been imported just now, inside a unit
-        return loaded
-
-    @property
-    def model(self) -> Any:
-        """The SB3 model, loaded to act (read from ``model.zip`` when first asked for)."""
-        return self._files[0]
-
-    @property
-    def normalizer(self) -> Any:
-        """The model's ``VecNormalize`` (read with the model), or None."""
-        return self._files[1]
 
     def _interface(self) -> dict[str, Any]:
         """The training env kwargs, with the observation version of its id when they lack it.
