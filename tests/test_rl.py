@@ -1,4 +1,5 @@
 import os
+import pickle
 import shutil
 import subprocess
 import sys
@@ -320,6 +321,18 @@ def test_a_policy_given_a_new_model_checks_envs_against_the_new_one(agent_dir):
     plain.model = other  # a model of another observation: the checks read it afresh
     with pytest.raises(ValueError, match="observes"):
         plain.reset(env)
+
+
+def test_an_agent_not_read_yet_reads_its_model_after_pickling(agent_dir):
+    # an agent sent to another process before it acted (a Ray task, a worker) reads it there
+    agent = SavedAgent(agent_dir)
+    copy = pickle.loads(pickle.dumps(agent))
+    venv = gym.make_vec(CCC, num_envs=2, vectorization_mode="vector_entry_point",
+                        **agent.env_kwargs)  # fmt: skip
+    agent.reset(venv)
+    copy.reset(venv)
+    obs, _ = venv.reset(seed=2)
+    np.testing.assert_array_equal(copy.act(obs), agent.act(obs))
 
 
 def test_an_agent_reads_its_model_when_first_needed_without_torch_dynamo(agent_dir):

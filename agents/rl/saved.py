@@ -24,6 +24,7 @@ it is given.
 
 from __future__ import annotations
 
+import enum
 import functools
 import pickle
 from collections.abc import Mapping
@@ -46,7 +47,13 @@ TRAINED_DIR = Path(__file__).resolve().parent.parent / "trained"
 # env kwargs that vary the training, not the agent's interface (observation, action, machine)
 TRAINING_ONLY = ("randomize", "path", "path_options", "reward", "reward_weights")
 MODEL_FILE, STATS_FILE, META_FILE = "model.zip", "vecnormalize.pkl", "meta.yaml"
-UNREAD: Any = object()  # the model of an SB3Policy that reads it when first needed (SavedAgent)
+
+
+class _Unread(enum.Enum):
+    UNREAD = "unread"  # an Enum member: pickled by name, so still itself in another process
+
+
+UNREAD: Any = _Unread.UNREAD  # the model of an SB3Policy that reads it when first needed
 
 
 class SB3Policy(Policy):
