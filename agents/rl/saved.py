@@ -92,27 +92,29 @@ class SB3Policy(Policy):
     @property
     def model(self) -> Any:
         """The SB3 model (assignable: the policy then acts with the new one)."""
-        if self._model is UNREAD:
-            self._read()
+        self._ensure_read()
         return self._model
 
     @model.setter
     def model(self, model: Any) -> None:
-        self.normalizer  # noqa: B018 - read first, so that reading cannot replace what is set
+        self._ensure_read()  # first, so that a later read cannot replace what is set
         self._model = model
         self.__dict__.pop("_observed", None)  # read from the new model when next needed
 
     @property
     def normalizer(self) -> Any:
         """The ``VecNormalize`` whose observation statistics the model was trained on, or None."""
-        if self._model is UNREAD:
-            self._read()
+        self._ensure_read()
         return self._normalizer
 
     @normalizer.setter
     def normalizer(self, normalizer: Any) -> None:
-        self.model  # noqa: B018 - read first (as above)
+        self._ensure_read()  # as the model's
         self._normalizer = normalizer
+
+    def _ensure_read(self) -> None:
+        if self._model is UNREAD:
+            self._read()
 
     def _read(self) -> None:
         """Read the model and normalizer a subclass was made without (:data:`UNREAD`)."""

@@ -274,7 +274,7 @@ def _check_spline(control_points: ArrayLike, knots: ArrayLike, degree: Any
 
 def _spline_pieces(ctrl_h: FloatArray, kn: FloatArray, deg: int, dim: int, rational: bool,
                    name: str) -> _PiecewisePoly:
-    from scipy.interpolate import BSpline  # here: 0.14 s of every start otherwise
+    from scipy.interpolate import BSpline  # here: its import took 0.19-0.23 s
 
     n = ctrl_h.shape[0]
     spl = BSpline(kn, ctrl_h, deg, extrapolate=False)
