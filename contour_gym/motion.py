@@ -26,8 +26,10 @@ the axes are in position), ``"G61.1"`` (exact path: stops at real corners only),
 time constant"): with T > 0 the path speed changes at ``min(accel, F / T)``, ``F`` the
 commanded feed of the current block (times the override). The rate falls only when the
 reference needs no braking at the lower rate (not while the override is below the speed, nor
-while a limit ahead needs braking), whatever the override and the blocks' feeds do: a stop
-brakes at least at the rate it was planned with and arrives at rest (``fa`` keeps the rate's F).
+while a limit ahead needs braking), and rises only when it needs no braking at the rate it
+holds, whatever the override and the blocks' feeds do: a stop under way brakes at the rate it
+was planned with and arrives at rest (``fa`` keeps the rate's F). Turning the override up
+during a stop does not make it later and harder.
 So every speed change takes about T whatever the feedrate, as on a CNC whose acc/dec is set
 by time constants: a faster feed accelerates and stops harder, and the error at its stops
 grows with it. T = 0 (default) keeps ``accel`` at every feed.
@@ -405,11 +407,15 @@ def _curve(p, st, b, s0, plan, ts, a_max):
 @numba.njit(cache=True, inline="always")
 def _rate(p, st, b, s0, plan, ts):
     # this tick's acceleration limit. Under a time constant it is F / T, F the commanded feed
-    # of the current block (``fa`` keeps the last tick's), but it falls only when the
+    # of the current block (``fa`` keeps the last tick's), but it changes only when the
+    # reference needs no braking at the rate it leaves or takes. It falls only when the
     # reference needs no braking at the lower rate: while F is below the speed, or while a
     # limit ahead needs braking at the lower rate, the last rate holds, so that a stop planned
     # at one rate is made however the override and the blocks' feeds fall meanwhile (else the
-    # reference would reach the stop at speed and step to rest)
+    # reference would reach the stop at speed and step to rest). It rises only when the
+    # reference needs no braking at the rate it holds: a stop under way is made at its rate
+    # however the override rises (else turning the override up before a stop bought a harder,
+    # later stop: 004's general feedrate agent learned to, and paid for it in error at stops)
     if p[b, IP.t_acc] <= 0.0:
         return p[b, IP.a_max]
     prog_feed, prog_flags = plan[0], plan[1]
@@ -419,8 +425,11 @@ def _rate(p, st, b, s0, plan, ts):
         f *= p[b, IP.ovr]
     f = min(f, p[b, IP.f_max])
     v, held = st[b, IS.v], st[b, IS.fa]
-    if f >= held:
+    if f == held:
         fa = f
+    elif f > held:  # no braking at the held rate: its curve a tick's speed-up above the speed
+        rate = _feed_rate(p, b, held)
+        fa = f if _curve(p, st, b, s0, plan, ts, rate) >= v + rate * ts else held
     elif f < v:
         fa = max(held, v)
     else:

@@ -185,6 +185,24 @@ def test_a_time_constant_keeps_its_braking_rate_while_the_override_falls():
     assert np.max(np.abs(np.diff(v))) / ts <= feed / T * (1 + 1e-9)
 
 
+def test_a_time_constant_keeps_its_braking_rate_while_the_override_rises():
+    # the override rises to 2.5x once the stop at the path end is under way (what 004's general
+    # feedrate agent learned to do): the stop is made at the rate it started at, tick for tick
+    # as with the override left alone (before, the rate rose with F ovr / T and the reference
+    # braked later at 2.5x the rate: a harder stop, more error at it)
+    T, ts, feed = 0.1, 1e-3, 0.04
+    interp = Interpolator(feed, accel=10.0, time_constant=T)
+    s0, v0, _, done0 = profile(0.05, interp, ts)
+    start = int(np.flatnonzero(np.diff(v0) < 0)[0]) + 1  # the first braking tick
+    changes = {k: feed * min(2.5, 1.0 + 0.1 * (k - start)) for k in range(start, start + 100)}
+    s, v, _, done = profile(0.05, interp, ts, changes=changes)
+    assert done == done0 and np.array_equal(s, s0) and np.array_equal(v, v0)
+    assert np.max(-np.diff(v)) / ts <= feed / T * (1 + 1e-9)
+    # a rise before the stop is planned still counts: the reference speeds up to it
+    s, v, _, _ = profile(0.05, interp, ts, changes={start - 200: 2 * feed})
+    assert v.max() > feed * 1.5
+
+
 def test_a_time_constant_keeps_its_braking_rate_into_a_slower_block_before_a_stop():
     # 50 mm at 6000 mm/min, then 4 mm at 3600 mm/min to the end: the stop is planned at
     # 0.1 / T; in the slower block F / T falls to 0.06 / T, at which the 4 mm are too short to
