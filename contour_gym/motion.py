@@ -427,13 +427,15 @@ def _rate(p, st, b, s0, plan, ts):
     v, held = st[b, IS.v], st[b, IS.fa]
     if f == held:
         fa = f
-    elif f > held:  # no braking at the held rate: its curve a tick's speed-up above the speed
-        rate = _feed_rate(p, b, held)
-        fa = f if _curve(p, st, b, s0, plan, ts, rate) >= v + rate * ts else held
-    elif f < v:
+    elif f < held and f < v:
         fa = max(held, v)
     else:
-        fa = f if _curve(p, st, b, s0, plan, ts, _feed_rate(p, b, f)) >= v else held
+        # one braking curve, at the lower of the two rates: a fall needs none at the new rate;
+        # a rise none at the held one, its curve a tick's speed-up above the speed (one call
+        # site: the curve's loop is inlined into every kernel)
+        probe = _feed_rate(p, b, min(f, held))
+        margin = probe * ts if f > held else 0.0
+        fa = f if _curve(p, st, b, s0, plan, ts, probe) >= v + margin else held
     st[b, IS.fa] = fa
     return _feed_rate(p, b, fa)
 
