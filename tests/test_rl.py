@@ -18,7 +18,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv  # noqa: E402
 import agents.rl.train as rl_train  # noqa: E402
 from agents import policies  # noqa: E402
 from agents.rl.config import algo_class, load_config  # noqa: E402
-from agents.rl.saved import SavedAgent, SB3Policy, register_saved_agents  # noqa: E402
+from agents.rl.saved import SavedAgent, SB3Policy, mean_actions, register_saved_agents  # noqa: E402
 from agents.rl.train import latest_checkpoint, load_checkpoint, read_curve, train  # noqa: E402
 from agents.rl.train_shipped import export_agent, load_shipped  # noqa: E402
 from agents.rl.vec_env import make_native_vec_env  # noqa: E402
@@ -309,6 +309,39 @@ def test_saved_agent_acts_as_the_fully_loaded_model(agent_dir):
     plain.reset(venv)
     obs, _ = venv.reset(seed=1)
     np.testing.assert_array_equal(agent.act(obs), plain.act(obs))
+
+
+def _random_obs(space, batch, rng):
+    if hasattr(space, "spaces"):
+        return {k: _random_obs(s, batch, rng) for k, s in space.spaces.items()}
+    return (3.0 * rng.normal(size=(batch, *space.shape))).astype(np.float32)
+
+
+def _models():
+    # every shipped agent's model, a Dict-observation PPO, and a SAC (which has no shortcut)
+    for name in SHIPPED:
+        yield name, SavedAgent(REPO / "agents" / "trained" / name).model
+    feed = gym.make("contour_gym/Feedrate-Corner-v0")
+    yield "ppo_dict", algo_class("ppo")("MultiInputPolicy", feed, device="cpu", seed=0)
+    yield "sac", algo_class("sac")("MultiInputPolicy", feed, device="cpu", seed=0)
+
+
+def test_the_mean_action_shortcut_equals_predict_bit_for_bit():
+    rng = np.random.default_rng(0)
+    for name, model in _models():
+        fast = mean_actions(model)
+        if name == "sac":
+            assert fast is None  # an off-policy actor: predict acts
+            continue
+        assert fast is not None, name
+        for batch in (1, 5):
+            obs = _random_obs(model.observation_space, batch, rng)
+            model.policy.set_training_mode(True)  # as a training run leaves it: set back
+            got = fast(obs)
+            want, _ = model.predict(obs, deterministic=True)
+            assert got.dtype == np.float64 and got.shape == (batch, *model.action_space.shape)
+            np.testing.assert_array_equal(got, np.asarray(want, dtype=np.float64), err_msg=name)
+            assert not model.policy.training
 
 
 def test_a_policy_given_a_new_model_checks_envs_against_the_new_one(agent_dir):
