@@ -243,7 +243,7 @@ class SB3Policy(Policy):
 
 
 def mean_actions(model: Any) -> Callable[[Any], Actions] | None:
-    """``model.predict(obs, deterministic=True)``'s actions (float64) by its networks alone.
+    """``model.predict(batch, deterministic=True)``'s actions ``(B, n)``, float64, by its networks.
 
     For an on-policy model with a Gaussian policy (PPO, A2C; ``gSDE`` too) on a Box action
     space without squashing, the deterministic action is the actor's mean clipped to the
