@@ -200,9 +200,11 @@ class PSOFuzzyPIDCCC(FuzzyPIDCCC):
     of each family: the worst path's max contour error relative to the untuned law's,
     chattering bounded), shipped in ``agents/data/pso_fuzzy_pid_ccc.json`` with the command
     that reproduces them, ``contour-gym tune 000_general --seed 0``: a factor set for parts it
-    never saw. On the generalization suite's 20 unseen paths of 000's machine it is better
-    than the untuned law on 14 and worse on 6, by up to 1.9 % (a G-code part): the law's peak
-    errors barely move with its factors off the paths they were tuned on. 000's own
+    never saw. The search starts at the untuned law and finds nothing better on its worst
+    path, so the factors are the untuned law's and the policy acts as :class:`FuzzyPIDCCC`
+    does, bit for bit (the search without that start returned factors worse than the untuned
+    law on 6 of the generalization suite's 20 unseen paths of 000's machine, by up to 1.9 %:
+    the law's peak errors barely move with its factors off the paths they were tuned on). 000's own
     experiment, tuned on its three paths, is :class:`PSOFuzzyPIDCCC000`.
 
     Args:

@@ -170,6 +170,59 @@ def test_determinism_same_seed_same_bits(name: str) -> None:
     assert other.history.tobytes() != first.history.tobytes()
 
 
+class FirstCall:
+    """An objective that keeps the points of its first call (generation 0)."""
+
+    def __init__(self, fn: Callable[[np.ndarray], np.ndarray]) -> None:
+        self.fn, self.first = fn, None
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        if self.first is None:
+            self.first = x.copy()
+        return self.fn(x)
+
+
+def needle(x: np.ndarray) -> np.ndarray:
+    """0 within 1e-9 of (0.3, -1.2, 2.5), 1 elsewhere: no search finds it by chance."""
+    return np.where(np.all(np.abs(x - NEEDLE) < 1e-9, axis=1), 0.0, 1.0)
+
+
+NEEDLE = np.array([0.3, -1.2, 2.5])
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_start_points_open_generation_zero_and_the_result_is_never_worse(name: str) -> None:
+    bounds = [[0.0, 1.0], [-2.0, 2.0], [0.0, 2.5]]  # the needle's last coordinate on a wall
+    starts = np.array([[0.9, 1.0, 0.1], NEEDLE])
+    seeded, plain = FirstCall(needle), FirstCall(needle)
+    kw: dict[str, Any] = {"population": 8, "iterations": 3, "seed": 5}
+    res = minimize(name, seeded, bounds, x0=starts, **kw)
+    assert minimize(name, plain, bounds, **kw).fun == 1.0  # the needle is not found by chance
+    assert seeded.first is not None and plain.first is not None
+    assert seeded.first[:2].tobytes() == starts.tobytes()  # each start as given, bit for bit
+    # the other points of generation 0 are the random draws the run makes without starts
+    assert seeded.first[2:].tobytes() == plain.first[2:].tobytes()
+    assert res.fun == 0.0 and res.x.tobytes() == NEEDLE.tobytes()
+    again = minimize(name, needle, bounds, x0=NEEDLE, **kw)  # one point as (dim,)
+    assert again.fun == 0.0
+
+
+@pytest.mark.parametrize(
+    ("x0", "message"),
+    [
+        ([[0.5, 0.5]], r"x0 must have shape \(k, 3\), got shape \(1, 2\)"),
+        ([[0.5, 0.5, 3.0]], r"x0\[0\] = \[0.5, 0.5, 3.0\] is not a finite point in the bounds"),
+        ([[0.5, 0.5, 0.5], [0.5, np.nan, 0.5]], r"x0\[1\] = \[0.5, nan, 0.5\]"),
+        ([["a", 0.5, 0.5]], "x0 must be a numeric"),
+        ([[0.5] * 3] * 9, "x0 has 9 points, more than the population 8"),
+    ],
+)
+def test_bad_start_points_are_named(x0: Any, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        minimize("improved_pso", sphere, [[0.0, 1.0]] * 3, population=8, iterations=2, seed=0,
+                 x0=x0)  # fmt: skip
+
+
 @pytest.mark.parametrize("name", NAMES)
 def test_global_numpy_random_state_untouched(name: str) -> None:
     fn, bounds = PROBLEMS["sphere5"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -200,3 +201,20 @@ def test_the_general_factors_are_protocol_000_generals_and_the_policy_uses_them(
     assert len(p.scenarios) == 24 and p.relative and p.worst_case and p.chatter_bound == 2.0
     f = PopulationObjective("000_general").fitness([[factors[n] for n in p.names]])[0]
     assert f == pytest.approx(data["fitness"], rel=1e-12)
+
+
+def test_a_protocol_started_at_the_reference_never_returns_worse(tmp_path) -> None:
+    general = get_protocol("000_general")
+    two = general.scenarios[:2]
+    kwargs = {name: general.scenario_kwargs[name] for name in two}
+    plain = replace(general, name="000_general_two", scenarios=two, scenario_kwargs=kwargs,
+                    start_at_reference=False)  # fmt: skip
+    seeded = replace(plain, start_at_reference=True)
+    ref = general.reference_point()
+    reference = PopulationObjective(plain).fitness([list(ref.values())])[0]
+    lost = tune(plain, seed=0, population=4, iterations=1, progress=False)
+    assert lost.fitness > reference  # a short random search loses to the untuned law here
+    res = tune(seeded, seed=0, population=4, iterations=1, out=tmp_path, progress=False)
+    assert res.fitness == pytest.approx(reference, rel=1e-9) and res.fitness <= lost.fitness
+    assert res.params == ref  # the untuned law, bit for bit
+    assert json.loads((tmp_path / "result.json").read_text())["settings"]["start_at_reference"]

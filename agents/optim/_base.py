@@ -133,14 +133,23 @@ class Problem:
         objective: Batch objective on real coordinates.
         bounds: ``(dim, 2)`` array-like of ``[low, high]``.
         keep_population: Record every evaluated point for ``population_history``.
+        x0: Start points (:func:`run`), or None.
+
+    Raises:
+        ValueError: for a bad objective, bounds or ``x0``, naming the value.
     """
 
-    def __init__(self, objective: Objective, bounds: ArrayLike, keep_population: bool) -> None:
+    def __init__(
+        self, objective: Objective, bounds: ArrayLike, keep_population: bool,
+        x0: ArrayLike | None = None,
+    ) -> None:  # fmt: skip
         if not callable(objective):
             raise ValueError(f"objective must be callable, got {objective!r}")
         self.low, self.high = check_bounds(bounds)
         self.width = self.high - self.low
         self.dim = int(self.low.size)
+        self._x0 = self._checked_starts(x0)
+        self.starts = (self._x0 - self.low) / self.width  # in unit coordinates
         self.nfev = 0
         self.best_f = np.inf
         self._objective = objective
@@ -151,8 +160,14 @@ class Problem:
         self._generations: list[FloatArray] = []
 
     def to_x(self, u: FloatArray) -> FloatArray:
-        """Map unit coordinates to the box (clipped, so rounding never leaves it)."""
-        return np.clip(self.low + u * self.width, self.low, self.high)
+        """Map unit coordinates to the box (clipped, so rounding never leaves it).
+
+        A start point's unit coordinates map back to the start point itself, bit for bit.
+        """
+        x = np.clip(self.low + u * self.width, self.low, self.high)
+        for unit, exact in zip(self.starts, self._x0, strict=True):
+            x[np.all(u == unit, axis=-1)] = exact
+        return x
 
     def evaluate(self, u: FloatArray) -> FloatArray:
         """Evaluate a batch given in unit coordinates.
@@ -183,14 +198,43 @@ class Problem:
             self._batch.append(x)
         return f
 
+    def _checked_starts(self, x0: ArrayLike | None) -> FloatArray:
+        """The start points ``x0`` as ``(k, dim)`` (k = 0 for None), checked."""
+        if x0 is None:
+            return np.empty((0, self.dim))
+        try:
+            x = np.atleast_2d(np.asarray(x0, dtype=np.float64))
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"x0 must be a numeric (k, {self.dim}) array, got {x0!r}") from exc
+        if x.ndim != 2 or x.shape[1] != self.dim:
+            raise ValueError(f"x0 must have shape (k, {self.dim}), got shape {x.shape}")
+        for i, row in enumerate(x):
+            if not np.all(np.isfinite(row) & (row >= self.low) & (row <= self.high)):
+                raise ValueError(f"x0[{i}] = {row.tolist()} is not a finite point in the bounds")
+        return x
+
     def initial(self, rng: np.random.Generator, n: int) -> tuple[FloatArray, FloatArray]:
-        """Generation 0: ``n`` uniform points and their fitness."""
-        u = rng.random((n, self.dim))
+        """Generation 0: ``n`` uniform points (the start points first) and their fitness."""
+        u = self.seeded(rng.random((n, self.dim)))
         return u, self.evaluate_initial(u)
 
+    def seeded(self, u: FloatArray) -> FloatArray:
+        """Generation 0's points ``u`` with the start points in place of its first rows.
+
+        The random draws are made whether or not there are start points, so the rest of the
+        run's randomness is the same with and without them.
+        """
+        k = self.starts.shape[0]
+        u[:k] = self.starts
+        return u
+
     def evaluate_initial(self, u: FloatArray) -> FloatArray:
-        """Evaluate generation 0 (counted in ``nfev`` and the best, not in the generations)."""
-        f = self.evaluate(u)
+        """Evaluate generation 0 (counted in ``nfev`` and the best, not in the generations).
+
+        Its first rows are the start points, exactly (a library optimiser's own scaling of
+        the sample it was given may have moved them in the last bit).
+        """
+        f = self.evaluate(self.seeded(np.array(u)))
         self._batch = []
         return f
 
@@ -238,15 +282,25 @@ def run(
     seed: Any,
     keep_population: bool,
     min_population: int = 1,
+    x0: ArrayLike | None = None,
 ) -> OptimResult:
     """Validate the common arguments, run ``core`` on a fresh :class:`Problem`, freeze the result.
+
+    ``x0``, every optimiser's option: start points, ``(k, dim)`` (or one point, ``(dim,)``)
+    inside the box, at most ``population`` of them. Generation 0 evaluates them in place of
+    its first ``k`` random points, so the result is never worse than the best of them (e.g.
+    a controller's untuned gains: a tuning that finds nothing better returns them). None:
+    every point of generation 0 is random.
 
     Raises:
         ValueError: naming the first bad argument.
     """
     population = positive_int(population, "population", min_population)
     iterations = positive_int(iterations, "iterations")
-    problem = Problem(objective, bounds, keep_population)
+    problem = Problem(objective, bounds, keep_population, x0)
+    if problem.starts.shape[0] > population:
+        raise ValueError(f"x0 has {problem.starts.shape[0]} points, more than the population "
+                         f"{population}")  # fmt: skip
     core(problem, make_rng(seed), population, iterations)
     return problem.result(name)
 

@@ -271,6 +271,7 @@ def abc(
     seed: int | np.random.Generator,
     limit: int | None = None,
     keep_population: bool = False,
+    x0: ArrayLike | None = None,
 ) -> OptimResult:
     """Standard artificial bee colony (Karaboga 2005; Karaboga & Basturk 2007).
 
@@ -293,12 +294,15 @@ def abc(
         seed: Int or ``numpy.random.Generator``; the only source of randomness.
         limit: Failed trials before a source is abandoned; default ``SN * dim`` (Karaboga).
         keep_population: Return every evaluated point in ``population_history``.
+        x0: Start points ``(k, dim)`` in the box, evaluated first in generation 0 in place
+            of ``k`` random points (:func:`agents.optim._base.run`); None: all random.
 
     Returns:
         The run's :class:`OptimResult`.
     """
     core = partial(_colony, move=_karaboga_move, selection=abc_probabilities, limit=_limit(limit))
-    return run("abc", core, objective, bounds, population, iterations, seed, keep_population, 4)
+    return run("abc", core, objective, bounds, population, iterations, seed,
+               keep_population, 4, x0=x0)  # fmt: skip
 
 
 def improved_abc(
@@ -313,6 +317,7 @@ def improved_abc(
     eta3: float = 0.1,
     limit: int | None = None,
     keep_population: bool = False,
+    x0: ArrayLike | None = None,
 ) -> OptimResult:
     """Improved artificial bee colony (IABC) of paper 003, section 4.
 
@@ -345,6 +350,8 @@ def improved_abc(
         eta3: Weight of the own-worst term ``psi - w``.
         limit: Failed trials before a source is abandoned; default ``SN * dim`` (Karaboga).
         keep_population: Return every evaluated point in ``population_history``.
+        x0: Start points ``(k, dim)`` in the box, evaluated first in generation 0 in place
+            of ``k`` random points (:func:`agents.optim._base.run`); None: all random.
 
     Returns:
         The run's :class:`OptimResult`.
@@ -352,9 +359,8 @@ def improved_abc(
     etas = finite(eta1, "eta1"), finite(eta2, "eta2"), finite(eta3, "eta3")
     move = partial(iabc_move, etas=etas)
     core = partial(_colony, move=move, selection=iabc_probabilities, limit=_limit(limit))
-    return run(
-        "improved_abc", core, objective, bounds, population, iterations, seed, keep_population, 4
-    )
+    return run("improved_abc", core, objective, bounds, population, iterations, seed,
+               keep_population, 4, x0=x0)  # fmt: skip
 
 
 __all__ = [

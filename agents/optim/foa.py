@@ -127,6 +127,7 @@ def foa(
     seed: int | np.random.Generator,
     radius: float = 0.1,
     keep_population: bool = False,
+    x0: ArrayLike | None = None,
 ) -> OptimResult:
     """Standard fruit-fly optimisation algorithm (Pan 2012), box-bounded form.
 
@@ -144,12 +145,14 @@ def foa(
         seed: Int or ``numpy.random.Generator``; the only source of randomness.
         radius: Flight radius as a fraction of the box width.
         keep_population: Return every evaluated point in ``population_history``.
+        x0: Start points ``(k, dim)`` in the box, evaluated first in generation 0 in place
+            of ``k`` random points (:func:`agents.optim._base.run`); None: all random.
 
     Returns:
         The run's :class:`OptimResult`.
     """
     core = partial(_fixed_flight, radius=positive(radius, "radius"))
-    return run("foa", core, objective, bounds, population, iterations, seed, keep_population)
+    return run("foa", core, objective, bounds, population, iterations, seed, keep_population, x0=x0)
 
 
 def _fixed_flight(
@@ -239,6 +242,7 @@ def improved_foa(
     p_mutation: float = 0.2,
     cauchy_scale: float = 0.25,
     keep_population: bool = False,
+    x0: ArrayLike | None = None,
 ) -> OptimResult:
     """Improved fruit-fly optimisation of paper 002 (section 2.2, eqs. 5-11).
 
@@ -269,6 +273,8 @@ def improved_foa(
         p_mutation: Probability of the Cauchy mutation when trapped.
         cauchy_scale: Scale of the Cauchy mutation as a fraction of the box width.
         keep_population: Return every evaluated point in ``population_history``.
+        x0: Start points ``(k, dim)`` in the box, evaluated first in generation 0 in place
+            of ``k`` random points (:func:`agents.optim._base.run`); None: all random.
 
     Returns:
         The run's :class:`OptimResult`.
@@ -276,9 +282,8 @@ def improved_foa(
     core = _ImprovedFlight.checked(
         radius, l_max, a, rate, (q1, q2, a_con), delta, p_mutation, cauchy_scale
     )
-    return run(
-        "improved_foa", core, objective, bounds, population, iterations, seed, keep_population, 2
-    )
+    return run("improved_foa", core, objective, bounds, population, iterations, seed,
+               keep_population, 2, x0=x0)  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -75,6 +75,7 @@ def pso(
     c2: float = 2.0,
     v_max: float = 0.2,
     keep_population: bool = False,
+    x0: ArrayLike | None = None,
 ) -> OptimResult:
     """Standard PSO with a linearly decreasing inertia weight (Shi & Eberhart 1999).
 
@@ -95,6 +96,8 @@ def pso(
         c2: Social learning factor.
         v_max: Velocity clamp as a fraction of the box width.
         keep_population: Return every evaluated point in ``population_history``.
+        x0: Start points ``(k, dim)`` in the box, evaluated first in generation 0 in place
+            of ``k`` random points (:func:`agents.optim._base.run`); None: all random.
 
     Returns:
         The run's :class:`OptimResult`.
@@ -107,7 +110,7 @@ def pso(
         c2=finite(c2, "c2"),
     )
     core = partial(_swarm, schedule=schedule, v_max=positive(v_max, "v_max"))
-    return run("pso", core, objective, bounds, population, iterations, seed, keep_population)
+    return run("pso", core, objective, bounds, population, iterations, seed, keep_population, x0=x0)
 
 
 def linear_coefficients(
@@ -198,6 +201,7 @@ def improved_pso(
     t_ref: float = 100.0,
     v_max: float = 0.2,
     keep_population: bool = False,
+    x0: ArrayLike | None = None,
 ) -> OptimResult:
     """Improved PSO of paper 000: learning factors driven by a nonlinear inertia weight.
 
@@ -227,15 +231,16 @@ def improved_pso(
         t_ref: Paper generations the curve of eq. 13 spans (the paper's ``T``).
         v_max: Velocity clamp as a fraction of the box width.
         keep_population: Return every evaluated point in ``population_history``.
+        x0: Start points ``(k, dim)`` in the box, evaluated first in generation 0 in place
+            of ``k`` random points (:func:`agents.optim._base.run`); None: all random.
 
     Returns:
         The run's :class:`OptimResult`.
     """
     schedule = _improved_schedule(w_start, w_end, alpha, beta, c_start, c_end, t_ref)
     core = partial(_swarm, schedule=schedule, v_max=positive(v_max, "v_max"))
-    return run(
-        "improved_pso", core, objective, bounds, population, iterations, seed, keep_population
-    )
+    return run("improved_pso", core, objective, bounds, population, iterations, seed,
+               keep_population, x0=x0)  # fmt: skip
 
 
 _COEFFICIENTS: dict[str, Callable[..., tuple[float, float, float]]] = {

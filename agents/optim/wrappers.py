@@ -39,6 +39,7 @@ def de(
     mutation: float | tuple[float, float] = (0.5, 1.0),
     recombination: float = 0.7,
     keep_population: bool = False,
+    x0: ArrayLike | None = None,
 ) -> OptimResult:
     """Differential evolution: ``scipy.optimize.differential_evolution``.
 
@@ -65,6 +66,8 @@ def de(
         mutation: Scipy's differential weight (or dithering range).
         recombination: Scipy's crossover probability.
         keep_population: Return every evaluated point in ``population_history``.
+        x0: Start points ``(k, dim)`` in the box, evaluated first in generation 0 in place
+            of ``k`` random points (:func:`agents.optim._base.run`); None: all random.
 
     Returns:
         The run's :class:`OptimResult`.
@@ -75,7 +78,8 @@ def de(
         mutation=mutation,
         recombination=in_range(recombination, "recombination", 0.0, 1.0),
     )
-    return run("de", core, objective, bounds, population, iterations, seed, keep_population, 5)
+    return run("de", core, objective, bounds, population, iterations, seed,
+               keep_population, 5, x0=x0)  # fmt: skip
 
 
 def _de(
@@ -105,7 +109,7 @@ def _de(
         rng=rng,
         callback=generation_done,
         polish=False,
-        init=rng.random((population, problem.dim)),
+        init=problem.seeded(rng.random((population, problem.dim))),
         tol=0.0,
         atol=-np.inf,  # std(f) <= -inf never holds: scipy's convergence stop is off
         updating="deferred",
@@ -124,6 +128,7 @@ def cma(
     sigma0: float = 0.3,
     boundary: str = "BoundTransform",
     keep_population: bool = False,
+    x0: ArrayLike | None = None,
 ) -> OptimResult:
     """CMA-ES: ``cma.CMAEvolutionStrategy`` driven by ask/tell.
 
@@ -152,6 +157,8 @@ def cma(
         sigma0: Initial step size as a fraction of the box width.
         boundary: cma's ``BoundaryHandler``: ``"BoundTransform"`` or ``"BoundPenalty"``.
         keep_population: Return every evaluated point in ``population_history``.
+        x0: Start points ``(k, dim)`` in the box, evaluated first in generation 0 in place
+            of ``k`` random points (:func:`agents.optim._base.run`); None: all random.
 
     Returns:
         The run's :class:`OptimResult`.
@@ -161,7 +168,8 @@ def cma(
         sigma0=positive(sigma0, "sigma0"),
         boundary=choice(boundary, "boundary", _BOUNDARIES),
     )
-    return run("cma", core, objective, bounds, population, iterations, seed, keep_population, 2)
+    return run("cma", core, objective, bounds, population, iterations, seed,
+               keep_population, 2, x0=x0)  # fmt: skip
 
 
 # cma's BoundaryHandler classes by name

@@ -45,7 +45,6 @@ from agents.tune.fitness import (
 from agents.tune.protocols import Protocol, get_protocol
 from agents.tune.setters import SETTERS
 from contour_gym.api import Scenario
-from contour_gym.ccc import CCC_LAWS
 from contour_gym.envs.config import EnvConfig
 from contour_gym.envs.core import member_rngs
 from contour_gym.loop import ServoLoop
@@ -192,9 +191,8 @@ class PopulationObjective:
     def _run_reference(self) -> None:
         """Each scenario's chattering cap and fitness scale, from the reference point's run."""
         proto = self.protocol
-        defaults = CCC_LAWS.get(proto.ccc_law).params.defaults()
-        point = {**defaults, **(proto.reference or {})}
-        ref = np.array([[float(point[name]) for name in proto.names]])  # type: ignore[arg-type]
+        point = proto.reference_point()
+        ref = np.array([[point[name] for name in proto.names]])
         cases = []
         for case, m in zip(self.cases, self.metrics(ref), strict=True):
             cap = math.inf if proto.chatter_bound is None else proto.chatter_bound * float(

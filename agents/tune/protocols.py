@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from agents.optim import OPTIMIZERS
 from agents.tune.fitness import FITNESSES, FloatArray
 from agents.tune.setters import SETTERS
+from contour_gym.ccc import CCC_LAWS
 from contour_gym.params import choice
 from contour_gym.registry import Registry
 
@@ -90,6 +91,9 @@ class Protocol:
             the total is put back in metres (times the reference's mean over the scenarios).
         worst_case: The total is the worst scenario's, not the mean: a factor set that must
             not lose on any path.
+        start_at_reference: Generation 0 holds the reference point (:meth:`reference_point`)
+            as one of its candidates, so the result is never worse than the untuned law on the
+            protocol's own fitness (a search that finds nothing better returns it).
     """
 
     name: str
@@ -109,6 +113,7 @@ class Protocol:
     reference: Mapping[str, float] | None = None
     relative: bool = False
     worst_case: bool = False
+    start_at_reference: bool = False
 
     def __post_init__(self) -> None:
         choice(self.fitness, "fitness", FITNESSES)
@@ -144,12 +149,41 @@ class Protocol:
         return np.array([p.log for p in self.params])
 
     def to_params(self, z: ArrayLike) -> FloatArray:
-        """(n, D) search coordinates -> parameters in their own units, clipped to the box."""
-        x = np.array(np.atleast_2d(np.asarray(z, dtype=np.float64)))
+        """(n, D) search coordinates -> parameters in their own units, clipped to the box.
+
+        With :attr:`start_at_reference`, the reference's search coordinates
+        (:meth:`reference_start`) map back to the reference point bit for bit (``10 **
+        log10(v)`` alone may miss ``v`` in the last bit).
+        """
+        z = np.atleast_2d(np.asarray(z, dtype=np.float64))
+        x = np.array(z)
         logs = self._logs()
         x[:, logs] = 10.0 ** x[:, logs]
         b = self.bounds
-        return np.clip(x, b[:, 0], b[:, 1])
+        x = np.clip(x, b[:, 0], b[:, 1])
+        if self.start_at_reference:
+            x[np.all(z == self.reference_start(), axis=1)] = self._reference_row()
+        return x
+
+    def _reference_row(self) -> FloatArray:
+        point = self.reference_point()
+        return np.array([point[name] for name in self.names])
+
+    def reference_start(self) -> FloatArray:
+        """The reference point's search coordinates, ``(D,)``."""
+        return self.to_search(self._reference_row()[None, :])[0]
+
+    def reference_point(self) -> dict[str, float]:
+        """The untuned point's searched parameters: the CCC law's defaults, or :attr:`reference`.
+
+        Raises:
+            ValueError: for a searched parameter with neither.
+        """
+        point = {**CCC_LAWS.get(self.ccc_law).params.defaults(), **(self.reference or {})}
+        missing = [name for name in self.names if point.get(name) is None]
+        if missing:
+            raise ValueError(f"protocol {self.name!r}: no reference value for {missing}")
+        return {name: float(point[name]) for name in self.names}  # type: ignore[arg-type]
 
     def to_search(self, x: ArrayLike) -> FloatArray:
         """(n, D) parameters in their own units -> search coordinates."""

@@ -229,6 +229,7 @@ def _settings(
         "bounds": {p.name: [p.low, p.high] for p in proto.params},
         "log_scaled": [p.name for p in proto.params if p.log],
         "optimizer_options": dict(options),
+        "start_at_reference": proto.start_at_reference,
         "command": command,
     }  # fmt: skip
     if name in PSO_FAMILY:  # checks the budget too, before any simulation
@@ -278,6 +279,10 @@ class _Run:
                                  self.elapsed(), status)  # fmt: skip
             _write_json(self.folder / "result.json", data)
 
+    def starts(self) -> dict[str, Any]:
+        """The optimiser's ``x0``: the reference point, if the protocol starts at it."""
+        return {"x0": self.proto.reference_start()} if self.proto.start_at_reference else {}
+
     def search(
         self, objective: PopulationObjective, m: int, t: int, options: Mapping[str, Any],
         progress: bool,
@@ -290,7 +295,7 @@ class _Run:
         monitor = _Monitor(objective, m, self.save, bar)
         try:
             return minimize(self.name, monitor, self.proto.search_bounds, population=m,
-                            iterations=t, seed=self.seed, **options)  # fmt: skip
+                            iterations=t, seed=self.seed, **options, **self.starts())  # fmt: skip
         except KeyboardInterrupt:
             self.save(monitor, "interrupted")
             raise
