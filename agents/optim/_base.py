@@ -7,9 +7,10 @@ velocities or steps at a wall). One :class:`Problem` per run counts evaluations,
 non-finite fitness as ``+inf`` (a failed member) and keeps the best point and the history.
 
 Budget convention (all optimisers): generation 0 evaluates ``population`` points (uniform in the
-box unless the algorithm says otherwise), then ``iterations`` generations evaluate ``population``
-points each, so ``nfev == population * (iterations + 1)`` and ``history[k]`` is the best fitness
-seen after generation ``k + 1`` (generation 0 included in the best-so-far).
+box unless the algorithm says otherwise; the start points ``x0`` first, when given), then
+``iterations`` generations evaluate ``population`` points each, so ``nfev == population *
+(iterations + 1)`` and ``history[k]`` is the best fitness seen after generation ``k + 1``
+(generation 0 included in the best-so-far).
 
 Units: every optimiser uses the fitness only through comparisons, ranks (:func:`ranks`) or
 scale-free ratios of fitness values, so it takes the same path (same points, same result) on
