@@ -220,7 +220,7 @@ class Problem:
         return u, self.evaluate_initial(u)
 
     def seeded(self, u: FloatArray) -> FloatArray:
-        """Generation 0's points ``u`` with the start points in place of its first rows.
+        """Generation 0's points ``u``, with the start points written over its first rows.
 
         The random draws are made whether or not there are start points, so the rest of the
         run's randomness is the same with and without them.
