@@ -441,6 +441,8 @@ def tune_command(args: argparse.Namespace) -> int:
           f"{result.nfev} candidates in {result.wall_time:.1f} s")  # fmt: skip
     for name, value in result.params.items():
         print(f"  {name} = {value:.6g}")
+    if protocol.start_at_reference and result.params == protocol.reference_point():
+        print("  (the start point, the untuned law: no candidate beat it)")
     for env_id, value in result.per_scenario.items():
         print(f"  {env_id}: {value * 1e6:.6g} um")
     print(f"results written to {out}")

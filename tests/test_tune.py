@@ -18,6 +18,7 @@ from agents.tune import (
     PopulationObjective,
     combine,
     get_protocol,
+    register_protocol,
     tune,
 )
 
@@ -203,18 +204,24 @@ def test_the_general_factors_are_protocol_000_generals_and_the_policy_uses_them(
     assert f == pytest.approx(data["fitness"], rel=1e-12)
 
 
-def test_a_protocol_started_at_the_reference_never_returns_worse(tmp_path) -> None:
+def test_a_protocol_started_at_the_reference_never_returns_worse(tmp_path, capsys) -> None:
     general = get_protocol("000_general")
     two = general.scenarios[:2]
     kwargs = {name: general.scenario_kwargs[name] for name in two}
     plain = replace(general, name="000_general_two", scenarios=two, scenario_kwargs=kwargs,
                     start_at_reference=False)  # fmt: skip
-    seeded = replace(plain, start_at_reference=True)
     ref = general.reference_point()
     reference = PopulationObjective(plain).fitness([list(ref.values())])[0]
     lost = tune(plain, seed=0, population=4, iterations=1, progress=False)
     assert lost.fitness > reference  # a short random search loses to the untuned law here
-    res = tune(seeded, seed=0, population=4, iterations=1, out=tmp_path, progress=False)
-    assert res.fitness == pytest.approx(reference, rel=1e-9) and res.fitness <= lost.fitness
-    assert res.params == ref  # the untuned law, bit for bit
-    assert json.loads((tmp_path / "result.json").read_text())["settings"]["start_at_reference"]
+    register_protocol(replace(plain, name="test_started", start_at_reference=True))
+    try:
+        assert main(["tune", "test_started", "--population", "4", "--iterations", "1",
+                     "--out", str(tmp_path), "--quiet"]) == 0  # fmt: skip
+    finally:
+        PROTOCOLS.unregister("test_started")
+    assert "(the start point, the untuned law: no candidate beat it)" in capsys.readouterr().out
+    data = json.loads((tmp_path / "result.json").read_text())
+    assert data["fitness"] == pytest.approx(reference, rel=1e-9) and data["fitness"] <= lost.fitness
+    assert data["params"] == ref  # the untuned law, bit for bit
+    assert data["settings"]["start_at_reference"]
