@@ -211,7 +211,7 @@ def test_a_protocol_started_at_the_reference_never_returns_worse(tmp_path, capsy
     plain = replace(general, name="000_general_two", scenarios=two, scenario_kwargs=kwargs,
                     start_at_reference=False)  # fmt: skip
     ref = general.reference_point()
-    reference = PopulationObjective(plain).fitness([list(ref.values())])[0]
+    reference = PopulationObjective(plain).fitness([plain.reference_row()])[0]
     lost = tune(plain, seed=0, population=4, iterations=1, progress=False)
     assert lost.fitness > reference  # a short random search loses to the untuned law here
     register_protocol(replace(plain, name="test_started", start_at_reference=True))

@@ -191,8 +191,7 @@ class PopulationObjective:
     def _run_reference(self) -> None:
         """Each scenario's chattering cap and fitness scale, from the reference point's run."""
         proto = self.protocol
-        point = proto.reference_point()
-        ref = np.array([[point[name] for name in proto.names]])
+        ref = proto.reference_row()[None, :]
         cases = []
         for case, m in zip(self.cases, self.metrics(ref), strict=True):
             cap = math.inf if proto.chatter_bound is None else proto.chatter_bound * float(

@@ -162,16 +162,16 @@ class Protocol:
         b = self.bounds
         x = np.clip(x, b[:, 0], b[:, 1])
         if self.start_at_reference:
-            x[np.all(z == self.reference_start(), axis=1)] = self._reference_row()
+            x[np.all(z == self.reference_start(), axis=1)] = self.reference_row()
         return x
 
-    def _reference_row(self) -> FloatArray:
-        point = self.reference_point()
-        return np.array([point[name] for name in self.names])
+    def reference_row(self) -> FloatArray:
+        """The reference point's parameters in search order, ``(D,)``, in their own units."""
+        return np.array(list(self.reference_point().values()))
 
     def reference_start(self) -> FloatArray:
         """The reference point's search coordinates, ``(D,)``."""
-        return self.to_search(self._reference_row()[None, :])[0]
+        return self.to_search(self.reference_row()[None, :])[0]
 
     def reference_point(self) -> dict[str, float]:
         """The untuned point's searched parameters: the CCC law's defaults, or :attr:`reference`.
