@@ -98,6 +98,8 @@ class EnvConfig:
             map spans [0, that] on a log-like scale (see the CCC env).
         kd_scale: CCC env: largest kd as a multiple of the preset's kp, s.
         feedrate_range: Feedrate env: (F_min, F_max) as multiples of the programmed feedrate.
+            The default (0.2, 2.0) is chosen (004 publishes no range). On some tight curves
+            of 004's machine 5 um needs less than 0.2 (docs/training.md): lower the floor.
         max_feedrate_change: Feedrate env: |dF| per step as a multiple of the programmed one.
         settle_time: Time allowed to get in position after the reference ends, s.
         step_limit: The env's own step limit (None: computed from its path, feedrate and
