@@ -137,6 +137,14 @@ def test_unknown_names_list_the_accepted_ones() -> None:
         tune(CIRCLE, "pso", options={"bogus": 1.0}, progress=False)
 
 
+def test_start_points_are_the_protocols_not_an_option(tmp_path) -> None:
+    with pytest.raises(ValueError, match="x0 is not a tuning option.*start_at_reference"):
+        tune(CIRCLE, "pso", options={"x0": [0.5, 0.5]}, out=tmp_path / "run", progress=False)
+    assert not (tmp_path / "run").exists()  # refused before anything is written
+    with pytest.raises(ValueError, match="accepted: (?!.*x0).*keep_population$"):
+        tune(CIRCLE, "pso", options={"bogus": 1.0}, progress=False)
+
+
 def test_the_schedules_are_the_swarms() -> None:
     s = schedules("improved_pso", 100)
     assert s.shape == (100, 3)

@@ -204,15 +204,20 @@ def _optimizer_options(
     """The optimiser's name and options (None: the protocol's for its own optimiser, else none).
 
     Raises:
-        ValueError: for an unknown optimiser or option, listing the accepted ones.
+        ValueError: for an unknown optimiser or option, listing the accepted ones; for
+            ``x0``, whose start point is the protocol's (``start_at_reference``).
     """
     name = choice(optimizer or proto.optimizer, "optimizer", OPTIMIZERS)
     if options is None:
         options = proto.optimizer_options if name == proto.optimizer else {}
-    unknown = sorted(set(options) - set(options_of(name)))
+    if "x0" in options:
+        raise ValueError("x0 is not a tuning option: a protocol starts at its untuned law "
+                         "with start_at_reference=True")  # fmt: skip
+    accepted = [o for o in options_of(name) if o != "x0"]
+    unknown = sorted(set(options) - set(accepted))
     if unknown:
         raise ValueError(f"unknown option(s) {', '.join(unknown)} for {name!r}; accepted: "
-                         f"{', '.join(options_of(name))}")  # fmt: skip
+                         f"{', '.join(accepted)}")  # fmt: skip
     return name, options
 
 
