@@ -21,6 +21,7 @@ from agents.tune import (
     register_protocol,
     tune,
 )
+from agents.tune import objective as objective_module
 
 CIRCLE = "000_circle"
 UNSTABLE = [1e7, 1e5, 1e7, 1e9, 1e4]  # k_e, k_de, k_pf, k_if, k_df far beyond the box
@@ -118,6 +119,22 @@ def test_an_interrupted_run_keeps_the_history_so_far(tmp_path, monkeypatch) -> N
     assert data["status"] == "interrupted" and len(data["history"]) == 2
     assert data["nfev"] == 12 and data["fitness"] == data["history"][-1]
     assert set(data["params"]) == set(get_protocol(CIRCLE).names)
+
+
+def test_the_memo_keeps_every_candidate_in_order_up_to_its_size(monkeypatch) -> None:
+    memo = objective_module.Memo(d=2, s=3)
+    rng = np.random.default_rng(0)
+    x, fit, failed = rng.random((150, 2)), rng.random((150, 3)), rng.random((150, 3)) < 0.5
+    monkeypatch.setattr(objective_module, "MEMO_SIZE", 140)
+    for row, f, bad in zip(x, fit, failed, strict=True):  # past its first room (64 rows)
+        memo.add(row.tobytes(), row, f, bad)
+    memo.add(x[3].tobytes(), x[3], fit[0], failed[0])  # a known candidate keeps its results
+    kept_x, kept_fit, kept_failed = memo.arrays()
+    assert len(memo) == 140 and x[139].tobytes() in memo and x[140].tobytes() not in memo
+    assert np.array_equal(kept_x, x[:140]) and np.array_equal(kept_fit, fit[:140])
+    assert np.array_equal(kept_failed, failed[:140])
+    got_fit, got_failed = memo[x[3].tobytes()]
+    assert np.array_equal(got_fit, fit[3]) and np.array_equal(got_failed, failed[3])
 
 
 @pytest.mark.parametrize("name", sorted(OPTIMIZERS))
