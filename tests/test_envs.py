@@ -83,6 +83,12 @@ def test_envs_pickle_and_resume_identically():
             FeedrateVectorEnv,
             dict(plant="xy_servo_coulomb", path="corner", decision_ticks=40),
         ),
+        (
+            FeedrateEnv,
+            FeedrateVectorEnv,
+            dict(path="random", decision_ticks=40, curvature_windows=(0.0, 0.002, 0.01),
+                 feedrate_range=(0.05, 2.0), feedrate_target=(0.05, 0.3, 1.2)),
+        ),
     ],
 )
 def test_vector_env_equals_loop_of_single_envs_bit_for_bit(single, vector, kw):
@@ -111,6 +117,21 @@ def test_vector_env_equals_loop_of_single_envs_bit_for_bit(single, vector, kw):
                 assert rew == r[i] and term == te[i] and trunc == tr[i]
                 done = term or trunc
             assert same_obs(obs, {key: v[i] for key, v in o.items()}), (i, k)
+
+
+def test_a_target_override_action_moves_the_override_toward_its_target():
+    env = FeedrateEnv(path="circle", feedrate_range=(0.05, 2.0), decision_ticks=10,
+                      feedrate_target=(0.05, 0.3, 1.2), max_feedrate_change=0.1)  # fmt: skip
+    obs, _ = env.reset(seed=0)
+    override = float(obs["feedrate"][0])
+    for a in [0.0] * 9 + [1.0] * 10 + [0.5] * 8 + [-1.0] * 8 + [2.0, -0.25]:
+        goal = 0.3 * (1.2 / 0.3) ** min(a, 1.0) if a >= 0 else 0.3 * (0.05 / 0.3) ** -a
+        override += float(np.clip(goal - override, -0.1, 0.1))
+        obs, *_ = env.step(np.array([a]))
+        assert obs["feedrate"][0] == pytest.approx(override, abs=1e-6), a
+    assert override == pytest.approx(0.3 * (0.05 / 0.3) ** 0.25)
+    with pytest.raises(ValueError, match=r"feedrate_target must be \(low, mid, high\)"):
+        FeedrateEnv(feedrate_target=(0.1, 0.3, 2.5))
 
 
 def test_make_vec_uses_the_native_vector_env():

@@ -60,10 +60,37 @@ def test_progress_is_an_option_and_v0_keeps_its_keys():
                        "reference_velocity", "curvature", "progress", "gains"}  # fmt: skip
 
 
+def test_curvature_windows_see_the_peak_curvature_ahead():
+    edges = (0.0, 0.001, 0.002, 0.005, 0.01)
+    env = gym.make("contour_gym/Feedrate-v1", path="random", curvature_windows=edges,
+                   decision_ticks=20)  # fmt: skip
+    obs, _ = env.reset(seed=7009)  # a rose with a 0.31 mm radius on its way
+    assert obs["curvature_peak"].shape == (4,) and list(obs)[-1] == "feedrate"
+    path = env.unwrapped.task.loop.paths[0]
+    seen = []
+    for _ in range(150):
+        s = float(env.unwrapped.task.loop.s[0])
+        ahead = s + np.linspace(0.0, 0.01, 81)  # edges and every 0.125 mm between
+        kappa = np.abs(np.asarray(path.curvature(np.minimum(ahead, path.length))))
+        for j, (lo, hi) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
+            inside = (ahead - s >= lo - 1e-12) & (ahead - s <= hi + 1e-12)
+            want = np.log10(1.0 + kappa[inside].max()) / 4.0
+            assert obs["curvature_peak"][j] == pytest.approx(want, rel=1e-5), (s, j)
+        seen.append(obs["curvature_peak"].copy())
+        obs, _, terminated, truncated, _ = env.step(np.zeros(1))
+        if terminated or truncated:
+            break
+    assert np.ptp(np.array(seen), axis=0).min() > 0.1  # the windows move along the path
+
+
 @pytest.mark.parametrize("kwargs, match", [
     ({"observation": "v2"}, "unknown observation 'v2'; accepted: v0, v1"),
     ({"preview": (0.01, -0.002)}, "preview must be positive"),
     ({"observe_progress": 1}, "observe_progress must be a bool"),
+    ({"curvature_windows": (0.0, 0.002, 0.001)}, "curvature_windows must be >= 2 increasing"),
+    ({"curvature_windows": (0.001,)}, r"curvature_windows must be .* got \(0.001,\)"),
+    ({"curvature_windows": (0.0, 0.01), "observation": "v0"}, "a v1 observation option"),
+    ({"curvature_windows": (0.0, math.nan)}, "curvature_windows"),
 ])  # fmt: skip
 def test_bad_observation_arguments_are_named(kwargs, match):
     with pytest.raises(ValueError, match=match):

@@ -38,6 +38,7 @@ from contour_gym.rewards import RC
 TRACKING_SCALE = 1e-3  # m: v0 observes tracking errors in mm (v1: in tolerances)
 CURVATURE_SCALE = 0.01  # m: curvature is observed as kappa x 1 cm
 CORNER_ANGLE = 0.02  # rad: a segment join turning more than this is a corner (v1)
+WINDOW_STEP = 1.25e-4  # m: curvature windows (v1's curvature_peak) are sampled this often
 
 
 @numba.njit(cache=True, inline="always")
@@ -188,9 +189,26 @@ def _observe_general(loop, path, env, ec, b, col, s, length, dim):
     col = put(obs, b, col, distance / horizon)
     col = put(obs, b, col, angle / math.pi)
     col = put(obs, b, col, min(length - s, horizon) / horizon)
+    col = _observe_windows(path, env, b, col, s, length, dim)
     if ec[EC.progress_obs] != 0.0:
         n_c = loop.c_axes.shape[0]
         col = put(obs, b, col, min(loop.foot[b * n_c, FT.progress], length) / length)
+    return col
+
+
+@numba.njit(cache=True, inline="always")
+def _observe_windows(path, env, b, col, s, length, dim):
+    # curvature_peak: per window [e_j, e_j+1] ahead, the largest |curvature| at its ends and
+    # every WINDOW_STEP between, as log10(1 + kappa x 1 m) / 4 (nothing with one edge: none)
+    edges = env.windows
+    for j in range(edges.shape[0] - 1):
+        lo, hi = edges[j], edges[j + 1]
+        n = max(int(math.ceil((hi - lo) / WINDOW_STEP - 1e-9)), 1)
+        peak = 0.0
+        for k in range(n + 1):
+            ahead = min(s + min(lo + k * WINDOW_STEP, hi), length)
+            peak = max(peak, abs(_curvature(path, ahead, dim)))
+        col = put(env.obs, b, col, math.log10(1.0 + peak) / 4.0)
     return col
 
 

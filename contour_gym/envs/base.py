@@ -84,13 +84,17 @@ OBSERVATION_V1 = """\
     | turning | (P,) | the tangent's turn from s_ref to each ``preview`` | rad / pi |
     | corner | (2,) | the next corner within H: distance, turn | m / H, rad / pi |
     | path_end | (1,) | distance to the path's end, capped at H | m / H |
+    | curvature_peak | (W,) | peak curvature in each window ahead | log10(1 + kappa x 1 m) / 4 |
 """
 OBSERVATION_V1_NOTES = """\
     ``v`` is the reference's speed along the path, the feed limit the machine's
     (``max_feedrate``; the nominal feedrate where the preset has none); curvature and the turn
     are signed in 2-D (+ = left). H = max(``preview``) is the horizon: a *corner* is a segment
     join whose tangent turns by more than 0.02 rad, observed as (1, 0) when none lies within
-    H.
+    H. ``curvature_peak`` (only with ``curvature_windows``, W + 1 edges ahead): in each window,
+    the largest curvature at its ends and every 0.125 mm between, so that a short tight curve
+    shows as long as it lies in a window, where the ``preview`` points see it only as it passes
+    one of them.
 """
 
 

@@ -90,6 +90,12 @@ class EnvConfig:
             turning angle are observed, m; the largest is the horizon of the next corner.
         observe_progress: v1 observation: add ``progress`` (the fraction of the path done),
             which lets an agent learn a path's schedule instead of a control law.
+        curvature_windows: v1 observation: edges of arc-length windows ahead of the reference,
+            m, increasing from >= 0 (e.g. ``(0, 0.001, 0.002, 0.005, 0.01)``: four windows);
+            adds ``curvature_peak``, the largest curvature in each window (sampled every
+            0.125 mm), so that a short tight curve ahead shows
+            all the while it is in a window, not only as it passes a ``preview`` point.
+            Empty (default): no such key.
         ccc_weights: Per-contour, per-coordinate weights of the CCC output, broadcastable to
             (C, 3) (None: the preset's ``ccc_weights``; e.g. 003's compensator gains).
         ccc_gains: CCC env: the gains the action map is centred on (None: the preset's).
@@ -101,6 +107,12 @@ class EnvConfig:
             The default (0.2, 2.0) is chosen (004 publishes no range). On some tight curves
             of 004's machine 5 um needs less than 0.2 (docs/training.md): lower the floor.
         max_feedrate_change: Feedrate env: |dF| per step as a multiple of the programmed one.
+        feedrate_target: Feedrate env: None (default: the action is the override's change),
+            or ``(low, mid, high)`` overrides within ``feedrate_range``: the action is then a
+            target override on a log scale (-1 ``low``, 0 ``mid``, 1 ``high``; ``mid (high /
+            mid)^a`` above 0, ``mid (low / mid)^-a`` below), which the override moves toward
+            by at most ``max_feedrate_change`` a step. A zero action holds ``mid``, so an agent
+            learns its departures from a safe override rather than a speed to keep.
         settle_time: Time allowed to get in position after the reference ends, s.
         step_limit: The env's own step limit (None: computed from its path, feedrate and
             decision time, see the env docstrings). ``gym.make(id, max_episode_steps=N)`` adds
@@ -135,12 +147,14 @@ class EnvConfig:
     observation: str = "v1"
     preview: tuple[float, ...] = (0.001, 0.002, 0.005, 0.01, 0.02)
     observe_progress: bool = False
+    curvature_windows: tuple[float, ...] = ()
     ccc_weights: Any = None
     ccc_gains: tuple[float, float, float] | None = None
     gain_range: float = 30.0
     kd_scale: float = 1e-2
     feedrate_range: tuple[float, float] = (0.2, 2.0)
     max_feedrate_change: float = 0.1
+    feedrate_target: tuple[float, float, float] | None = None
     settle_time: float = 1.0
     step_limit: int | None = None
 
@@ -163,6 +177,13 @@ class EnvConfig:
                 f"feedrate_range must satisfy 0 < low < 1 < high, got {self.feedrate_range!r}"
             )
         positive(self.max_feedrate_change, "max_feedrate_change")
+        if self.feedrate_target is not None:
+            t_lo, t_mid, t_hi = as_finite_array(self.feedrate_target, "feedrate_target",
+                                                shape=(3,))  # fmt: skip
+            if not lo <= t_lo < t_mid < t_hi <= hi:
+                raise ValueError(f"feedrate_target must be (low, mid, high) increasing within "
+                                 f"feedrate_range {tuple(self.feedrate_range)!r}, got "
+                                 f"{self.feedrate_target!r}")  # fmt: skip
         positive(self.settle_time, "settle_time")
         if self.ccc_gains is not None:
             as_finite_array(self.ccc_gains, "ccc_gains", shape=(3,))
@@ -194,6 +215,15 @@ class EnvConfig:
             raise ValueError(f"preview must be positive arc lengths, m, got {self.preview!r}")
         if not isinstance(self.observe_progress, bool):
             raise ValueError(f"observe_progress must be a bool, got {self.observe_progress!r}")
+        edges = as_finite_array(self.curvature_windows, "curvature_windows", ndim=1)
+        if edges.size == 0:
+            return
+        if edges.size < 2 or edges[0] < 0 or np.any(np.diff(edges) <= 0):
+            raise ValueError("curvature_windows must be >= 2 increasing arc lengths from >= 0, "
+                             f"m, got {self.curvature_windows!r}")  # fmt: skip
+        if self.observation != "v1":
+            raise ValueError(f"curvature_windows is a v1 observation option, got observation="
+                             f"{self.observation!r}")  # fmt: skip
 
     @classmethod
     def from_kwargs(cls, kwargs: dict[str, Any]) -> EnvConfig:

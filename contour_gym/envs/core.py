@@ -208,12 +208,14 @@ class ContourTask:
             "comp": (b, COMPONENTS.size), "weights": (max(weights.size, 1),), "steps": (b,),
             "ret": (b,), "track": (b, self.n_axes), "feedrate": (b,), "nominal": (b,),
             "f_nom": (b,), "n_max": (b,), "peak": (b,),
+            "windows": (max(len(self.config.curvature_windows), 1),),
         }  # fmt: skip
         self._blob = Blob([(name, shapes[name]) for name in ENV_FLOATS])
         self._attach_views()
         v = self._v
         v["g_max"][...], v["g_log"][...] = self.gain_map.g_max, self.gain_map.g_log
         v["lookahead"][...] = self._ahead()
+        v["windows"][: len(self.config.curvature_windows)] = self.config.curvature_windows
         v["weights"][: weights.size] = weights
         lo, hi = component_bounds(self.hard_limit / self.tolerance, self._max_progress())
         self.reward_range = reward_range(self._reward, weights, lo, hi)
@@ -225,11 +227,19 @@ class ContourTask:
             python_reward=float(not isinstance(self._reward, CompiledReward)),
             observation=OBSERVATIONS.index(self.config.observation),
             f_max=self._machine_feedrate(), horizon=max(self.config.preview),
-            progress_obs=float(self.config.observe_progress),
+            progress_obs=float(self.config.observe_progress), **self._target_columns(),
         )  # fmt: skip
         self._leading = (self._blob.buffer, self._blob.layout, self._econfig)  # never move
         self._quiet = contextlib.nullcontext()
         self._member_constants(np.arange(b))
+
+    def _target_columns(self) -> dict[str, float]:
+        # the feedrate task's target-override action (EnvConfig.feedrate_target), if asked for
+        target = self.config.feedrate_target
+        if target is None:
+            return {}
+        t_lo, t_mid, t_hi = (float(t) for t in target)
+        return {"target": 1.0, "t_lo": t_lo, "t_mid": t_mid, "t_hi": t_hi}
 
     def _machine_feedrate(self) -> float:
         # the machine's feedrate limit (the v1 observation's speed scale); without one, the
@@ -304,7 +314,9 @@ class ContourTask:
                       "curvature": 1 + len(self.config.lookahead), "progress": 1}  # fmt: skip
         else:
             n = len(self.config.preview)
+            windows = max(len(self.config.curvature_windows) - 1, 0)
             middle = {"speed": 3, "curvature": 1 + n, "turning": n, "corner": 2, "path_end": 1,
+                      **({"curvature_peak": windows} if windows else {}),
                       **({"progress": 1} if self.config.observe_progress else {})}  # fmt: skip
         return {**errors, **middle,
                 self.task_kind.tail: self.task_kind.tail_size(self.n_contours)}  # fmt: skip

@@ -30,7 +30,9 @@ _SPEC = (
     the current block (one value on a plain path; a G-code part's own F words), i.e. the action
     moves the feed override ``F / F_nom`` by ``a * max_feedrate_change``. Rapid moves run at the
     machine's rapid rate whatever the override. Out-of-range actions are clipped; NaN/inf or
-    misshaped actions raise ValueError.
+    misshaped actions raise ValueError. With ``feedrate_target=(low, mid, high)`` the action is
+    instead a target override, ``mid (high / mid)^a`` for ``a >= 0`` and ``mid (low / mid)^-a``
+    below, and ``dF`` the step toward it, at most ``max_feedrate_change * F_nom``.
 
     ## Observation space
     ``Dict`` of float32 ``Box(-1e4, 1e4)`` (scaled values clipped; ``tol`` = ``tolerance``):
@@ -84,7 +86,8 @@ _SPEC = (
     time until in position at the end, and ``finished``) at every episode end.
 
     ## Arguments
-    As the CCC env, plus ``ccc_gains``, ``feedrate_range``, ``max_feedrate_change``. On
+    As the CCC env, plus ``ccc_gains``, ``feedrate_range``, ``max_feedrate_change``,
+    ``feedrate_target``. On
     ``path="random"`` each part is programmed at feeds drawn from 0.3 to 1 times the machine's
     ``max_feedrate`` (``path_options={"feed_range": ...}`` to change it), and its highest
     feed is the episode's nominal feedrate.

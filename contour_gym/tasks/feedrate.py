@@ -1,9 +1,10 @@
 """The feedrate task (``"feedrate"``): each action changes the feed override.
 
 ``action[0]`` in [-1, 1] changes the override by ``action * max_feedrate_change``, kept within
-``feedrate_range``; the observation ends with ``feedrate``: the override in force and the
-machine's speed along the path over the block's programmed feed. CCC gains stay fixed (the
-env's ``ccc_gains``, or none).
+``feedrate_range`` (or, with ``feedrate_target``, sets a target the override moves toward);
+the observation ends with ``feedrate``: the override in force and the machine's speed along
+the path over the block's programmed feed. CCC gains stay fixed (the env's ``ccc_gains``, or
+none).
 """
 
 from __future__ import annotations
@@ -31,8 +32,17 @@ FEED_RANGE = (0.3, 1.0)  # random paths' programmed feeds, times the machine's f
 
 @numba.njit(cache=True, inline="always")
 def apply_override(loop, env, ec, b):
-    """Member ``b``'s feed override moved by its action, within the env's range."""
-    ovr = loop.ip_p[b, IP.ovr] + env.action[b, 0] * ec[EC.dovr]
+    """Member ``b``'s feed override moved by its action, within the env's range.
+
+    The action is the change (in ``max_feedrate_change``), or with ``feedrate_target`` a
+    target override on a log scale that the override moves toward, by at most that change.
+    """
+    now, change = loop.ip_p[b, IP.ovr], env.action[b, 0]
+    if ec[EC.target] != 0.0:
+        a, mid = min(max(change, -1.0), 1.0), ec[EC.t_mid]
+        goal = mid * (ec[EC.t_hi] / mid) ** a if a >= 0.0 else mid * (ec[EC.t_lo] / mid) ** -a
+        change = min(max((goal - now) / ec[EC.dovr], -1.0), 1.0)
+    ovr = now + change * ec[EC.dovr]
     loop.ip_p[b, IP.ovr] = min(max(ovr, ec[EC.ovr_lo]), ec[EC.ovr_hi])
 
 
