@@ -31,7 +31,7 @@ from agents.policies import (
     register_policy,
 )
 from contour_gym.envs.core import FEEDRATE, ContourTask
-from contour_gym.params import choice, finite, positive
+from contour_gym.params import as_finite_array, choice, finite, positive
 
 MM_PER_S = 1e-3  # m/s
 
@@ -201,22 +201,38 @@ class ConstantFeedrate(ConstantPolicy):
         override: The feed override, > 0 (default 1: the programmed feedrate). It must lie
             within the env's ``feedrate_range`` (checked at :meth:`reset`), which the env
             clips the override to after the first step.
+        feedrate_range: The env's ``feedrate_range`` to build it with (None: the env's own,
+            (0.2, 2) by default), e.g. ``(0.05, 2.0)`` for an override below 0.2, as a general
+            agent trained with that floor runs.
 
     Raises:
-        ValueError: for an override <= 0 or non-finite, naming it.
+        ValueError: for an override <= 0 or non-finite, or a ``feedrate_range`` that does not
+            hold it, naming them.
     """
 
     name = "constant_feedrate"
     tasks = (FEEDRATE,)
 
-    def __init__(self, override: float = 1.0) -> None:
+    def __init__(self, override: float = 1.0,
+                 feedrate_range: tuple[float, float] | None = None) -> None:  # fmt: skip
         super().__init__(0.0)
         self.override = positive(override, "override")
+        self.feedrate_range: tuple[float, float] | None = None
+        if feedrate_range is not None:
+            lo, hi = (float(v) for v in as_finite_array(feedrate_range, "feedrate_range",
+                                                        shape=(2,)))  # fmt: skip
+            if not lo <= self.override <= hi:
+                raise ValueError(f"override {override!r} is outside feedrate_range "
+                                 f"{tuple(feedrate_range)!r}")  # fmt: skip
+            self.feedrate_range = (lo, hi)
 
     @property
     def env_kwargs(self) -> dict[str, Any]:
-        """``feedrate_override=override``."""
-        return {"feedrate_override": self.override}
+        """``feedrate_override=override`` (and ``feedrate_range`` when given)."""
+        out: dict[str, Any] = {"feedrate_override": self.override}
+        if self.feedrate_range is not None:
+            out["feedrate_range"] = self.feedrate_range
+        return out
 
     def reset(self, env: Any = None) -> None:
         """Check that ``env`` is a feedrate env whose ``feedrate_range`` holds the override.

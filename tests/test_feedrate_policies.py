@@ -136,6 +136,20 @@ def test_constant_feedrate_holds_the_override_as_constant_does():
     assert held["cycle_time"] > run_policy(CORNER, make("constant_feedrate"))["cycle_time"]
 
 
+def test_a_constant_override_below_the_default_floor_builds_its_env_with_its_range():
+    slow = make("constant_feedrate", override=0.05, feedrate_range=(0.05, 2.0))
+    assert slow.env_kwargs == {"feedrate_override": 0.05, "feedrate_range": (0.05, 2.0)}
+    held = run_policy(CORNER, slow)
+    assert held == run_policy(CORNER, make("constant"), feedrate_override=0.05,
+                              feedrate_range=(0.05, 2.0))  # fmt: skip
+    assert held["cycle_time"] > run_policy(CORNER, make("constant_feedrate", override=0.2))[
+        "cycle_time"]  # fmt: skip
+    with pytest.raises(ValueError, match="outside the env's feedrate_range"):
+        run_policy(CORNER, make("constant_feedrate", override=0.05))  # the default floor, 0.2
+    with pytest.raises(ValueError, match=r"override 0.05 is outside feedrate_range \(0.1, 2.0\)"):
+        make("constant_feedrate", override=0.05, feedrate_range=(0.1, 2.0))
+
+
 def test_evaluate_averages_the_episodes_and_takes_a_policy_name():
     out = evaluate("constant_feedrate", {"id": CORNER, "randomize": True}, n_episodes=3, seed=1)
     episodes = out["episodes"]
