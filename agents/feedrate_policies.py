@@ -4,9 +4,11 @@
   (:func:`agents.fuzzy.fuzzy_feedrate_004`, table 3.1 as extracted) closing the loop on the
   estimated contour error, ``F(k) = F(k-1) + g_dF dF(E, DE)`` (004 eq. 3.3);
 * ``constant_feedrate`` (:class:`ConstantFeedrate`): a feed override held for the whole
-  episode, 004's "constant speed" baseline.
+  episode, 004's "constant speed" baseline;
+* ``curvature_feed_limit`` (:class:`CurvatureFeedLimit`): the override a centripetal
+  acceleration limit on the curvature ahead allows, as a CNC limits its feed on curves.
 
-Both are registered with :func:`agents.policies.register_policy` when this module is imported
+All are registered with :func:`agents.policies.register_policy` when this module is imported
 (:func:`agents.policies.available` and :func:`agents.policies.make` import it):
 
 >>> from agents.policies import make
@@ -253,5 +255,58 @@ class ConstantFeedrate(ConstantPolicy):
         return super().act(obs)
 
 
+class CurvatureFeedLimit(ConstantPolicy):
+    """A CNC's centripetal acceleration limit on the feed (``curvature_feed_limit``).
+
+    The env is built with ``feedrate_limit=(accel, reach)`` and ``feedrate_target=(floor, cap,
+    2)`` (:attr:`env_kwargs`; the feedrate env's docstring) and the policy acts 0: the override
+    follows ``sqrt(accel / kappa) / F`` within [``floor``, ``cap``], kappa the tightest
+    curvature within ``reach`` ahead and F the block's programmed feed, moving toward it by at
+    most ``max_feedrate_change`` a step. It is the zero action of a general feedrate agent
+    trained on that env, and a reference beside it.
+
+    The defaults are chosen, not published: on 64 validation paths of 004's machine (random
+    seeds 1000000-1000063, nominal machine, never judged) ``accel`` 0.02, 0.035, 0.05 and
+    0.1 m/s^2 at ``cap`` 0.6 kept 5 um on 60, 60, 59 (60 computed in the env) and 55 of them
+    at median cycles of 6.40, 5.88, 5.40 and 4.61 s (the fastest constant override within the
+    tolerance, per path: 62 at 6.53 s); at 0.02, ``cap`` 0.8 and 1 lost 9 and 12 paths more
+    on straight moves, where the axes' lag, not the curvature, sets the error
+    (docs/training.md).
+
+    Args:
+        accel: Centripetal acceleration a_c, m/s^2, > 0.
+        reach: How far ahead the tightest curvature is sought, m, > 0.
+        cap: The highest override it sets, within (floor, 2).
+        floor: The lowest, > 0.
+
+    Raises:
+        ValueError: naming a non-finite or out-of-range value.
+    """
+
+    name = "curvature_feed_limit"
+    tasks = (FEEDRATE,)
+
+    def __init__(self, accel: float = 0.05, reach: float = 0.005, cap: float = 0.6,
+                 floor: float = 0.05) -> None:  # fmt: skip
+        super().__init__(0.0)
+        self.accel, self.reach = positive(accel, "accel"), positive(reach, "reach")
+        self.floor, self.cap = positive(floor, "floor"), finite(cap, "cap")
+        if not self.floor < self.cap < 2.0:
+            raise ValueError(f"cap must lie in (floor, 2) = ({floor!r}, 2), got {cap!r}")
+
+    @property
+    def env_kwargs(self) -> dict[str, Any]:
+        """``feedrate_range``, ``feedrate_target`` and ``feedrate_limit`` as the class says."""
+        return {"feedrate_range": (self.floor, 2.0),
+                "feedrate_target": (self.floor, self.cap, 2.0),
+                "feedrate_limit": (self.accel, self.reach)}  # fmt: skip
+
+    def act(self, obs: Observation) -> Actions:
+        """Zeros ``(B, 1)``: follow the limit (feedrate env only)."""
+        _require_feedrate_obs(obs, "curvature_feed_limit")
+        return super().act(obs)
+
+
 register_policy("fuzzy_feedrate", FuzzyFeedrate)
+register_policy("curvature_feed_limit", CurvatureFeedLimit)
 register_policy("constant_feedrate", ConstantFeedrate)

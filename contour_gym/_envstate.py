@@ -19,19 +19,20 @@ from contour_gym._schema import Schema
 ENV_FLOATS = (
     "action", "skip", "g_max", "g_log", "lookahead", "eps_prev", "s_before", "obs", "ref",
     "vel", "raw", "reward", "terminated", "truncated", "failure", "comp", "weights", "steps",
-    "ret", "track", "feedrate", "nominal", "f_nom", "n_max", "peak", "windows",
+    "ret", "track", "feedrate", "nominal", "f_nom", "n_max", "peak", "windows", "prior",
 )  # fmt: skip
 # nominal: each member's progress scale (its nominal feedrate x decision time, m); f_nom: its
 # nominal feedrate (reference velocity scale, m/s); n_max: its step limit (members run their
 # own paths); peak: the episode's peak true contour error so far, m (the ``record`` component);
-# windows: the edges of the v1 observation's curvature windows, m (one 0: none)
+# windows: the edges of the v1 observation's curvature windows, m (one 0: none); prior: each
+# member's curvature-limited override at its last observation (EnvConfig.feedrate_limit)
 ENV_AT = namedtuple("E", ENV_FLOATS)(*range(len(ENV_FLOATS)))
 EnvArrays = namedtuple("EnvArrays", ENV_FLOATS)  # type: ignore[misc]
 ENV_CONFIG = Schema(
     "env config", task=0.0, dovr=0.1, ovr_lo=0.2, ovr_hi=2.0, tol=1e-5, hard=1e-3,
     penalty=100.0, r_lo=-1.0, r_hi=0.0, python_reward=0.0, dim=2.0, reward=0.0,
     observation=1.0, f_max=1.0, horizon=0.02, progress_obs=0.0, target=0.0, t_lo=0.2,
-    t_mid=1.0, t_hi=2.0,
+    t_mid=1.0, t_hi=2.0, lim_a=0.0, lim_reach=0.0,
 )  # fmt: skip
 OBSERVATIONS = ("v0", "v1")  # ENV_CONFIG.observation is the index: v0 0, v1 1
 OBSERVATION_V0 = 0.0
@@ -70,6 +71,7 @@ def env_arrays(env_floats, env_layout):
         view1(env_floats, env_layout, ENV_AT.n_max),
         view1(env_floats, env_layout, ENV_AT.peak),
         view1(env_floats, env_layout, ENV_AT.windows),
+        view1(env_floats, env_layout, ENV_AT.prior),
     )
 
 

@@ -87,7 +87,8 @@ def test_envs_pickle_and_resume_identically():
             FeedrateEnv,
             FeedrateVectorEnv,
             dict(path="random", decision_ticks=40, curvature_windows=(0.0, 0.002, 0.01),
-                 feedrate_range=(0.05, 2.0), feedrate_target=(0.05, 0.3, 1.2)),
+                 feedrate_range=(0.05, 2.0), feedrate_target=(0.05, 0.3, 1.2),
+                 feedrate_limit=(0.05, 0.005)),
         ),
     ],
 )
@@ -123,15 +124,50 @@ def test_a_target_override_action_moves_the_override_toward_its_target():
     env = FeedrateEnv(path="circle", feedrate_range=(0.05, 2.0), decision_ticks=10,
                       feedrate_target=(0.05, 0.3, 1.2), max_feedrate_change=0.1)  # fmt: skip
     obs, _ = env.reset(seed=0)
-    override = float(obs["feedrate"][0])
-    for a in [0.0] * 9 + [1.0] * 10 + [0.5] * 8 + [-1.0] * 8 + [2.0, -0.25]:
+    assert obs["feedrate"][0] == 1.0  # the scenario's override until the first decision
+    override = None  # which takes its target at once: the axes are still at rest
+    for a in [-0.5] + [0.0] * 9 + [1.0] * 10 + [0.5] * 8 + [-1.0] * 8 + [2.0, -0.25]:
         goal = 0.3 * (1.2 / 0.3) ** min(a, 1.0) if a >= 0 else 0.3 * (0.05 / 0.3) ** -a
-        override += float(np.clip(goal - override, -0.1, 0.1))
+        step = goal if override is None else float(np.clip(goal - override, -0.1, 0.1))
+        override = step if override is None else override + step
         obs, *_ = env.step(np.array([a]))
         assert obs["feedrate"][0] == pytest.approx(override, abs=1e-6), a
     assert override == pytest.approx(0.3 * (0.05 / 0.3) ** 0.25)
+    env.reset(seed=1)
+    obs, *_ = env.step(np.array([1.0]))
+    assert obs["feedrate"][0] == pytest.approx(1.2)  # a new episode starts at its target again
     with pytest.raises(ValueError, match=r"feedrate_target must be \(low, mid, high\)"):
         FeedrateEnv(feedrate_target=(0.1, 0.3, 2.5))
+
+
+def test_a_feedrate_limit_sets_the_zero_actions_target_from_the_curvature_ahead():
+    reach, a_c, dovr = 0.005, 0.05, 0.1
+    env = FeedrateEnv(path="random", feedrate_range=(0.05, 2.0), decision_ticks=10,
+                      feedrate_target=(0.05, 0.6, 1.2), feedrate_limit=(a_c, reach),
+                      max_feedrate_change=dovr)  # fmt: skip
+    env.reset(seed=7009)  # a rose with a 0.31 mm radius on its way
+    path = env.task.loop.paths[0]
+    s0, feeds = np.asarray(path.table.s0), np.asarray(path.segment_feedrates)
+    override, priors = None, []
+    for _ in range(300):
+        s = float(env.task.loop.s[0])
+        ahead = np.minimum(s + np.linspace(0.0, reach, 41), path.length)  # every 0.125 mm
+        kappa = np.abs(np.asarray(path.curvature(ahead))).max()
+        feed = feeds[np.searchsorted(s0, s, side="right") - 1]
+        prior = float(np.clip(np.sqrt(a_c / kappa) / feed, 0.05, 0.6))
+        step = prior if override is None else float(np.clip(prior - override, -dovr, dovr))
+        override = step if override is None else override + step
+        obs, _, terminated, truncated, _ = env.step(np.zeros(1))
+        assert obs["feedrate"][0] == pytest.approx(override, rel=1e-5), s
+        priors.append(prior)
+        if terminated or truncated:
+            break
+    assert min(priors) < 0.15 < 0.25 < max(priors)  # slows for the rose's tight curve
+    for kwargs, match in [({"feedrate_limit": (0.05, 0.005)}, "give feedrate_target"),
+                          ({"feedrate_target": (0.2, 0.3, 1.2), "feedrate_limit": (0.05, 0.0)},
+                           r"feedrate_limit must be \(a_c, reach\) > 0")]:  # fmt: skip
+        with pytest.raises(ValueError, match=match):
+            FeedrateEnv(**kwargs)
 
 
 def test_make_vec_uses_the_native_vector_env():

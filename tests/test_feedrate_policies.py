@@ -150,6 +150,24 @@ def test_a_constant_override_below_the_default_floor_builds_its_env_with_its_ran
         make("constant_feedrate", override=0.05, feedrate_range=(0.1, 2.0))
 
 
+def test_the_curvature_feed_limit_slows_for_curves_only_and_names_bad_values():
+    limit = make("curvature_feed_limit")
+    assert limit.env_kwargs == {"feedrate_range": (0.05, 2.0),
+                                "feedrate_target": (0.05, 0.6, 2.0),
+                                "feedrate_limit": (0.05, 0.005)}  # fmt: skip
+    assert run_policy(CIRCLE, limit) == run_policy(CIRCLE, make("constant"), **limit.env_kwargs)
+    # the circle (r = 20 mm at 53 mm/s programmed): sqrt(0.05 x 0.02) / 0.053 = 0.597 all the
+    # way, just under the cap 0.6
+    circle = run_policy(CIRCLE, limit)["cycle_time"]
+    held = [run_policy(CIRCLE, make("constant_feedrate", override=o))["cycle_time"]
+            for o in (0.6, 0.5)]  # fmt: skip
+    assert held[0] < circle < held[1]
+    for kwargs, match in [({"accel": 0.0}, "accel"), ({"reach": -1.0}, "reach"),
+                          ({"cap": 0.04}, r"cap must lie in \(floor, 2\)")]:  # fmt: skip
+        with pytest.raises(ValueError, match=match):
+            make("curvature_feed_limit", **kwargs)
+
+
 def test_evaluate_averages_the_episodes_and_takes_a_policy_name():
     out = evaluate("constant_feedrate", {"id": CORNER, "randomize": True}, n_episodes=3, seed=1)
     episodes = out["episodes"]

@@ -213,6 +213,21 @@ def _observe_windows(path, env, b, col, s, length, dim):
 
 
 @numba.njit(cache=True, inline="always")
+def _curvature_limit(loop, path, env, ec, b, s, length, dim):
+    # EnvConfig.feedrate_limit: the override at which the block's programmed feed F meets
+    # v^2 kappa = a_c on the tightest curvature within reach (sampled every WINDOW_STEP),
+    # within [t_lo, t_mid]
+    reach = ec[EC.lim_reach]
+    n = max(int(math.ceil(reach / WINDOW_STEP - 1e-9)), 1)
+    peak = 0.0
+    for k in range(n + 1):
+        peak = max(peak, abs(_curvature(path, min(s + min(k * WINDOW_STEP, reach), length), dim)))
+    speed = math.sqrt(ec[EC.lim_a] / max(peak, 1e-12))
+    override = speed / path.feed[int(loop.ip_s[b, IS.seg])]
+    return min(max(override, ec[EC.t_lo]), ec[EC.t_mid])
+
+
+@numba.njit(cache=True, inline="always")
 def _observe_v0(loop, path, env, ec, b, col, s, length, dim):
     # the v0 observation after the contour errors (the v0 ids' table)
     n_c, n_a, obs = loop.c_axes.shape[0], loop.work.shape[1], env.obs
@@ -259,6 +274,8 @@ def _observe(loop, path, env, ec, b):
         col = _observe_v0(loop, path, env, ec, b, col, s, length, dim)
     else:
         col = _observe_general(loop, path, env, ec, b, col, s, length, dim)
+    if ec[EC.lim_a] != 0.0:
+        env.prior[b] = _curvature_limit(loop, path, env, ec, b, s, length, dim)
     TASK_OBSERVE(int(ec[EC.task]), loop, path, env, ec, b, col)
 
 

@@ -113,6 +113,13 @@ class EnvConfig:
             mid)^a`` above 0, ``mid (low / mid)^-a`` below), which the override moves toward
             by at most ``max_feedrate_change`` a step. A zero action holds ``mid``, so an agent
             learns its departures from a safe override rather than a speed to keep.
+        feedrate_limit: Feedrate env, with ``feedrate_target``: None (default), or ``(a_c,
+            reach)``: the zero action's target (``mid`` above) then follows a centripetal
+            acceleration limit, the override at which the block's programmed feed F meets
+            ``v^2 kappa = a_c`` (m/s^2) on the tightest curve within ``reach`` (m) ahead,
+            ``sqrt(a_c / kappa) / F`` within [``low``, ``mid``]; the action departs from it
+            on the same log scale. An agent learns corrections to a curvature feed limit, as
+            a CNC's own has it (residual learning), rather than the limit itself.
         settle_time: Time allowed to get in position after the reference ends, s.
         step_limit: The env's own step limit (None: computed from its path, feedrate and
             decision time, see the env docstrings). ``gym.make(id, max_episode_steps=N)`` adds
@@ -155,6 +162,7 @@ class EnvConfig:
     feedrate_range: tuple[float, float] = (0.2, 2.0)
     max_feedrate_change: float = 0.1
     feedrate_target: tuple[float, float, float] | None = None
+    feedrate_limit: tuple[float, float] | None = None
     settle_time: float = 1.0
     step_limit: int | None = None
 
@@ -177,13 +185,7 @@ class EnvConfig:
                 f"feedrate_range must satisfy 0 < low < 1 < high, got {self.feedrate_range!r}"
             )
         positive(self.max_feedrate_change, "max_feedrate_change")
-        if self.feedrate_target is not None:
-            t_lo, t_mid, t_hi = as_finite_array(self.feedrate_target, "feedrate_target",
-                                                shape=(3,))  # fmt: skip
-            if not lo <= t_lo < t_mid < t_hi <= hi:
-                raise ValueError(f"feedrate_target must be (low, mid, high) increasing within "
-                                 f"feedrate_range {tuple(self.feedrate_range)!r}, got "
-                                 f"{self.feedrate_target!r}")  # fmt: skip
+        self._check_target(lo, hi)
         positive(self.settle_time, "settle_time")
         if self.ccc_gains is not None:
             as_finite_array(self.ccc_gains, "ccc_gains", shape=(3,))
@@ -207,6 +209,24 @@ class EnvConfig:
         if self.path == RANDOM and self.laps is not None:
             raise ValueError("laps do not apply to path='random' (each draw is one path)")
         self.randomization()  # validates
+
+    def _check_target(self, lo: float, hi: float) -> None:
+        if self.feedrate_target is not None:
+            t_lo, t_mid, t_hi = as_finite_array(self.feedrate_target, "feedrate_target",
+                                                shape=(3,))  # fmt: skip
+            if not lo <= t_lo < t_mid < t_hi <= hi:
+                raise ValueError(f"feedrate_target must be (low, mid, high) increasing within "
+                                 f"feedrate_range {tuple(self.feedrate_range)!r}, got "
+                                 f"{self.feedrate_target!r}")  # fmt: skip
+        if self.feedrate_limit is None:
+            return
+        limit = as_finite_array(self.feedrate_limit, "feedrate_limit", shape=(2,))
+        if np.any(limit <= 0):
+            raise ValueError(f"feedrate_limit must be (a_c, reach) > 0, m/s^2 and m, got "
+                             f"{self.feedrate_limit!r}")  # fmt: skip
+        if self.feedrate_target is None:
+            raise ValueError("feedrate_limit sets the zero action of feedrate_target: give "
+                             "feedrate_target=(low, mid, high) too")  # fmt: skip
 
     def _check_observation(self) -> None:
         choice(self.observation, "observation", OBSERVATIONS)

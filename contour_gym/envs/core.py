@@ -208,7 +208,7 @@ class ContourTask:
             "comp": (b, COMPONENTS.size), "weights": (max(weights.size, 1),), "steps": (b,),
             "ret": (b,), "track": (b, self.n_axes), "feedrate": (b,), "nominal": (b,),
             "f_nom": (b,), "n_max": (b,), "peak": (b,),
-            "windows": (max(len(self.config.curvature_windows), 1),),
+            "windows": (max(len(self.config.curvature_windows), 1),), "prior": (b,),
         }  # fmt: skip
         self._blob = Blob([(name, shapes[name]) for name in ENV_FLOATS])
         self._attach_views()
@@ -239,7 +239,9 @@ class ContourTask:
         if target is None:
             return {}
         t_lo, t_mid, t_hi = (float(t) for t in target)
-        return {"target": 1.0, "t_lo": t_lo, "t_mid": t_mid, "t_hi": t_hi}
+        limit = self.config.feedrate_limit or (0.0, 0.0)
+        return {"target": 1.0, "t_lo": t_lo, "t_mid": t_mid, "t_hi": t_hi,
+                "lim_a": float(limit[0]), "lim_reach": float(limit[1])}  # fmt: skip
 
     def _machine_feedrate(self) -> float:
         # the machine's feedrate limit (the v1 observation's speed scale); without one, the

@@ -32,7 +32,12 @@ _SPEC = (
     machine's rapid rate whatever the override. Out-of-range actions are clipped; NaN/inf or
     misshaped actions raise ValueError. With ``feedrate_target=(low, mid, high)`` the action is
     instead a target override, ``mid (high / mid)^a`` for ``a >= 0`` and ``mid (low / mid)^-a``
-    below, and ``dF`` the step toward it, at most ``max_feedrate_change * F_nom``.
+    below, and ``dF`` the step toward it, at most ``max_feedrate_change * F_nom``; on an
+    episode's first decision, the axes still at rest, the override takes the target at once.
+    With ``feedrate_limit=(a_c, reach)`` too, the zero action's target is not ``mid`` but a
+    centripetal acceleration limit, ``sqrt(a_c / kappa) / F`` within [``low``, ``mid``]
+    (``kappa`` the tightest curvature within ``reach`` ahead, ``F`` the block's programmed
+    feed), and the action departs from it on the same scale.
 
     ## Observation space
     ``Dict`` of float32 ``Box(-1e4, 1e4)`` (scaled values clipped; ``tol`` = ``tolerance``):
@@ -87,7 +92,7 @@ _SPEC = (
 
     ## Arguments
     As the CCC env, plus ``ccc_gains``, ``feedrate_range``, ``max_feedrate_change``,
-    ``feedrate_target``. On
+    ``feedrate_target``, ``feedrate_limit``. On
     ``path="random"`` each part is programmed at feeds drawn from 0.3 to 1 times the machine's
     ``max_feedrate`` (``path_options={"feed_range": ...}`` to change it), and its highest
     feed is the episode's nominal feedrate.

@@ -35,12 +35,18 @@ def apply_override(loop, env, ec, b):
     """Member ``b``'s feed override moved by its action, within the env's range.
 
     The action is the change (in ``max_feedrate_change``), or with ``feedrate_target`` a
-    target override on a log scale that the override moves toward, by at most that change.
+    target override on a log scale that the override moves toward, by at most that change
+    (taken at once on the episode's first decision: the axes are at rest, and a tight curve
+    near the start must not be entered at the scenario's override while the target is far).
     """
     now, change = loop.ip_p[b, IP.ovr], env.action[b, 0]
     if ec[EC.target] != 0.0:
-        a, mid = min(max(change, -1.0), 1.0), ec[EC.t_mid]
+        a = min(max(change, -1.0), 1.0)
+        mid = env.prior[b] if ec[EC.lim_a] != 0.0 else ec[EC.t_mid]
         goal = mid * (ec[EC.t_hi] / mid) ** a if a >= 0.0 else mid * (ec[EC.t_lo] / mid) ** -a
+        if env.steps[b] == 0.0:  # the episode's first decision: the axes are still at rest
+            loop.ip_p[b, IP.ovr] = min(max(goal, ec[EC.ovr_lo]), ec[EC.ovr_hi])
+            return
         change = min(max((goal - now) / ec[EC.dovr], -1.0), 1.0)
     ovr = now + change * ec[EC.dovr]
     loop.ip_p[b, IP.ovr] = min(max(ovr, ec[EC.ovr_lo]), ec[EC.ovr_hi])
