@@ -212,18 +212,17 @@ def _observe_windows(path, env, b, col, s, length, dim):
     return col
 
 
-@numba.njit(cache=True, inline="always")
-def _curvature_limit(loop, path, env, ec, b, s, length, dim):
-    # EnvConfig.feedrate_limit: the override at which the block's programmed feed F meets
-    # v^2 kappa = a_c on the tightest curvature within reach (sampled every WINDOW_STEP),
-    # within [t_lo, t_mid]
+@numba.njit(cache=True)
+def _curvature_limit(path, ec, s, length, dim, feed):
+    # called, not inlined (one compile for every env step that observes): EnvConfig's
+    # feedrate_limit, the override at which the block's programmed feed meets v^2 kappa = a_c
+    # on the tightest curvature within reach (sampled every WINDOW_STEP), within [t_lo, t_mid]
     reach = ec[EC.lim_reach]
     n = max(int(math.ceil(reach / WINDOW_STEP - 1e-9)), 1)
     peak = 0.0
     for k in range(n + 1):
         peak = max(peak, abs(_curvature(path, min(s + min(k * WINDOW_STEP, reach), length), dim)))
-    speed = math.sqrt(ec[EC.lim_a] / max(peak, 1e-12))
-    override = speed / path.feed[int(loop.ip_s[b, IS.seg])]
+    override = math.sqrt(ec[EC.lim_a] / max(peak, 1e-12)) / feed
     return min(max(override, ec[EC.t_lo]), ec[EC.t_mid])
 
 
@@ -275,7 +274,8 @@ def _observe(loop, path, env, ec, b):
     else:
         col = _observe_general(loop, path, env, ec, b, col, s, length, dim)
     if ec[EC.lim_a] != 0.0:
-        env.prior[b] = _curvature_limit(loop, path, env, ec, b, s, length, dim)
+        feed = path.feed[int(loop.ip_s[b, IS.seg])]
+        env.prior[b] = _curvature_limit(path, ec, s, length, dim, feed)
     TASK_OBSERVE(int(ec[EC.task]), loop, path, env, ec, b, col)
 
 
