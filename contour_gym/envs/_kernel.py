@@ -198,30 +198,33 @@ def _observe_general(loop, path, env, ec, b, col, s, length, dim):
 
 @numba.njit(cache=True, inline="always")
 def _observe_windows(path, env, b, col, s, length, dim):
-    # curvature_peak: per window [e_j, e_j+1] ahead, the largest |curvature| at its ends and
-    # every WINDOW_STEP between, as log10(1 + kappa x 1 m) / 4 (nothing with one edge: none)
+    # curvature_peak: per window [e_j, e_j+1] ahead, its peak curvature as
+    # log10(1 + kappa x 1 m) / 4 (nothing with one edge: none)
     edges = env.windows
     for j in range(edges.shape[0] - 1):
-        lo, hi = edges[j], edges[j + 1]
-        n = max(int(math.ceil((hi - lo) / WINDOW_STEP - 1e-9)), 1)
-        peak = 0.0
-        for k in range(n + 1):
-            ahead = min(s + min(lo + k * WINDOW_STEP, hi), length)
-            peak = max(peak, abs(_curvature(path, ahead, dim)))
+        peak = _peak_curvature(path, s, edges[j], edges[j + 1], length, dim)
         col = put(env.obs, b, col, math.log10(1.0 + peak) / 4.0)
     return col
+
+
+@numba.njit(cache=True)
+def _peak_curvature(path, s, lo, hi, length, dim):
+    # called, not inlined (one compile for every env step): the largest |curvature| from lo to
+    # hi ahead of s, at both ends and every WINDOW_STEP between (curvature_peak, feedrate_limit)
+    n = max(int(math.ceil((hi - lo) / WINDOW_STEP - 1e-9)), 1)
+    peak = 0.0
+    for k in range(n + 1):
+        ahead = min(s + min(lo + k * WINDOW_STEP, hi), length)
+        peak = max(peak, abs(_curvature(path, ahead, dim)))
+    return peak
 
 
 @numba.njit(cache=True)
 def _curvature_limit(path, ec, s, length, dim, feed):
     # called, not inlined (one compile for every env step that observes): EnvConfig's
     # feedrate_limit, the override at which the block's programmed feed meets v^2 kappa = a_c
-    # on the tightest curvature within reach (sampled every WINDOW_STEP), within [t_lo, t_mid]
-    reach = ec[EC.lim_reach]
-    n = max(int(math.ceil(reach / WINDOW_STEP - 1e-9)), 1)
-    peak = 0.0
-    for k in range(n + 1):
-        peak = max(peak, abs(_curvature(path, min(s + min(k * WINDOW_STEP, reach), length), dim)))
+    # on the tightest curvature within reach, within [t_lo, t_mid]
+    peak = _peak_curvature(path, s, 0.0, ec[EC.lim_reach], length, dim)
     override = math.sqrt(ec[EC.lim_a] / max(peak, 1e-12)) / feed
     return min(max(override, ec[EC.t_lo]), ec[EC.t_mid])
 
