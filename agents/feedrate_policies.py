@@ -258,26 +258,31 @@ class ConstantFeedrate(ConstantPolicy):
 class CurvatureFeedLimit(ConstantPolicy):
     """A CNC's centripetal acceleration limit on the feed (``curvature_feed_limit``).
 
-    The env is built with ``feedrate_limit=(accel, reach)`` and ``feedrate_target=(floor, cap,
-    2)`` (:attr:`env_kwargs`; the feedrate env's docstring) and the policy acts 0: the override
-    follows ``sqrt(accel / kappa) / F`` within [``floor``, ``cap``], kappa the tightest
-    curvature within ``reach`` ahead and F the block's programmed feed, moving toward it by at
-    most ``max_feedrate_change`` a step. It is the zero action of a general feedrate agent
-    trained on that env, and a reference beside it.
+    The env is built with ``feedrate_limit=(accel, reach, end_speed, end_reach)`` and
+    ``feedrate_target=(floor, cap, 2)`` (:attr:`env_kwargs`; the feedrate env's docstring) and
+    the policy acts 0: the override follows ``sqrt(accel / kappa) / F`` within [``floor``,
+    ``cap``], kappa the tightest curvature within ``reach`` ahead and F the block's programmed
+    feed, and keeps the speed to ``end_speed`` within ``end_reach`` of the path's end, moving
+    toward it by at most ``max_feedrate_change`` a step. It is the zero action of a general
+    feedrate agent trained on that env, and a reference beside it.
 
     The defaults are chosen, not published: on 64 validation paths of 004's machine (random
     seeds 1000000-1000063, nominal machine, never judged) ``accel`` 0.02, 0.035, 0.05 and
     0.1 m/s^2 at ``cap`` 0.6 kept 5 um on 60, 60, 59 (60 computed in the env) and 55 of them
     at median cycles of 6.40, 5.88, 5.40 and 4.61 s (the fastest constant override within the
     tolerance, per path: 62 at 6.53 s); at 0.02, ``cap`` 0.8 and 1 lost 9 and 12 paths more
-    on straight moves, where the axes' lag, not the curvature, sets the error
-    (docs/training.md).
+    on straight moves, where the axes' lag, not the curvature, sets the error. At 0.05 two
+    of the four paths lost broke at the path's end, where the axes stop; 20 mm/s within the
+    last 10 mm (30 mm/s within 20 mm: the same) kept them, 62 at 5.51 s; within the last 5 mm
+    none did, the acc/dec filter still slowing when the end came (docs/training.md).
 
     Args:
         accel: Centripetal acceleration a_c, m/s^2, > 0.
         reach: How far ahead the tightest curvature is sought, m, > 0.
         cap: The highest override it sets, within (floor, 2).
         floor: The lowest, > 0.
+        end_speed: The speed kept near the path's end, m/s, > 0 (None: no end limit).
+        end_reach: How far before the end it is kept, m, > 0.
 
     Raises:
         ValueError: naming a non-finite or out-of-range value.
@@ -287,19 +292,22 @@ class CurvatureFeedLimit(ConstantPolicy):
     tasks = (FEEDRATE,)
 
     def __init__(self, accel: float = 0.05, reach: float = 0.005, cap: float = 0.6,
-                 floor: float = 0.05) -> None:  # fmt: skip
+                 floor: float = 0.05, end_speed: float | None = 0.02,
+                 end_reach: float = 0.01) -> None:  # fmt: skip
         super().__init__(0.0)
         self.accel, self.reach = positive(accel, "accel"), positive(reach, "reach")
         self.floor, self.cap = positive(floor, "floor"), finite(cap, "cap")
         if not self.floor < self.cap < 2.0:
             raise ValueError(f"cap must lie in (floor, 2) = ({floor!r}, 2), got {cap!r}")
+        self.end = None if end_speed is None else (positive(end_speed, "end_speed"),
+                                                   positive(end_reach, "end_reach"))
 
     @property
     def env_kwargs(self) -> dict[str, Any]:
         """``feedrate_range``, ``feedrate_target`` and ``feedrate_limit`` as the class says."""
         return {"feedrate_range": (self.floor, 2.0),
                 "feedrate_target": (self.floor, self.cap, 2.0),
-                "feedrate_limit": (self.accel, self.reach)}  # fmt: skip
+                "feedrate_limit": (self.accel, self.reach, *(self.end or ()))}  # fmt: skip
 
     def act(self, obs: Observation) -> Actions:
         """Zeros ``(B, 1)``: follow the limit (feedrate env only)."""

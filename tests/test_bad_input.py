@@ -352,7 +352,7 @@ def test_train_shipped_resumes_an_unfinished_run_and_exports_a_finished_one(
     (run / "checkpoints" / f"model_{steps}_steps.zip").write_bytes(b"")
     calls: list[object] = []
     monkeypatch.setattr(ts, "train", lambda *a, **k: calls.append(k.get("resume")) or run)
-    monkeypatch.setattr(ts, "export_agent", lambda r, dest, command: dest)
+    monkeypatch.setattr(ts, "export_agent", lambda r, dest, command, act=None: dest)
     dest = ts.train_shipped(name, tmp_path / "runs", tmp_path / "agents", progress=False)
     assert dest == tmp_path / "agents" / name
     assert calls == ([run] if resumed else [])

@@ -88,7 +88,7 @@ def test_envs_pickle_and_resume_identically():
             FeedrateVectorEnv,
             dict(path="random", decision_ticks=40, curvature_windows=(0.0, 0.002, 0.01),
                  feedrate_range=(0.05, 2.0), feedrate_target=(0.05, 0.3, 1.2),
-                 feedrate_limit=(0.05, 0.005)),
+                 feedrate_limit=(0.05, 0.005, 0.02, 0.01)),
         ),
     ],
 )
@@ -141,20 +141,23 @@ def test_a_target_override_action_moves_the_override_toward_its_target():
 
 
 def test_a_feedrate_limit_sets_the_zero_actions_target_from_the_curvature_ahead():
-    reach, a_c, dovr = 0.005, 0.05, 0.1
+    reach, a_c, dovr, v_end, end_reach = 0.005, 0.05, 0.1, 0.02, 0.01
     env = FeedrateEnv(path="random", feedrate_range=(0.05, 2.0), decision_ticks=10,
-                      feedrate_target=(0.05, 0.6, 1.2), feedrate_limit=(a_c, reach),
+                      feedrate_target=(0.05, 0.6, 1.2),
+                      feedrate_limit=(a_c, reach, v_end, end_reach),
                       max_feedrate_change=dovr)  # fmt: skip
     env.reset(seed=7009)  # a rose with a 0.31 mm radius on its way
     path = env.task.loop.paths[0]
     s0, feeds = np.asarray(path.table.s0), np.asarray(path.segment_feedrates)
-    override, priors = None, []
-    for _ in range(300):
+    override, priors, near_end = None, [], 0
+    for _ in range(20000):
         s = float(env.task.loop.s[0])
         ahead = np.minimum(s + np.linspace(0.0, reach, 41), path.length)  # every 0.125 mm
-        kappa = np.abs(np.asarray(path.curvature(ahead))).max()
-        feed = feeds[np.searchsorted(s0, s, side="right") - 1]
-        prior = float(np.clip(np.sqrt(a_c / kappa) / feed, 0.05, 0.6))
+        speed = np.sqrt(a_c / np.abs(np.asarray(path.curvature(ahead))).max())
+        if path.length - s < end_reach:  # the end's speed
+            speed, near_end = min(speed, v_end), near_end + 1
+        feed = feeds[min(np.searchsorted(s0, s, side="right") - 1, feeds.size - 1)]
+        prior = float(np.clip(speed / feed, 0.05, 0.6))
         step = prior if override is None else float(np.clip(prior - override, -dovr, dovr))
         override = step if override is None else override + step
         obs, _, terminated, truncated, _ = env.step(np.zeros(1))
@@ -162,10 +165,16 @@ def test_a_feedrate_limit_sets_the_zero_actions_target_from_the_curvature_ahead(
         priors.append(prior)
         if terminated or truncated:
             break
+    assert terminated and near_end > 10  # the whole path, its last 10 mm included
     assert min(priors) < 0.15 < 0.25 < max(priors)  # slows for the rose's tight curve
+    bad = r"feedrate_limit must be \(a_c, reach\) or \(a_c, reach, v_end, end_reach\) > 0"
     for kwargs, match in [({"feedrate_limit": (0.05, 0.005)}, "give feedrate_target"),
                           ({"feedrate_target": (0.2, 0.3, 1.2), "feedrate_limit": (0.05, 0.0)},
-                           r"feedrate_limit must be \(a_c, reach\) > 0")]:  # fmt: skip
+                           bad),
+                          ({"feedrate_target": (0.2, 0.3, 1.2),
+                            "feedrate_limit": (0.05, 0.005, 0.02)}, bad),
+                          ({"feedrate_target": (0.2, 0.3, 1.2),
+                            "feedrate_limit": (0.05, 0.005, -0.02, 0.01)}, bad)]:  # fmt: skip
         with pytest.raises(ValueError, match=match):
             FeedrateEnv(**kwargs)
 

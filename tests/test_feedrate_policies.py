@@ -154,7 +154,9 @@ def test_the_curvature_feed_limit_slows_for_curves_only_and_names_bad_values():
     limit = make("curvature_feed_limit")
     assert limit.env_kwargs == {"feedrate_range": (0.05, 2.0),
                                 "feedrate_target": (0.05, 0.6, 2.0),
-                                "feedrate_limit": (0.05, 0.005)}  # fmt: skip
+                                "feedrate_limit": (0.05, 0.005, 0.02, 0.01)}  # fmt: skip
+    assert make("curvature_feed_limit", end_speed=None).env_kwargs["feedrate_limit"] == (
+        0.05, 0.005)  # fmt: skip
     assert run_policy(CIRCLE, limit) == run_policy(CIRCLE, make("constant"), **limit.env_kwargs)
     # the circle (r = 20 mm at 53 mm/s programmed): sqrt(0.05 x 0.02) / 0.053 = 0.597 all the
     # way, just under the cap 0.6
@@ -163,7 +165,9 @@ def test_the_curvature_feed_limit_slows_for_curves_only_and_names_bad_values():
             for o in (0.6, 0.5)]  # fmt: skip
     assert held[0] < circle < held[1]
     for kwargs, match in [({"accel": 0.0}, "accel"), ({"reach": -1.0}, "reach"),
-                          ({"cap": 0.04}, r"cap must lie in \(floor, 2\)")]:  # fmt: skip
+                          ({"cap": 0.04}, r"cap must lie in \(floor, 2\)"),
+                          ({"end_speed": 0.0}, "end_speed"), ({"end_reach": -0.01}, "end_reach")
+                          ]:  # fmt: skip
         with pytest.raises(ValueError, match=match):
             make("curvature_feed_limit", **kwargs)
 

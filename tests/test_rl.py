@@ -452,6 +452,10 @@ def test_an_agent_trained_flat_on_random_paths_acts_on_the_v1_observation(tmp_pa
     agent = SavedAgent(export_agent(run, tmp_path / "general", "test"))
     # it keeps its interface (the v1 observation), not its world of paths
     assert agent.env_kwargs == {"decision_ticks": 50, "observation": "v1"}
+    # exported to act in another env than its training one: both in its meta file
+    acting = SavedAgent(export_agent(run, tmp_path / "acting", "test", {"decision_ticks": 40}))
+    assert acting.env_kwargs == {"decision_ticks": 40, "observation": "v1"}
+    assert acting.meta["trained_env_kwargs"] == {"decision_ticks": 50, "path": "random"}
     venv = gym.make_vec("contour_gym/CCC-v1", num_envs=2, decision_ticks=50, path="random")
     agent.reset(venv)
     obs, _ = venv.reset(seed=7)

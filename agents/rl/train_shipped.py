@@ -11,20 +11,24 @@ agent with :func:`agents.rl.train.train` from its entry::
       env_kwargs: {randomize: true} # replace the config block's env_kwargs
       hyperparams: {n_epochs: 10}  # optional: replace the block's other keys
       eval_episodes: 16            # optional: episodes per evaluation (default 4)
+      act_env_kwargs: {...}        # optional: the env it acts in differs from its training
+                                   # env's in these (e.g. a stricter feedrate_limit)
 
 into ``runs/shipped/`` (``--runs``) and exports the run (:func:`export_agent`) into
 ``agents/trained/NAME/`` (``--dest``): ``model.zip`` and ``vecnormalize.pkl`` of the run's best
 evaluation (its final model if it has none), and ``meta.yaml`` with the command that
-reproduces it.
+reproduces it. ``meta.yaml``'s ``env_kwargs`` are the env the agent acts in: the training
+env's, updated with ``act_env_kwargs`` (the training env's are kept as ``trained_env_kwargs``).
 """
 
 from __future__ import annotations
 
 import argparse
+import copy
 import importlib.resources
 import shlex
 import shutil
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -44,7 +48,7 @@ from agents.rl.train import (
 )
 
 ENTRY_KEYS = {"algo": str, "env_id": str, "seed": int, "timesteps": int, "env_kwargs": dict,
-              "hyperparams": dict, "eval_episodes": int}
+              "hyperparams": dict, "eval_episodes": int, "act_env_kwargs": dict}
 
 
 def shipped_file() -> Path:
@@ -114,16 +118,20 @@ def train_shipped(
                     **overrides)  # fmt: skip
     elif not finished(run):  # an interrupted or killed run: on from its last checkpoint
         run = train(resume=run, progress=progress)
-    return export_agent(run, dest, command)
+    return export_agent(run, dest, command, entry.get("act_env_kwargs"))
 
 
-def export_agent(run: Path, dest: Path, command: str) -> Path:
+def export_agent(run: Path, dest: Path, command: str,
+                 act_env_kwargs: Mapping[str, Any] | None = None) -> Path:  # fmt: skip
     """Copy a finished run's model and statistics into the agent folder ``dest`` with a meta file.
 
     Args:
         run: The run folder (:func:`agents.rl.train.train`'s).
         dest: The agent folder (created; files replaced).
         command: The command that reproduces the agent (written to ``meta.yaml``).
+        act_env_kwargs: Env arguments the agent acts with instead of its training env's
+            (``meta.yaml``'s ``env_kwargs`` are then the training env's updated with them,
+            and ``trained_env_kwargs`` the training env's).
 
     Raises:
         ValueError: for a run without ``model.zip``.
@@ -142,11 +150,14 @@ def export_agent(run: Path, dest: Path, command: str) -> Path:
             _copy_atomically(run / src, dest / file)
     curve = read_curve(run / "eval.csv")
     selected = yaml.safe_load((run / BEST_META).read_text(encoding="utf-8")) if best else None
+    trained = block.get("env_kwargs") or {}
     meta = {"algo": args["algo"], "env_id": args["env_id"],
-            "env_kwargs": block.get("env_kwargs") or {}, "seed": args["seed"],
+            "env_kwargs": {**trained, **(act_env_kwargs or {})}, "seed": args["seed"],
             "total_timesteps": args["total_timesteps"], "command": command,
             "selected_evaluation": selected,
             "last_evaluation": curve[-1] if curve else None}  # fmt: skip
+    if act_env_kwargs:
+        meta["trained_env_kwargs"] = copy.deepcopy(trained)  # no YAML anchors
     text = yaml.safe_dump(meta, sort_keys=False)
     write_atomically(dest / META_FILE, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
     return dest

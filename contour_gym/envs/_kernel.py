@@ -223,10 +223,13 @@ def _peak_curvature(path, s, lo, hi, length, dim):
 def _curvature_limit(path, ec, s, length, dim, feed):
     # called, not inlined (one compile for every env step that observes): EnvConfig's
     # feedrate_limit, the override at which the block's programmed feed meets v^2 kappa = a_c
-    # on the tightest curvature within reach, within [t_lo, t_mid]
+    # on the tightest curvature within reach (and the speed v_end within end_reach of the
+    # path's end, if given), within [t_lo, t_mid]
     peak = _peak_curvature(path, s, 0.0, ec[EC.lim_reach], length, dim)
-    override = math.sqrt(ec[EC.lim_a] / max(peak, 1e-12)) / feed
-    return min(max(override, ec[EC.t_lo]), ec[EC.t_mid])
+    speed = math.sqrt(ec[EC.lim_a] / max(peak, 1e-12))
+    if length - s < ec[EC.lim_rend]:
+        speed = min(speed, ec[EC.lim_vend])
+    return min(max(speed / feed, ec[EC.t_lo]), ec[EC.t_mid])
 
 
 @numba.njit(cache=True, inline="always")

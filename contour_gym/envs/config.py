@@ -119,7 +119,9 @@ class EnvConfig:
             ``v^2 kappa = a_c`` (m/s^2) on the tightest curve within ``reach`` (m) ahead,
             ``sqrt(a_c / kappa) / F`` within [``low``, ``mid``]; the action departs from it
             on the same log scale. An agent learns corrections to a curvature feed limit, as
-            a CNC's own has it (residual learning), rather than the limit itself.
+            a CNC's own has it (residual learning), rather than the limit itself. ``(a_c,
+            reach, v_end, end_reach)`` also keeps the speed to ``v_end`` (m/s, the override
+            ``v_end / F``) within ``end_reach`` (m) of the path's end, where the axes stop.
         settle_time: Time allowed to get in position after the reference ends, s.
         step_limit: The env's own step limit (None: computed from its path, feedrate and
             decision time, see the env docstrings). ``gym.make(id, max_episode_steps=N)`` adds
@@ -162,7 +164,7 @@ class EnvConfig:
     feedrate_range: tuple[float, float] = (0.2, 2.0)
     max_feedrate_change: float = 0.1
     feedrate_target: tuple[float, float, float] | None = None
-    feedrate_limit: tuple[float, float] | None = None
+    feedrate_limit: tuple[float, ...] | None = None
     settle_time: float = 1.0
     step_limit: int | None = None
 
@@ -220,9 +222,10 @@ class EnvConfig:
                                  f"{self.feedrate_target!r}")  # fmt: skip
         if self.feedrate_limit is None:
             return
-        limit = as_finite_array(self.feedrate_limit, "feedrate_limit", shape=(2,))
-        if np.any(limit <= 0):
-            raise ValueError(f"feedrate_limit must be (a_c, reach) > 0, m/s^2 and m, got "
+        limit = as_finite_array(self.feedrate_limit, "feedrate_limit")
+        if limit.shape not in ((2,), (4,)) or np.any(limit <= 0):
+            raise ValueError(f"feedrate_limit must be (a_c, reach) or (a_c, reach, v_end, "
+                             f"end_reach) > 0, m/s^2, m, m/s and m, got "
                              f"{self.feedrate_limit!r}")  # fmt: skip
         if self.feedrate_target is None:
             raise ValueError("feedrate_limit sets the zero action of feedrate_target: give "

@@ -239,9 +239,10 @@ class ContourTask:
         if target is None:
             return {}
         t_lo, t_mid, t_hi = (float(t) for t in target)
-        limit = self.config.feedrate_limit or (0.0, 0.0)
-        return {"target": 1.0, "t_lo": t_lo, "t_mid": t_mid, "t_hi": t_hi,
-                "lim_a": float(limit[0]), "lim_reach": float(limit[1])}  # fmt: skip
+        a_c, reach, v_end, end_reach = (*(self.config.feedrate_limit or (0.0, 0.0)), 0.0, 0.0)[:4]
+        return {"target": 1.0, "t_lo": t_lo, "t_mid": t_mid, "t_hi": t_hi, "lim_a": float(a_c),
+                "lim_reach": float(reach), "lim_vend": float(v_end),
+                "lim_rend": float(end_reach)}  # fmt: skip
 
     def _machine_feedrate(self) -> float:
         # the machine's feedrate limit (the v1 observation's speed scale); without one, the

@@ -37,7 +37,9 @@ _SPEC = (
     With ``feedrate_limit=(a_c, reach)`` too, the zero action's target is not ``mid`` but a
     centripetal acceleration limit, ``sqrt(a_c / kappa) / F`` within [``low``, ``mid``]
     (``kappa`` the tightest curvature within ``reach`` ahead, ``F`` the block's programmed
-    feed), and the action departs from it on the same scale.
+    feed), and the action departs from it on the same scale; ``feedrate_limit=(a_c, reach,
+    v_end, end_reach)`` also keeps the speed to ``v_end`` within ``end_reach`` of the path's
+    end, where the axes stop.
 
     ## Observation space
     ``Dict`` of float32 ``Box(-1e4, 1e4)`` (scaled values clipped; ``tol`` = ``tolerance``):
