@@ -246,6 +246,19 @@ def test_shipped_configs_cover_every_id_and_the_agent_list_loads(algo):
         load_config(entry["algo"], entry["env_id"])
 
 
+def test_each_shipped_agents_meta_file_follows_its_entry():
+    """A shipped folder's meta.yaml is what train_shipped writes from its entry: the env it acts
+    in is the training env updated with act_env_kwargs, and the command reproduces it."""
+    trained = Path(__file__).resolve().parent.parent / "agents" / "trained"
+    for name, entry in load_shipped().items():
+        meta = yaml.safe_load((trained / name / "meta.yaml").read_text(encoding="utf-8"))
+        env = entry.get("env_kwargs") or {}
+        assert meta["algo"] == entry["algo"] and meta["env_id"] == entry["env_id"], name
+        assert meta["env_kwargs"] == {**env, **entry.get("act_env_kwargs", {})}, name
+        assert meta.get("trained_env_kwargs", env) == env, name
+        assert meta["command"] == f"python -m agents.rl.train_shipped {name}", name
+
+
 def test_rl_zoo3_trains_from_the_shipped_yaml(tmp_path):
     pytest.importorskip("rl_zoo3", reason="rl_zoo3 is not installed (pip install '.[zoo]')")
     command = [sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", CCC,
