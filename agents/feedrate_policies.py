@@ -273,8 +273,9 @@ class CurvatureFeedLimit(ConstantPolicy):
     tolerance, per path: 62 at 6.53 s); at 0.02, ``cap`` 0.8 and 1 lost 9 and 12 paths more
     on straight moves, where the axes' lag, not the curvature, sets the error. At 0.05 two
     of the four paths lost broke at the path's end, where the axes stop; 20 mm/s within the
-    last 10 mm (30 mm/s within 20 mm: the same) kept them, 62 at 5.51 s; within the last 5 mm
-    none did, the acc/dec filter still slowing when the end came (docs/training.md).
+    last 10 mm kept both, 62 at 5.51 s (30 mm/s within 20 mm: 62 at 5.53 s); 5 mm/s within
+    the last 5 mm kept one (Python rule, 60 at 5.70 s), the acc/dec filter still slowing when
+    the end came on the other (docs/training.md).
 
     Args:
         accel: Centripetal acceleration a_c, m/s^2, > 0.
