@@ -17,8 +17,15 @@ from stable_baselines3.common.vec_env import DummyVecEnv  # noqa: E402
 
 import agents.rl.train as rl_train  # noqa: E402
 from agents import policies  # noqa: E402
+from agents.evaluate import evaluate, run_policy  # noqa: E402
 from agents.rl.config import algo_class, load_config  # noqa: E402
-from agents.rl.saved import SavedAgent, SB3Policy, mean_actions, register_saved_agents  # noqa: E402
+from agents.rl.saved import (  # noqa: E402
+    SavedAgent,
+    SB3Policy,
+    by_rows,
+    mean_actions,
+    register_saved_agents,
+)
 from agents.rl.train import latest_checkpoint, load_checkpoint, read_curve, train  # noqa: E402
 from agents.rl.train_shipped import export_agent, load_shipped  # noqa: E402
 from agents.rl.vec_env import make_native_vec_env  # noqa: E402
@@ -125,8 +132,7 @@ def test_a_flat_agent_acts_on_dict_observations(tmp_path):
     batch, _ = agent.predict(obs)
     single, _ = agent.predict({k: v[1] for k, v in obs.items()})
     assert batch.shape == (2, 3) and single.shape == (3,)
-    # torch's matrix products may round differently for 1 and 2 rows (float32)
-    np.testing.assert_allclose(batch[1], single, rtol=1e-6, atol=1e-9)
+    np.testing.assert_array_equal(batch[1], single)  # row by row: as alone, bit for bit
     with pytest.raises(ValueError, match="flat Box of 14"):
         agent.predict({k: v[:, :1] for k, v in obs.items()})
     with pytest.raises(ValueError, match="does not fit"):
@@ -290,9 +296,26 @@ def test_saved_agent_loads_by_path_and_predicts_single_and_batched(agent_dir):
     batch, _ = agent.predict(obs)
     single, _ = agent.predict({k: v[1] for k, v in obs.items()})
     assert batch.shape == (3, 3) and single.shape == (3,)
-    np.testing.assert_allclose(single, batch[1], rtol=1e-6)
+    np.testing.assert_array_equal(single, batch[1])
     np.testing.assert_array_equal(agent.act(obs), batch)
     assert np.all(np.abs(batch) <= 1.0)
+
+
+def test_a_saved_agent_acts_on_each_member_as_it_does_alone(agent_dir):
+    """torch rounds a batch's products by its size; the agent acts row by row (by_rows)."""
+    agent = SavedAgent(agent_dir)
+    venv = gym.make_vec(CCC, num_envs=7, vectorization_mode="vector_entry_point",
+                        **agent.env_kwargs)  # fmt: skip
+    agent.reset(venv)
+    obs, _ = venv.reset(seed=0)
+    obs = {k: v * np.random.default_rng(1).uniform(0.5, 2.0, v.shape) for k, v in obs.items()}
+    batch = agent.act(obs)
+    for i in range(7):
+        np.testing.assert_array_equal(agent.act({k: v[i : i + 1] for k, v in obs.items()})[0],
+                                      batch[i])  # fmt: skip
+    kwargs = {"id": CCC, **agent.env_kwargs, "randomize": True}
+    together = evaluate(agent, kwargs, n_episodes=3, seed=4)["episodes"]
+    assert together == [run_policy(kwargs, agent, seed=4 + i) for i in range(3)]
 
 
 def test_saved_agents_share_a_model_until_its_file_changes(agent_dir, tmp_path):
@@ -355,9 +378,9 @@ def test_the_mean_action_shortcut_equals_predict_bit_for_bit():
             obs = _random_obs(model.observation_space, batch, rng)
             model.policy.set_training_mode(True)  # as a training run leaves it: set back
             got = fast(obs)
-            want, _ = model.predict(obs, deterministic=True)
+            want, _ = by_rows(model, obs, batch)  # predict on each row alone
             assert got.dtype == np.float64 and got.shape == (batch, *model.action_space.shape)
-            np.testing.assert_array_equal(got, np.asarray(want, dtype=np.float64), err_msg=name)
+            np.testing.assert_array_equal(got, want, err_msg=name)
             assert not model.policy.training
 
 
