@@ -33,6 +33,7 @@ ENV_CONFIG = Schema(
     penalty=100.0, r_lo=-1.0, r_hi=0.0, python_reward=0.0, dim=2.0, reward=0.0,
     observation=1.0, f_max=1.0, horizon=0.02, progress_obs=0.0, target=0.0, t_lo=0.2,
     t_mid=1.0, t_hi=2.0, lim_a=0.0, lim_reach=0.0, lim_vend=0.0, lim_rend=0.0,
+    lim_span=0.0,
 )  # fmt: skip
 OBSERVATIONS = ("v0", "v1")  # ENV_CONFIG.observation is the index: v0 0, v1 1
 OBSERVATION_V0 = 0.0

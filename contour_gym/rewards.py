@@ -23,7 +23,8 @@ tolerances. A reward maps them to a number:
   ``feedrate``
   (``w_progress progress - w_time - w_excess excess``: the time cost of one step makes the
   episode's return ``(L / F_nom - cycle time) / decision time - w_excess sum(excess)`` at the
-  default weights, so a faster part scores higher, as 004's objective has it);
+  default weights, so a faster part scores higher, as 004's objective has it; its ``margin``
+  weight, 1 by default, moves where excess starts: ``max(0, peak - margin)``);
 * a *Python* reward: any callable ``reward(components: dict[str, (B,) array]) -> (B,) array``,
   called once per step on the batch (slower; for trying ideas).
 
@@ -47,7 +48,7 @@ from numpy.typing import NDArray
 from contour_gym._compile import Family
 from contour_gym._registry import Registry
 from contour_gym._schema import Param, Schema, state_schema
-from contour_gym._validate import non_negative
+from contour_gym._validate import non_negative, positive
 
 COMPONENTS = state_schema(
     "reward components", "contour", "peak", "chatter", "progress", "excess", "record"
@@ -117,6 +118,7 @@ FEEDRATE_WEIGHTS = Schema(
     progress=Param(1.0, non_negative, "per nominal step of progress"),
     time=Param(1.0, non_negative, "per step taken (the cycle time's price)"),
     excess=Param(30.0, non_negative, "per tolerance the peak error exceeds it"),
+    margin=Param(1.0, positive, "the peak, in tolerances, above which excess is paid"),
 )
 
 
@@ -125,9 +127,15 @@ _FW = FEEDRATE_WEIGHTS.col
 
 @numba.njit(cache=True, inline="always")
 def feedrate_reward(comp, w):
-    """``w_progress progress - w_time - w_excess excess`` (module docstring)."""
+    """``w_progress progress - w_time - w_excess excess`` (module docstring).
+
+    With a ``margin`` weight m other than 1, excess is ``max(0, peak - m)``: below 1, an agent
+    pays for coming within ``1 - m`` of the tolerance, which it then keeps with a margin on
+    machines and paths it has not seen.
+    """
     c = _FW
-    return w[c.progress] * comp[RC.progress] - w[c.time] - w[c.excess] * comp[RC.excess]
+    excess = comp[RC.excess] if w[c.margin] == 1.0 else max(0.0, comp[RC.peak] - w[c.margin])
+    return w[c.progress] * comp[RC.progress] - w[c.time] - w[c.excess] * excess
 
 
 CCC = register_reward(

@@ -1,5 +1,6 @@
 import pickle
 import warnings
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -90,6 +91,12 @@ def test_envs_pickle_and_resume_identically():
                  feedrate_range=(0.05, 2.0), feedrate_target=(0.05, 0.3, 1.2),
                  feedrate_limit=(0.05, 0.005, 0.02, 0.01)),
         ),
+        (
+            FeedrateEnv,
+            FeedrateVectorEnv,
+            dict(path="random", decision_ticks=40, feedrate_range=(0.05, 2.0),
+                 feedrate_target=(0.05, 0.6, 1.2), feedrate_limit=(0.05, 0.005), limit_span=2.0),
+        ),
     ],
 )
 def test_vector_env_equals_loop_of_single_envs_bit_for_bit(single, vector, kw):
@@ -140,31 +147,49 @@ def test_a_target_override_action_moves_the_override_toward_its_target():
         FeedrateEnv(feedrate_target=(0.1, 0.3, 2.5))
 
 
-def test_a_feedrate_limit_sets_the_zero_actions_target_from_the_curvature_ahead():
-    reach, a_c, dovr, v_end, end_reach = 0.005, 0.05, 0.1, 0.02, 0.01
-    env = FeedrateEnv(path="random", feedrate_range=(0.05, 2.0), decision_ticks=10,
-                      feedrate_target=(0.05, 0.6, 1.2),
-                      feedrate_limit=(a_c, reach, v_end, end_reach),
-                      max_feedrate_change=dovr)  # fmt: skip
-    env.reset(seed=7009)  # a rose with a 0.31 mm radius on its way
-    path = env.task.loop.paths[0]
+def _limit_prior(env: FeedrateEnv, limit: tuple[float, ...]) -> tuple[float, bool]:
+    # the curvature feed limit's override at member 0's arc length, in plain numpy (0.05-0.6),
+    # and whether the end's speed set it
+    a_c, reach, v_end, end_reach = (*limit, 0.0, 0.0)[:4]
+    path, s = env.task.loop.paths[0], float(env.task.loop.s[0])
     s0, feeds = np.asarray(path.table.s0), np.asarray(path.segment_feedrates)
+    ahead = np.minimum(s + np.linspace(0.0, reach, 41), path.length)  # every 0.125 mm
+    speed = np.sqrt(a_c / np.abs(np.asarray(path.curvature(ahead))).max())
+    near_end = path.length - s < end_reach
+    if near_end:
+        speed = min(speed, v_end)
+    feed = feeds[min(np.searchsorted(s0, s, side="right") - 1, feeds.size - 1)]
+    return float(np.clip(speed / feed, 0.05, 0.6)), near_end
+
+
+def _follow_the_limit(env: FeedrateEnv, limit: tuple[float, ...], actions: Any, goal: Any,
+                      dovr: float) -> tuple[list[float], int, bool]:  # fmt: skip
+    # step env (reset) with actions[k] until its end, checking that the override moves toward
+    # goal(prior, action) by at most dovr a step (taken at once on the first); the priors seen,
+    # the steps near the end and whether the episode terminated
     override, priors, near_end = None, [], 0
-    for _ in range(20000):
-        s = float(env.task.loop.s[0])
-        ahead = np.minimum(s + np.linspace(0.0, reach, 41), path.length)  # every 0.125 mm
-        speed = np.sqrt(a_c / np.abs(np.asarray(path.curvature(ahead))).max())
-        if path.length - s < end_reach:  # the end's speed
-            speed, near_end = min(speed, v_end), near_end + 1
-        feed = feeds[min(np.searchsorted(s0, s, side="right") - 1, feeds.size - 1)]
-        prior = float(np.clip(speed / feed, 0.05, 0.6))
-        step = prior if override is None else float(np.clip(prior - override, -dovr, dovr))
+    for a in actions:
+        prior, at_end = _limit_prior(env, limit)
+        target = goal(prior, a)
+        step = target if override is None else float(np.clip(target - override, -dovr, dovr))
         override = step if override is None else override + step
-        obs, _, terminated, truncated, _ = env.step(np.zeros(1))
-        assert obs["feedrate"][0] == pytest.approx(override, rel=1e-5), s
+        obs, _, terminated, truncated, _ = env.step(np.array([a]))
+        assert obs["feedrate"][0] == pytest.approx(override, rel=1e-5), (a, prior)
         priors.append(prior)
+        near_end += at_end
         if terminated or truncated:
-            break
+            return priors, near_end, terminated
+    return priors, near_end, False
+
+
+def test_a_feedrate_limit_sets_the_zero_actions_target_from_the_curvature_ahead():
+    limit = (0.05, 0.005, 0.02, 0.01)  # a_c, reach, v_end, end_reach
+    env = FeedrateEnv(path="random", feedrate_range=(0.05, 2.0), decision_ticks=10,
+                      feedrate_target=(0.05, 0.6, 1.2), feedrate_limit=limit,
+                      max_feedrate_change=0.1)  # fmt: skip
+    env.reset(seed=7009)  # a rose with a 0.31 mm radius on its way
+    priors, near_end, terminated = _follow_the_limit(env, limit, np.zeros(20000),
+                                                     lambda prior, a: prior, 0.1)  # fmt: skip
     assert terminated and near_end > 10  # the whole path, its last 10 mm included
     assert min(priors) < 0.15 < 0.25 < max(priors)  # slows for the rose's tight curve
     bad = r"feedrate_limit must be \(a_c, reach\) or \(a_c, reach, v_end, end_reach\) > 0"
@@ -177,6 +202,26 @@ def test_a_feedrate_limit_sets_the_zero_actions_target_from_the_curvature_ahead(
                             "feedrate_limit": (0.05, 0.005, -0.02, 0.01)}, bad)]:  # fmt: skip
         with pytest.raises(ValueError, match=match):
             FeedrateEnv(**kwargs)
+
+
+def test_limit_span_scales_the_action_around_the_limit_by_the_same_factor_up_and_down():
+    limit, span = (0.05, 0.005, 0.02, 0.01), 2.0
+    env = FeedrateEnv(path="random", feedrate_range=(0.05, 2.0), decision_ticks=10,
+                      feedrate_target=(0.05, 0.6, 1.2), feedrate_limit=limit,
+                      limit_span=span, max_feedrate_change=0.1)  # fmt: skip
+    env.reset(seed=7009)
+    actions = np.random.default_rng(0).uniform(-1.5, 1.5, 20000)  # out-of-range ones clipped
+    _, near_end, terminated = _follow_the_limit(
+        env, limit, actions, lambda prior, a: float(np.clip(prior * span ** np.clip(a, -1, 1),
+                                                            0.05, 1.2)), 0.1)  # fmt: skip
+    assert terminated and near_end > 10
+    for kwargs, match in [({"limit_span": 2.0}, "give feedrate_limit too"),
+                          ({"limit_span": 1.0, "feedrate_limit": (0.05, 0.005)}, "> 1, got 1.0"),
+                          ({"limit_span": True, "feedrate_limit": (0.05, 0.005)}, "got True"),
+                          ({"limit_span": float("nan"), "feedrate_limit": (0.05, 0.005)},
+                           "got nan")]:  # fmt: skip
+        with pytest.raises(ValueError, match=match):
+            FeedrateEnv(feedrate_target=(0.2, 0.3, 1.2), **kwargs)
 
 
 def test_make_vec_uses_the_native_vector_env():

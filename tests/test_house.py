@@ -236,6 +236,24 @@ def test_a_python_reward_and_a_registered_compiled_reward_replace_the_default():
         gym.make("contour_gym/CCC-Circle-v0", reward="nope")
 
 
+def test_the_feedrate_rewards_margin_charges_the_peak_above_it():
+    env = gym.make("contour_gym/Feedrate-Corner-v0", feedrate_override=2.0, decision_ticks=20,
+                   reward_weights={"excess": 30.0, "margin": 0.5}).unwrapped  # fmt: skip
+    env.reset(seed=0)
+    charged = 0
+    for _ in range(400):
+        _, r, terminated, truncated, info = env.step(np.ones(1))
+        c = info["reward_components"]
+        expected = c["progress"] - 1.0 - 30.0 * max(0.0, c["peak"] - 0.5)
+        assert r == pytest.approx(expected, rel=1e-12, abs=1e-12)
+        charged += 0.5 < c["peak"] <= 1.0  # charged below the tolerance
+        if terminated or truncated:
+            break
+    assert charged > 0
+    with pytest.raises(ValueError, match="margin"):
+        gym.make("contour_gym/Feedrate-Corner-v0", reward_weights={"margin": 0.0})
+
+
 # ------------------------------------------------------------------------- vector info
 
 

@@ -122,6 +122,12 @@ class EnvConfig:
             a CNC's own has it (residual learning), rather than the limit itself. ``(a_c,
             reach, v_end, end_reach)`` also keeps the speed to ``v_end`` (m/s, the override
             ``v_end / F``) within ``end_reach`` (m) of the path's end, where the axes stop.
+        limit_span: Feedrate env, with ``feedrate_limit``: None (default: the action departs
+            from the limit L toward ``low`` and ``high``, ``L (high / L)^a`` above 0 and ``L
+            (low / L)^-a`` below), or a factor > 1: the target is then ``L span^a`` within
+            [``low``, ``high``], the same factor up and down wherever L lies (with L at
+            ``mid`` = 0.6 and low 0.05, the default map's a = -0.1 slows by 22 % where a =
+            0.1 speeds up by 7 %).
         settle_time: Time allowed to get in position after the reference ends, s.
         step_limit: The env's own step limit (None: computed from its path, feedrate and
             decision time, see the env docstrings). ``gym.make(id, max_episode_steps=N)`` adds
@@ -165,6 +171,7 @@ class EnvConfig:
     max_feedrate_change: float = 0.1
     feedrate_target: tuple[float, float, float] | None = None
     feedrate_limit: tuple[float, ...] | None = None
+    limit_span: float | None = None
     settle_time: float = 1.0
     step_limit: int | None = None
 
@@ -220,6 +227,7 @@ class EnvConfig:
                 raise ValueError(f"feedrate_target must be (low, mid, high) increasing within "
                                  f"feedrate_range {tuple(self.feedrate_range)!r}, got "
                                  f"{self.feedrate_target!r}")  # fmt: skip
+        self._check_span()
         if self.feedrate_limit is None:
             return
         limit = as_finite_array(self.feedrate_limit, "feedrate_limit")
@@ -230,6 +238,16 @@ class EnvConfig:
         if self.feedrate_target is None:
             raise ValueError("feedrate_limit sets the zero action of feedrate_target: give "
                              "feedrate_target=(low, mid, high) too")  # fmt: skip
+
+    def _check_span(self) -> None:
+        if self.limit_span is None:
+            return
+        if isinstance(self.limit_span, bool) or not isinstance(self.limit_span, (int, float)) \
+                or not self.limit_span > 1 or self.limit_span == float("inf"):  # fmt: skip
+            raise ValueError(f"limit_span must be a finite number > 1, got {self.limit_span!r}")
+        if self.feedrate_limit is None:
+            raise ValueError("limit_span scales the action around feedrate_limit: give "
+                             "feedrate_limit too")  # fmt: skip
 
     def _check_observation(self) -> None:
         choice(self.observation, "observation", OBSERVATIONS)

@@ -242,7 +242,8 @@ class ContourTask:
         a_c, reach, v_end, end_reach = (*(self.config.feedrate_limit or (0.0, 0.0)), 0.0, 0.0)[:4]
         return {"target": 1.0, "t_lo": t_lo, "t_mid": t_mid, "t_hi": t_hi, "lim_a": float(a_c),
                 "lim_reach": float(reach), "lim_vend": float(v_end),
-                "lim_rend": float(end_reach)}  # fmt: skip
+                "lim_rend": float(end_reach),
+                "lim_span": float(self.config.limit_span or 0.0)}  # fmt: skip
 
     def _machine_feedrate(self) -> float:
         # the machine's feedrate limit (the v1 observation's speed scale); without one, the

@@ -39,7 +39,8 @@ _SPEC = (
     (``kappa`` the tightest curvature within ``reach`` ahead, ``F`` the block's programmed
     feed), and the action departs from it on the same scale; ``feedrate_limit=(a_c, reach,
     v_end, end_reach)`` also keeps the speed to ``v_end`` within ``end_reach`` of the path's
-    end, where the axes stop.
+    end, where the axes stop. With ``limit_span`` too, the target is the limit times
+    ``limit_span^a``, within [``low``, ``high``]: the same factor up and down.
 
     ## Observation space
     ``Dict`` of float32 ``Box(-1e4, 1e4)`` (scaled values clipped; ``tol`` = ``tolerance``):
@@ -70,7 +71,8 @@ _SPEC = (
     decision's max |true contour error| in tolerances. Summed, the progress is the path's
     length in nominal steps whatever the speed, so the return is the time saved over the
     nominal feedrate (in decisions) less 30 per tolerance of excess: faster within the
-    tolerance scores higher. Clipped to the reward's range ``[r_lo, r_hi]``;
+    tolerance scores higher. ``reward_weights={"margin": m}`` charges the peak above ``m``
+    tolerances instead of 1 (``max(0, peak - m)``). Clipped to the reward's range ``[r_lo, r_hi]``;
     ``info["reward_components"]`` holds the components.
 
     **Failure never pays.** On failure the step's reward makes the episode's return exactly
@@ -94,7 +96,7 @@ _SPEC = (
 
     ## Arguments
     As the CCC env, plus ``ccc_gains``, ``feedrate_range``, ``max_feedrate_change``,
-    ``feedrate_target``, ``feedrate_limit``. On
+    ``feedrate_target``, ``feedrate_limit``, ``limit_span``. On
     ``path="random"`` each part is programmed at feeds drawn from 0.3 to 1 times the machine's
     ``max_feedrate`` (``path_options={"feed_range": ...}`` to change it), and its highest
     feed is the episode's nominal feedrate.

@@ -43,7 +43,12 @@ def apply_override(loop, env, ec, b):
     if ec[EC.target] != 0.0:
         a = min(max(change, -1.0), 1.0)
         mid = env.prior[b] if ec[EC.lim_a] != 0.0 else ec[EC.t_mid]
-        goal = mid * (ec[EC.t_hi] / mid) ** a if a >= 0.0 else mid * (ec[EC.t_lo] / mid) ** -a
+        if ec[EC.lim_span] != 0.0:  # EnvConfig.limit_span: the limit times span^a
+            goal = min(max(mid * ec[EC.lim_span] ** a, ec[EC.t_lo]), ec[EC.t_hi])
+        elif a >= 0.0:
+            goal = mid * (ec[EC.t_hi] / mid) ** a
+        else:
+            goal = mid * (ec[EC.t_lo] / mid) ** -a
         if env.steps[b] == 0.0:  # the episode's first decision: the axes are still at rest
             loop.ip_p[b, IP.ovr] = min(max(goal, ec[EC.ovr_lo]), ec[EC.ovr_hi])
             return
