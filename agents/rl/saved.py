@@ -291,17 +291,16 @@ def by_rows(
 
 
 def mean_actions(model: Any) -> Callable[[Any], Actions] | None:
-    """``model.predict(batch, deterministic=True)``'s actions ``(B, n)``, float64, by its networks.
+    """:func:`by_rows`' deterministic actions ``(B, n)``, float64, by the model's networks.
 
     For an on-policy model with a Gaussian policy (PPO, A2C; ``gSDE`` too) on a Box action
     space without squashing, the deterministic action is the actor's mean clipped to the
-    space: the same torch operations as ``predict`` row by row (:func:`by_rows`), so the same
-    numbers bit for bit, without
-    ``predict``'s per-call work (setting every module's training mode, building the action
-    distribution and checking its arguments). Measured: 0.08 against 0.19 ms a call for one
-    observation (``ppo_ccc_circle``); the default bench suite on one worker, three runs
-    alternating with ``predict``, 16.2 against 17.9 s (medians). None for any other model (it
-    acts by ``predict``).
+    space: the same torch operations as ``predict`` on each row alone, so the same numbers
+    bit for bit, without ``predict``'s per-call work (setting every module's training mode,
+    building the action distribution and checking its arguments). Measured: 0.08 against
+    0.19 ms a call for one observation (``ppo_ccc_circle``); the default bench suite on one
+    worker, three runs alternating with ``predict``, 16.2 against 17.9 s (medians). None for
+    any other model (it acts by ``predict``, row by row).
 
     Args:
         model: A stable-baselines3 model.
