@@ -129,12 +129,13 @@ _FW = FEEDRATE_WEIGHTS.col
 def feedrate_reward(comp, w):
     """``w_progress progress - w_time - w_excess excess`` (module docstring).
 
-    With a ``margin`` weight m other than 1, excess is ``max(0, peak - m)``: below 1, an agent
-    pays for coming within ``1 - m`` of the tolerance, which it then keeps with a margin on
-    machines and paths it has not seen.
+    Excess counts from the ``margin`` weight m: ``max(peak - m, 0)``, the ``excess``
+    component itself at m = 1 (the kernel computes it so). Below 1, an agent pays for coming
+    within ``1 - m`` of the tolerance, which it then keeps with a margin on machines and
+    paths it has not seen.
     """
     c = _FW
-    excess = comp[RC.excess] if w[c.margin] == 1.0 else max(0.0, comp[RC.peak] - w[c.margin])
+    excess = max(comp[RC.peak] - w[c.margin], 0.0)
     return w[c.progress] * comp[RC.progress] - w[c.time] - w[c.excess] * excess
 
 

@@ -241,17 +241,11 @@ class SB3Policy(Policy):
 
 
 def row(batch: Any, i: int) -> Any:
-    """Row ``i`` of a batch (an array, or a dict of arrays) as a batch of one, copied afresh."""
+    """Row ``i`` of a numpy or torch batch (or a dict of them) as a batch of one, copied."""
     if isinstance(batch, Mapping):
-        return {k: np.array(v[i : i + 1]) for k, v in batch.items()}
-    return np.array(batch[i : i + 1])
-
-
-def row_tensor(batch: Any, i: int) -> Any:
-    """Row ``i`` of a torch batch (a tensor, or a dict of them) as a batch of one, cloned."""
-    if isinstance(batch, Mapping):
-        return {k: v[i : i + 1].clone() for k, v in batch.items()}
-    return batch[i : i + 1].clone()
+        return {k: row(v, i) for k, v in batch.items()}
+    part = batch[i : i + 1]
+    return part.clone() if hasattr(part, "clone") else np.array(part)
 
 
 def by_rows(
@@ -334,7 +328,7 @@ def mean_actions(model: Any) -> Callable[[Any], Actions] | None:
         tensor, _ = policy.obs_to_tensor(obs)
         with torch.no_grad():  # row by row (by_rows), each row a tensor of its own
             n = len(next(iter(tensor.values()))) if isinstance(tensor, Mapping) else len(tensor)
-            mean = torch.cat([one(row_tensor(tensor, i)) for i in range(n)]).cpu().numpy()
+            mean = torch.cat([one(row(tensor, i)) for i in range(n)]).cpu().numpy()
         actions = np.clip(mean.reshape((-1, *shape)), low, high)
         return np.asarray(actions, dtype=np.float64)
 

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from contour_gym._envstate import OBSERVATIONS
-from contour_gym._validate import as_finite_array, choice, non_negative, positive
+from contour_gym._validate import as_finite_array, choice, finite, non_negative, positive
 from contour_gym.api import Scenario, make_scenario
 from contour_gym.ccc import INJECTIONS
 from contour_gym.envs._paths import (
@@ -242,8 +242,7 @@ class EnvConfig:
     def _check_span(self) -> None:
         if self.limit_span is None:
             return
-        if isinstance(self.limit_span, bool) or not isinstance(self.limit_span, (int, float)) \
-                or not self.limit_span > 1 or self.limit_span == float("inf"):  # fmt: skip
+        if isinstance(self.limit_span, (bool, str)) or finite(self.limit_span, "limit_span") <= 1:
             raise ValueError(f"limit_span must be a finite number > 1, got {self.limit_span!r}")
         if self.feedrate_limit is None:
             raise ValueError("limit_span scales the action around feedrate_limit: give "
