@@ -31,6 +31,7 @@ import importlib
 import multiprocessing
 import os
 import sys
+import threading
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import (
@@ -186,6 +187,22 @@ def exit_quickly() -> None:
     atexit.register(gc.freeze)
 
 
+def start_method() -> str:
+    """How worker processes start: ``"fork"`` while that is safe, else ``"spawn"``.
+
+    A forked worker begins with what this process has imported (agents, numba's kernels
+    read so far): none of a spawned worker's new interpreter and imports. Forking is safe
+    while this process runs no thread of its own but this one (a lock another thread held
+    would stay held in the worker: a background compile, tqdm's monitor, a unit thread) and
+    has not imported torch (whose OpenMP pool does not survive a fork); numpy's OpenBLAS
+    threads stop and restart around a fork by themselves. Linux only (macOS: spawn, as its
+    system libraries ask). Measured on the default bench suite with two workers (the
+    parent and one worker, ``benchmarks/scaling.py``): see :class:`Processes`.
+    """
+    safe = threading.active_count() == 1 and "torch" not in sys.modules
+    return "fork" if safe and sys.platform.startswith("linux") else "spawn"
+
+
 def _init_worker(*modules: str, filters: list[Any] | None = None) -> None:
     # a worker process: one thread for torch and BLAS (the cores are the workers'), no
     # background compiles (contour_gym._tiers: the parent compiled up front); ``modules``
@@ -229,9 +246,7 @@ class Processes(Runner):
 
     def _executor(self) -> ProcessPoolExecutor:
         if self._pool is None:
-            # spawned, not forked: the parent may hold threads (torch's, tqdm's, a thread
-            # pool's); measured on the default suite, fork saved 1 s of 14 (worker imports)
-            context = multiprocessing.get_context("spawn")
+            context = multiprocessing.get_context(start_method())
             start = functools.partial(_init_worker, filters=list(warnings.filters))
             self._pool = ProcessPoolExecutor(self.workers - 1, mp_context=context,
                                              initializer=start, initargs=self._modules)

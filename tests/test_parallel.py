@@ -9,6 +9,7 @@ import json
 import os
 import subprocess
 import sys
+import threading
 import time
 import zipfile
 from pathlib import Path
@@ -20,7 +21,7 @@ import pytest
 
 from agents.bench import _plot_names, run_cell, run_suite
 from agents.cli import main
-from agents.parallel import RAY_HINT, Processes, Runner, runner
+from agents.parallel import RAY_HINT, Processes, Runner, runner, start_method
 from agents.rl.sweep import parse_grid, run_trials, trials
 from agents.suites import load_suite
 from agents.tune import tune
@@ -161,6 +162,43 @@ def test_bench_on_worker_processes_equals_one_process(
     assert len(result.computed) == len(local_bench)
     assert episodes(tmp_path / "two") == local_bench
     assert sorted(p.name for p in (tmp_path / "two" / "plots").iterdir())
+
+
+LINUX = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="fork on Linux only")
+
+
+@LINUX
+def test_a_fresh_process_forks_its_workers_and_their_bench_equals_one_process(
+    local_bench: dict[str, Any], tmp_path: Path
+) -> None:
+    # pytest's own threads make this process spawn: a command's fresh interpreter forks
+    code = ("import os, sys, time\n"
+            "from agents.bench import run_suite\n"
+            "from agents.parallel import Processes, start_method\n"
+            "def pid(_):\n    time.sleep(0.2)\n    return os.getpid()\n"
+            "assert start_method() == 'fork', start_method()\n"
+            "Processes.wait_for_workers = True\n"
+            "with Processes(2) as where:\n"
+            "    print(len(set(dict(where.map(pid, range(6))).values())))\n"
+            f"run_suite({SUITE!r}, {str(tmp_path / 'f')!r}, progress=False, workers=2)\n"
+            "print(start_method())\n")  # fmt: skip
+    done = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parent.parent,
+                          capture_output=True, text=True, check=True)  # fmt: skip
+    assert done.stdout.split() == ["2", "fork"]  # two processes took units; still forkable
+    assert episodes(tmp_path / "f") == local_bench
+
+
+@LINUX
+def test_a_process_with_threads_or_torch_spawns_its_workers(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(threading, "active_count", lambda: 1)
+    monkeypatch.setitem(sys.modules, "torch", sys.modules.get("torch") or builtins)
+    assert start_method() == "spawn"  # torch imported
+    monkeypatch.delitem(sys.modules, "torch")
+    assert start_method() == "fork"
+    monkeypatch.setattr(threading, "active_count", lambda: 2)
+    assert start_method() == "spawn"  # a thread besides this one
 
 
 def test_workers_keep_the_commands_warning_filters(
