@@ -6,7 +6,8 @@ tuning population), each a picklable call ``fn(item)`` whose result depends on `
 
 - ``workers=1``: in this process, one after another (what every command did before);
 - ``workers=N > 1``: this process and ``N - 1`` worker processes on this machine
-  (``spawn``ed: no forked threads, torch or numba state; one torch and BLAS thread each);
+  (forked while no thread but the main one runs and torch is not imported, else spawned:
+  :func:`start_method`; one torch and BLAS thread each);
 - ``ray=ADDRESS``: Ray tasks on a cluster (``"auto"``: the cluster this machine belongs to;
   ``"local"``: start a local one with ``workers`` CPUs; ``"HOST:PORT"``: that head). A task
   whose worker or node dies is retried elsewhere (:data:`RAY_RETRIES`); a unit's own
@@ -196,8 +197,8 @@ def start_method() -> str:
     would stay held in the worker: a background compile, tqdm's monitor, a unit thread) and
     has not imported torch (whose OpenMP pool does not survive a fork); numpy's OpenBLAS
     threads stop and restart around a fork by themselves. Linux only (macOS: spawn, as its
-    system libraries ask). Measured on the default bench suite with two workers (the
-    parent and one worker, ``benchmarks/scaling.py``): see :class:`Processes`.
+    system libraries ask). Measured on the default bench suite with two workers, alternating
+    with spawned workers: 8.85 s against 9.50 s (medians of four; :class:`Processes`).
     """
     safe = threading.active_count() == 1 and "torch" not in sys.modules
     return "fork" if safe and sys.platform.startswith("linux") else "spawn"
@@ -224,16 +225,18 @@ def _init_worker(*modules: str, filters: list[Any] | None = None) -> None:
 class Processes(Runner):
     """``workers`` at once: this process (on a thread) and ``workers - 1`` worker processes.
 
-    This process takes units at once, while the spawned workers start (each a new interpreter
-    that imports what the units need: 2-4 s for a bench scenario's); the workers take units
+    This process takes units at once, while the workers start (:func:`start_method`: forked,
+    with this process's imports, or spawned, each a new interpreter that imports what the
+    units need: 2-4 s for a bench scenario's); the workers take units
     once they have started, and each slot takes the next unit when it is free. A run whose
     units are all done before the workers have started stops them instead of waiting for
     them. Measured on the default bench suite (53 episodes, ``benchmarks/scaling.py``): two
     spawned workers and an idle parent took 15.3 s against 14.2 s for one process; this
     process and one worker, 14.0 s against 14.5 s (12.2 s against 14 s once processes exited
     quickly, :func:`exit_quickly`; 8.5 s against 12 s once each process ran its BLAS on one
-    thread, :func:`_one_thread`). The tiny suite (2 s on one worker) took 4.5 s on two while
-    its last unit waited for the starting worker.
+    thread, :func:`_one_thread`; 8.85 s against 9.50 s once workers forked, four alternating
+    rounds). The tiny suite (2 s on one worker) took 4.5 s on two while its last unit waited
+    for the starting worker.
     """
 
     wait_for_workers = False  # True: map waits for the workers to start (tests use them)

@@ -300,6 +300,23 @@ def test_seeds_train_in_parallel_with_the_weights_of_one_at_a_time(
     assert [weights(r) for r in again] == [weights(r) for r in parallel_runs]
 
 
+@LINUX
+def test_seeds_train_on_forked_workers_with_the_weights_of_spawned_ones(
+    parallel_runs: list[Path], tmp_path: Path
+) -> None:
+    # the fixture's workers were spawned (pytest runs threads); a fresh interpreter forks
+    code = ("from agents.parallel import start_method\n"
+            "from agents.rl.sweep import run_trials, trials\n"
+            "assert start_method() == 'fork', start_method()\n"
+            f"run_trials(trials({ENV!r}, ['ppo'], [0, 1], {{}}, {str(tmp_path)!r}, {STEPS}),"
+            " workers=2)\n")  # fmt: skip
+    subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parent.parent,
+                   capture_output=True, text=True, check=True)  # fmt: skip
+    forked = sorted(tmp_path.glob("*/model.zip"))
+    assert [f.parent.name for f in forked] == [r.name for r in parallel_runs]
+    assert [weights(f.parent) for f in forked] == [weights(r) for r in parallel_runs]
+
+
 def test_a_sweep_grid_names_its_folders_by_value(tmp_path: Path) -> None:
     grid = parse_grid(["learning_rate=1e-4,3e-4", "n_epochs=2"])
     assert grid == {"learning_rate": [1e-4, 3e-4], "n_epochs": [2]}
