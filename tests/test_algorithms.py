@@ -65,3 +65,33 @@ def test_a_recurrent_agent_carries_its_state_through_an_episode():
     np.testing.assert_array_equal(first, again)
     assert policy._state is not None
     env.close()
+
+
+def test_a_recurrent_agent_acts_on_each_member_as_it_does_alone():
+    """Row by row (agents.rl.saved.by_rows): each member's LSTM state is its own, split from
+    and joined back into the batch's, so a member's actions over several steps equal those of
+    the same observations fed to the model alone."""
+    import gymnasium as gym
+
+    contrib = pytest.importorskip("sb3_contrib")
+    from agents.rl.saved import SB3Policy
+
+    env = gym.make_vec("contour_gym/CCC-Circle-v0", num_envs=3, decision_ticks=100)
+    flat = gym.wrappers.FlattenObservation(gym.make("contour_gym/CCC-Circle-v0"))
+    model = contrib.RecurrentPPO("MlpLstmPolicy", flat, n_steps=8, batch_size=16, seed=0,
+                                 policy_kwargs={"lstm_hidden_size": 8}, device="cpu")  # fmt: skip
+    together = SB3Policy(model, recurrent=True)
+    alone = [SB3Policy(model, recurrent=True) for _ in range(3)]
+    for policy in (together, *alone):
+        policy.reset(env)
+    obs, _ = env.reset(seed=0)
+    rng = np.random.default_rng(2)
+    for _ in range(4):
+        obs = {k: v * rng.uniform(0.5, 2.0, v.shape) for k, v in obs.items()}  # members differ
+        actions = together.act(obs)
+        for i, policy in enumerate(alone):
+            mine = policy.act({k: v[i : i + 1] for k, v in obs.items()})
+            np.testing.assert_array_equal(mine[0], actions[i])
+        obs, *_ = env.step(actions)
+    assert len({tuple(a) for a in actions}) == 3  # the members acted differently
+    env.close()
