@@ -7,6 +7,7 @@ pytest.importorskip("stable_baselines3")
 
 from agents.rl.algorithms import ALGORITHMS, Algorithm, register_algorithm  # noqa: E402
 from agents.rl.config import algo_class, default_config_file  # noqa: E402
+from agents.rl.saved import SB3Policy  # noqa: E402
 
 
 def test_sb3_and_contrib_algorithms_are_usable_by_name():
@@ -37,18 +38,22 @@ def test_a_registered_algorithm_trains_by_name_and_a_missing_package_says_how_to
         ALGORITHMS.unregister("absent")
 
 
-def test_a_recurrent_agent_carries_its_state_through_an_episode():
-    """sb3-contrib's RecurrentPPO as a batch-first policy: the state is kept between act calls
-    and started afresh at reset (same actions again)."""
+def _small_lstm(num_envs):
+    """A vector env of 000's circle and an untrained RecurrentPPO (8 LSTM units) for it."""
     import gymnasium as gym
 
     contrib = pytest.importorskip("sb3_contrib")
-    from agents.rl.saved import SB3Policy
-
-    env = gym.make_vec("contour_gym/CCC-Circle-v0", num_envs=2, decision_ticks=100)
+    env = gym.make_vec("contour_gym/CCC-Circle-v0", num_envs=num_envs, decision_ticks=100)
     flat = gym.wrappers.FlattenObservation(gym.make("contour_gym/CCC-Circle-v0"))
     model = contrib.RecurrentPPO("MlpLstmPolicy", flat, n_steps=8, batch_size=16, seed=0,
                                  policy_kwargs={"lstm_hidden_size": 8}, device="cpu")  # fmt: skip
+    return env, model
+
+
+def test_a_recurrent_agent_carries_its_state_through_an_episode():
+    """sb3-contrib's RecurrentPPO as a batch-first policy: the state is kept between act calls
+    and started afresh at reset (same actions again)."""
+    env, model = _small_lstm(2)
     policy = SB3Policy(model, recurrent=True)
 
     def run():
@@ -71,15 +76,7 @@ def test_a_recurrent_agent_acts_on_each_member_as_it_does_alone():
     """Row by row (agents.rl.saved.by_rows): each member's LSTM state is its own, split from
     and joined back into the batch's, so a member's actions over several steps equal those of
     the same observations fed to the model alone."""
-    import gymnasium as gym
-
-    contrib = pytest.importorskip("sb3_contrib")
-    from agents.rl.saved import SB3Policy
-
-    env = gym.make_vec("contour_gym/CCC-Circle-v0", num_envs=3, decision_ticks=100)
-    flat = gym.wrappers.FlattenObservation(gym.make("contour_gym/CCC-Circle-v0"))
-    model = contrib.RecurrentPPO("MlpLstmPolicy", flat, n_steps=8, batch_size=16, seed=0,
-                                 policy_kwargs={"lstm_hidden_size": 8}, device="cpu")  # fmt: skip
+    env, model = _small_lstm(3)
     together = SB3Policy(model, recurrent=True)
     alone = [SB3Policy(model, recurrent=True) for _ in range(3)]
     for policy in (together, *alone):
