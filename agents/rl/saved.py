@@ -256,10 +256,10 @@ def by_rows(
 
     torch's matrix products round differently for different numbers of rows (float32), and a
     member's episode then drifts from the one it runs alone (encoder counts flip): measured,
-    ``ppo_004_ccc_general`` on random path 1000003 of 004's machine peaked at 9.98 um alone
-    and 8.47 um beside other paths. Row by row, a member acts as it does alone, whatever the
-    batch. A recurrent model's ``state`` (its LSTM's, ``(layers, n, hidden)`` arrays) is
-    split and joined along the members.
+    ``ppo_004_ccc_general`` (seed 0, shipped then) on random path 1000003 of 004's machine
+    peaked at 9.98 um alone and 8.47 um beside other paths. Row by row, a member acts as it
+    does alone, whatever the batch. A recurrent model's ``state`` (its LSTM's,
+    ``(layers, n, hidden)`` arrays) is split and joined along the members.
 
     Args:
         model: A stable-baselines3 (or sb3-contrib) model.
