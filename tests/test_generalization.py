@@ -250,3 +250,22 @@ def test_the_generalization_suite_runs_on_a_short_budget(tmp_path):
     assert len(result.rows) == 6 and all(r["seeds"] == 1 for r in result.rows)
     assert "## Per path, by machine" in result.markdown
     assert "| 004f | feedrate | best constant_feedrate | 1 |" in result.markdown
+
+
+def test_the_seen_groups_are_the_paths_the_shipped_agents_trained_on():
+    from agents.rl.config import load_config
+    from agents.rl.train_shipped import load_shipped
+
+    shipped = load_shipped()
+    suite = load_suite("generalization")
+    seen = [sc for sc in suite.scenarios if sc.name.split("-")[0].endswith("seen")]
+    assert len(seen) == 4
+    for sc in seen:
+        agents = [label for label in sc.policies if label in shipped]
+        assert agents, sc.name
+        for label in agents:
+            entry = shipped[label]
+            first = entry.get("seed", 0)
+            members = load_config(entry["algo"], entry["env_id"]).n_envs
+            assert set(sc.seeds) <= set(range(first, first + members)), (sc.name, label)
+            assert sc.kwargs.get("randomize") is entry["env_kwargs"].get("randomize"), sc.name
