@@ -167,6 +167,18 @@ def test_bench_on_worker_processes_equals_one_process(
 LINUX = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="fork on Linux only")
 
 
+def fresh_python(code: str) -> str:
+    """``code`` run by a new interpreter in the repository; its stdout (its stderr if it fails).
+
+    For what pytest's own process cannot show: it runs threads (its workers spawn) and has
+    imported torch.
+    """
+    done = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parent.parent,
+                          capture_output=True, text=True)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    return done.stdout
+
+
 @LINUX
 def test_a_fresh_process_forks_its_workers_and_their_bench_equals_one_process(
     local_bench: dict[str, Any], tmp_path: Path
@@ -182,9 +194,7 @@ def test_a_fresh_process_forks_its_workers_and_their_bench_equals_one_process(
             "    print(len(set(dict(where.map(pid, range(6))).values())))\n"
             f"run_suite({SUITE!r}, {str(tmp_path / 'f')!r}, progress=False, workers=2)\n"
             "print(start_method())\n")  # fmt: skip
-    done = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parent.parent,
-                          capture_output=True, text=True, check=True)  # fmt: skip
-    assert done.stdout.split() == ["2", "fork"]  # two processes took units; still forkable
+    assert fresh_python(code).split() == ["2", "fork"]  # two processes took units; still forkable
     assert episodes(tmp_path / "f") == local_bench
 
 
@@ -281,9 +291,7 @@ def test_torch_imported_inside_a_unit_runs_on_one_thread_until_the_section_ends(
             "undo = _one_thread(); import torch; own = torch.get_num_threads()\n"
             "limit_new_torch(); inside = torch.get_num_threads(); undo()\n"
             "print(own, inside, torch.get_num_threads())")
-    done = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parent.parent,
-                          capture_output=True, text=True, check=True)  # fmt: skip
-    own, inside, after = map(int, done.stdout.split())
+    own, inside, after = map(int, fresh_python(code).split())
     assert own == 2 and inside == 1 and after == own
 
 
@@ -310,8 +318,7 @@ def test_seeds_train_on_forked_workers_with_the_weights_of_spawned_ones(
             "assert start_method() == 'fork', start_method()\n"
             f"run_trials(trials({ENV!r}, ['ppo'], [0, 1], {{}}, {str(tmp_path)!r}, {STEPS}),"
             " workers=2)\n")  # fmt: skip
-    subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parent.parent,
-                   capture_output=True, text=True, check=True)  # fmt: skip
+    fresh_python(code)
     forked = sorted(tmp_path.glob("*/model.zip"))
     assert [f.parent.name for f in forked] == [r.name for r in parallel_runs]
     assert [weights(f.parent) for f in forked] == [weights(r) for r in parallel_runs]
