@@ -1,0 +1,160 @@
+"""How far can any CCC gain policy go? A per-path search that knows the path, as a bound.
+
+For each path, CMA-ES (``cma``) searches the CCC env's actions to minimise the episode's peak
+contour error on that one path: first one constant action (3 numbers), then, from the best
+constant, a schedule of ``--segments`` constant actions over equal shares of the episode's
+decisions. The search knows the whole path and sees every trial's outcome, which no controller
+can, so its peak bounds what a policy of the env's actions reaches there (up to the search's own
+shortfall). A failed or unfinished trial counts as 10 mm.
+
+Paths: random paths of ``--seeds`` on ``--plant`` (the env's ``path="random"`` draw for that
+seed), registered ids (``--ids``: their own paths) and G-code files (``--gcode``, with
+``--path-tolerance``). Prints one row per path (no CCC, the PID CCC, the best constant, the
+best schedule, in um) and the medians. It is the bound docs/training.md quotes for 002's
+machine::
+
+    cd tests/data/gcode && python ../../../benchmarks/gain_bound.py \\
+        --plant lugre_linear_motor --seeds 7000-7011 --ids contour_gym/CCC-LuGre-BSpline-v1 \\
+        --path-tolerance 1.29e-5 --gcode part_2d.ngc cam_bracket.nc fanuc_plate.nc \\
+        grbl_engrave.gcode linuxcnc_pocket.ngc
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path as FilePath
+from typing import Any
+
+import cma
+import gymnasium as gym
+import numpy as np
+
+import contour_gym  # noqa: F401 (registers the ids)
+from agents.evaluate import make_vector_env, run_episodes, run_policy_batch
+from agents.policies import Policy, make_policy
+from contour_gym.paths import from_gcode
+
+POPULATION = 16
+FAILED_UM = 1e4  # a failed or unfinished trial's score, um
+
+
+class Schedule(Policy):
+    """Member b holds ``table[b, k]`` over the k-th of K equal shares of ``decisions``."""
+
+    tasks = ("ccc",)
+
+    def __init__(self, decisions: int) -> None:
+        self.decisions, self.table, self.k = decisions, np.zeros((1, 1, 3)), 0
+
+    def reset(self, env: Any = None) -> None:
+        """Back to the first decision."""
+        self.k = 0
+
+    def act(self, obs: Any) -> np.ndarray:
+        """Each member's action of the current share."""
+        n_seg = self.table.shape[1]
+        seg = min(self.k * n_seg // self.decisions, n_seg - 1)
+        self.k += 1
+        return self.table[:, seg, :]
+
+
+def peak_um(out: dict[str, np.ndarray]) -> np.ndarray:
+    """Each member's peak contour error, um; failed or unfinished: :data:`FAILED_UM`."""
+    bad = out["failed"] | ~out["finished"].astype(bool)
+    return np.where(bad, FAILED_UM, out["max_contour_error"] * 1e6)
+
+
+def search(venv: gym.vector.VectorEnv, policy: Schedule, x0: np.ndarray, n_seg: int,
+           generations: int, seed: int) -> tuple[float, np.ndarray]:  # fmt: skip
+    """CMA-ES over ``n_seg`` actions from ``x0``: the best peak (um) and its actions."""
+    es = cma.CMAEvolutionStrategy(x0, 0.4 if n_seg == 1 else 0.2,
+                                  {"popsize": POPULATION, "bounds": [-1, 1], "verbose": -9,
+                                   "seed": seed % 2**31 + 1})  # fmt: skip
+    for _ in range(generations):
+        xs = es.ask()
+        policy.table = np.repeat(np.array(xs).reshape(POPULATION, n_seg, 3),
+                                 policy.table.shape[1] // n_seg, axis=1)  # fmt: skip
+        out, _ = run_episodes(venv, policy, seed=seed)
+        es.tell(xs, peak_um(out).tolist())
+    return float(es.result.fbest), np.asarray(es.result.xbest)
+
+
+def bound(spec: dict[str, Any], seed: int, segments: int, generations: int) -> dict[str, float]:
+    """The row of one path: no CCC, PID CCC, best constant, best schedule (um)."""
+    row = {}
+    for name in ("no_ccc", "pid_ccc"):
+        out = run_policy_batch(spec, make_policy(name), num_envs=1, seed=seed)
+        row[name] = float(peak_um(out)[0])
+        decisions = int(out["steps"][0])
+    policy = Schedule(decisions)
+    policy.table = np.zeros((POPULATION, segments, 3))
+    venv = make_vector_env(spec, policy, num_envs=POPULATION)
+    try:
+        row["constant"], x1 = search(venv, policy, np.zeros(3), 1, generations // 2, seed)
+        row["schedule"], _ = search(venv, policy, np.tile(x1, segments), segments, generations,
+                                    seed)  # fmt: skip
+    finally:
+        venv.close()
+    row["schedule"] = min(row["schedule"], row["constant"])
+    return row
+
+
+def paths(args: argparse.Namespace) -> list[tuple[str, dict[str, Any], int]]:
+    """(name, env spec, seed) of every path asked for."""
+    out = []
+    task = gym.make("contour_gym/CCC-v1", plant=args.plant, path="random").unwrapped.task
+    for seed in args.seeds:  # the path env.reset(seed=seed) runs, with its corner blending
+        sc = task.config.random_scenario(np.random.default_rng(seed), task.task_kind,
+                                         as_reset=True)  # fmt: skip
+        control = {k: sc.options[k] for k in ("path_control", "path_tolerance")}
+        out.append((str(seed), {"id": "contour_gym/CCC-v1", "plant": args.plant, "path": sc.path,
+                                **control}, seed))  # fmt: skip
+    out += [(env_id.split("/")[-1], {"id": env_id}, 0) for env_id in args.ids]
+    for file in args.gcode:
+        part = from_gcode(FilePath(file).read_text(encoding="utf-8"), name=FilePath(file).stem)
+        spec = {"id": "contour_gym/CCC-v1", "plant": args.plant, "path": part}
+        if args.path_tolerance is not None:
+            spec["path_tolerance"] = args.path_tolerance
+        out.append((part.name, spec, 0))
+    return out
+
+
+def seed_range(text: str) -> list[int]:
+    """``"7000-7011"`` or ``"7000,7003"`` as a list of seeds."""
+    if "-" in text:
+        lo, hi = (int(v) for v in text.split("-"))
+        return list(range(lo, hi + 1))
+    return [int(v) for v in text.split(",") if v]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--plant", default="lugre_linear_motor")
+    parser.add_argument("--seeds", type=seed_range, default=[])
+    parser.add_argument("--ids", nargs="*", default=[])
+    parser.add_argument("--gcode", nargs="*", default=[])
+    parser.add_argument("--path-tolerance", type=float, default=None)
+    parser.add_argument("--segments", type=int, default=8)
+    parser.add_argument("--generations", type=int, default=60)
+    args = parser.parse_args()
+    cols = ("no_ccc", "pid_ccc", "constant", "schedule")
+    print(f"| path | {' | '.join(cols)} | schedule vs PID CCC | s |\n|---|{'---|' * 6}")
+    rows = []
+    for name, spec, seed in paths(args):
+        start = time.perf_counter()
+        row = bound(spec, seed, args.segments, args.generations)
+        rows.append(row)
+        cells = " | ".join(f"{row[c]:.1f}" for c in cols)
+        print(f"| {name} | {cells} | {row['schedule'] / row['pid_ccc'] - 1:+.0%} | "
+              f"{time.perf_counter() - start:.0f} |", flush=True)  # fmt: skip
+    medians = {c: float(np.median([r[c] for r in rows])) for c in cols}
+    print(f"| median | {' | '.join(f'{medians[c]:.1f}' for c in cols)} | "
+          f"{medians['schedule'] / medians['pid_ccc'] - 1:+.0%} | |")  # fmt: skip
+    print(f"Peak contour error, um ({args.segments} segments, {args.generations} generations of "
+          f"{POPULATION}; rows 20 % below the PID CCC: "
+          f"{sum(r['schedule'] <= 0.8 * r['pid_ccc'] for r in rows)} of {len(rows)}).")
+
+
+if __name__ == "__main__":
+    main()
