@@ -9,9 +9,9 @@ shortfall). A failed or unfinished trial counts as 10 mm.
 
 Paths: random paths of ``--seeds`` on ``--plant`` (the env's ``path="random"`` draw for that
 seed), registered ids (``--ids``: their own paths) and G-code files (``--gcode``, with
-``--path-tolerance``). Prints one row per path (no CCC, the PID CCC, the best constant, the
-best schedule, in um) and the medians. It is the bound docs/training.md quotes for 002's
-machine::
+``--path-tolerance``), each with ``--env-kwargs``. Prints one row per path (no CCC, the PID
+CCC, the best constant, the best schedule, in um) and the medians. It is the bound
+docs/training.md quotes for 002's machine::
 
     cd tests/data/gcode && python ../../../benchmarks/gain_bound.py \\
         --plant lugre_linear_motor --seeds 7000-7011 --ids contour_gym/CCC-LuGre-BSpline-v1 \\
@@ -22,6 +22,7 @@ machine::
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from pathlib import Path as FilePath
 from typing import Any
@@ -135,6 +136,9 @@ def main() -> None:
     parser.add_argument("--ids", nargs="*", default=[])
     parser.add_argument("--gcode", nargs="*", default=[])
     parser.add_argument("--path-tolerance", type=float, default=None)
+    parser.add_argument("--env-kwargs", type=json.loads, default={},
+                        help='more env keyword arguments, JSON (e.g. \'{"controller_options": '
+                        '{"friction": "feedforward"}}\')')  # fmt: skip
     parser.add_argument("--segments", type=int, default=8)
     parser.add_argument("--generations", type=int, default=60)
     args = parser.parse_args()
@@ -142,6 +146,7 @@ def main() -> None:
     print(f"| path | {' | '.join(cols)} | schedule vs PID CCC | s |\n|---|{'---|' * 6}")
     rows = []
     for name, spec, seed in paths(args):
+        spec = {**spec, **args.env_kwargs}
         start = time.perf_counter()
         row = bound(spec, seed, args.segments, args.generations)
         rows.append(row)
