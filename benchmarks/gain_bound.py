@@ -101,16 +101,24 @@ def bound(spec: dict[str, Any], seed: int, segments: int, generations: int) -> d
     return row
 
 
-def paths(args: argparse.Namespace) -> list[tuple[str, dict[str, Any], int]]:
-    """(name, env spec, seed) of every path asked for."""
+def random_specs(plant: str, seeds: list[int]) -> list[tuple[str, dict[str, Any], int]]:
+    """The random path ``env.reset(seed=seed)`` runs on ``plant``, with its corner blending."""
+    if not seeds:
+        return []
+    task = gym.make("contour_gym/CCC-v1", plant=plant, path="random").unwrapped.task
     out = []
-    task = gym.make("contour_gym/CCC-v1", plant=args.plant, path="random").unwrapped.task
-    for seed in args.seeds:  # the path env.reset(seed=seed) runs, with its corner blending
+    for seed in seeds:
         sc = task.config.random_scenario(np.random.default_rng(seed), task.task_kind,
                                          as_reset=True)  # fmt: skip
         control = {k: sc.options[k] for k in ("path_control", "path_tolerance")}
-        out.append((str(seed), {"id": "contour_gym/CCC-v1", "plant": args.plant, "path": sc.path,
+        out.append((str(seed), {"id": "contour_gym/CCC-v1", "plant": plant, "path": sc.path,
                                 **control}, seed))  # fmt: skip
+    return out
+
+
+def paths(args: argparse.Namespace) -> list[tuple[str, dict[str, Any], int]]:
+    """(name, env spec, seed) of every path asked for."""
+    out = random_specs(args.plant, args.seeds)
     out += [(env_id.split("/")[-1], {"id": env_id}, 0) for env_id in args.ids]
     for file in args.gcode:
         part = from_gcode(FilePath(file).read_text(encoding="utf-8"), name=FilePath(file).stem)
