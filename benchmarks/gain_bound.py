@@ -5,13 +5,15 @@ contour error on that one path: first one constant action (3 numbers), then, fro
 constant, a schedule of ``--segments`` constant actions over equal shares of the episode's
 decisions. The search knows the whole path and sees every trial's outcome, which no controller
 can, so its peak bounds what a policy of the env's actions reaches there (up to the search's own
-shortfall). A failed or unfinished trial counts as 10 mm.
+shortfall). A failed or unfinished trial counts as 10 mm in the search; a reference that
+fails shows its peak until then, marked F, as the bench harness counts it.
 
 Paths: random paths of ``--seeds`` on ``--plant`` (the env's ``path="random"`` draw for that
-seed), registered ids (``--ids``: their own paths) and G-code files (``--gcode``, with
-``--path-tolerance``), each with ``--env-kwargs``. Prints one row per path (no CCC, the PID
-CCC, the best constant, the best schedule, in um) and the medians. It is the bound
-docs/training.md quotes for 002's machine::
+seed), registered ids (``--ids``: their own paths), library paths (``--library``) and G-code
+files (``--gcode``, with ``--path-tolerance``), each with ``--env-kwargs``; the search alone
+also with ``--search-kwargs`` (e.g. an agent's wider action map). Prints one row per path
+(no CCC, the PID CCC, the best constant, the best schedule, in um) and the medians. It is the
+bound docs/training.md quotes for 002's machine::
 
     cd tests/data/gcode && python ../../../benchmarks/gain_bound.py \\
         --plant lugre_linear_motor --seeds 7000-7011 --ids contour_gym/CCC-LuGre-BSpline-v1 \\
@@ -81,16 +83,22 @@ def search(venv: gym.vector.VectorEnv, policy: Schedule, x0: np.ndarray, n_seg: 
     return float(es.result.fbest), np.asarray(es.result.xbest)
 
 
-def bound(spec: dict[str, Any], seed: int, segments: int, generations: int) -> dict[str, float]:
-    """The row of one path: no CCC, PID CCC, best constant, best schedule (um)."""
-    row = {}
+def bound(spec: dict[str, Any], seed: int, segments: int, generations: int,
+          search_kwargs: dict[str, Any]) -> dict[str, float]:  # fmt: skip
+    """The row of one path: no CCC, PID CCC, best constant, best schedule (um).
+
+    The references run in ``spec``; the search in ``spec`` and ``search_kwargs``.
+    """
+    row, decisions = {}, 1
     for name in ("no_ccc", "pid_ccc"):
         out = run_policy_batch(spec, make_policy(name), num_envs=1, seed=seed)
-        row[name] = float(peak_um(out)[0])
-        decisions = int(out["steps"][0])
+        row[name] = float(out["max_contour_error"][0] * 1e6)
+        if peak_um(out)[0] == FAILED_UM:
+            row[f"{name} failed"] = 1.0
+        decisions = max(decisions, int(out["steps"][0]))
     policy = Schedule(decisions)
     policy.table = np.zeros((POPULATION, segments, 3))
-    venv = make_vector_env(spec, policy, num_envs=POPULATION)
+    venv = make_vector_env({**spec, **search_kwargs}, policy, num_envs=POPULATION)
     try:
         row["constant"], x1 = search(venv, policy, np.zeros(3), 1, generations // 2, seed)
         row["schedule"], _ = search(venv, policy, np.tile(x1, segments), segments, generations,
@@ -120,6 +128,8 @@ def paths(args: argparse.Namespace) -> list[tuple[str, dict[str, Any], int]]:
     """(name, env spec, seed) of every path asked for."""
     out = random_specs(args.plant, args.seeds)
     out += [(env_id.split("/")[-1], {"id": env_id}, 0) for env_id in args.ids]
+    out += [(name, {"id": "contour_gym/CCC-v1", "plant": args.plant, "path": name}, 0)
+            for name in args.library]  # fmt: skip
     for file in args.gcode:
         part = from_gcode(FilePath(file).read_text(encoding="utf-8"), name=FilePath(file).stem)
         spec = {"id": "contour_gym/CCC-v1", "plant": args.plant, "path": part}
@@ -142,11 +152,15 @@ def main() -> None:
     parser.add_argument("--plant", default="lugre_linear_motor")
     parser.add_argument("--seeds", type=seed_range, default=[])
     parser.add_argument("--ids", nargs="*", default=[])
+    parser.add_argument("--library", nargs="*", default=[], help="library path names")
     parser.add_argument("--gcode", nargs="*", default=[])
     parser.add_argument("--path-tolerance", type=float, default=None)
     parser.add_argument("--env-kwargs", type=json.loads, default={},
                         help='more env keyword arguments, JSON (e.g. \'{"controller_options": '
                         '{"friction": "feedforward"}}\')')  # fmt: skip
+    parser.add_argument("--search-kwargs", type=json.loads, default={},
+                        help="env keyword arguments of the search alone, JSON (an agent's "
+                        "action map: ccc_gains, kd_scale)")  # fmt: skip
     parser.add_argument("--segments", type=int, default=8)
     parser.add_argument("--generations", type=int, default=60)
     args = parser.parse_args()
@@ -156,9 +170,9 @@ def main() -> None:
     for name, spec, seed in paths(args):
         spec = {**spec, **args.env_kwargs}
         start = time.perf_counter()
-        row = bound(spec, seed, args.segments, args.generations)
+        row = bound(spec, seed, args.segments, args.generations, args.search_kwargs)
         rows.append(row)
-        cells = " | ".join(f"{row[c]:.1f}" for c in cols)
+        cells = " | ".join(f"{row[c]:.1f}{' F' if f'{c} failed' in row else ''}" for c in cols)
         print(f"| {name} | {cells} | {row['schedule'] / row['pid_ccc'] - 1:+.0%} | "
               f"{time.perf_counter() - start:.0f} |", flush=True)  # fmt: skip
     medians = {c: float(np.median([r[c] for r in rows])) for c in cols}
