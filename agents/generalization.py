@@ -48,6 +48,16 @@ class PathResult:
         """Finished without failing and within the tolerance."""
         return not self.failed and math.isfinite(self.cycle_time) and self.max_ce <= self.tolerance
 
+    def worse_than(self, base: PathResult) -> bool:
+        """Failed where ``base`` did not, or (both alike) a higher peak contour error.
+
+        A failed episode's peak is its peak until it ended, often below a finished one's: it
+        still counts worse than a baseline that finished.
+        """
+        if self.failed != base.failed:
+            return self.failed
+        return self.max_ce > base.max_ce
+
 
 def group_of(scenario: str) -> str:
     """The group of a scenario name: the text before its first ``-`` (the whole name if none)."""
@@ -87,7 +97,7 @@ def summary_rows(suite: Suite, cells: Mapping[tuple[str, str], Any]) -> list[dic
                 mine = results.get((sc.name, label), {})
                 per_policy.setdefault(label, {}).update(mine)
                 worse[label] = worse.get(label, 0) + sum(
-                    1 for key, r in mine.items() if key in base and r.max_ce > base[key].max_ce)
+                    1 for key, r in mine.items() if key in base and r.worse_than(base[key]))
         if task == FEEDRATE:
             per_policy.update(_oracles(suite, per_policy))
         for label, paths in per_policy.items():
@@ -150,7 +160,8 @@ def markdown(rows: Sequence[Mapping[str, Any]]) -> str:
         lines.append("| " + " | ".join(format_value(row[key]) for key, _ in COLUMNS) + " |")
     lines += ["", "Per path (every scenario x seed of a machine): median and worst over the "
               "paths; within tol and worse than baseline count paths (the baseline is each "
-              "scenario's own); `best X`: per path the fastest X policy within the tolerance."]
+              "scenario's own; a failed episode is worse than a baseline that finished); "
+              "`best X`: per path the fastest X policy within the tolerance."]
     return "\n".join(lines) + "\n"
 
 

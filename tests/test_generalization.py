@@ -146,6 +146,24 @@ def test_the_path_summary_takes_every_scenario_and_seed_of_a_machine_as_a_path(t
     assert best["median_cycle_time_s"] == pytest.approx(np.median([2.0, 5.0]))
 
 
+def test_a_failed_episode_counts_worse_than_a_baseline_that_finished(tmp_path):
+    # the PID CCC fails path 2 (not in position after the end) at a peak below no CCC's:
+    # worse all the same; where both fail, the peaks decide
+    suite = load_suite(_suite(tmp_path, SUMMARY_SUITE))
+    cells = {(c.scenario, c.policy): c for c in (
+        _cell("000-a", "no_ccc", [(1, 10.0, 1.0), (2, 20.0, 1.0)]),
+        _cell("000-a", "pid_ccc", [(1, 4.0, 1.0), (2, 3.0, math.inf)]),
+        _cell("000-b", "no_ccc", [(0, 8.0, math.inf)]),
+        _cell("000-b", "pid_ccc", [(0, 9.0, math.inf)]),
+    )}  # fmt: skip
+    cells[("000-a", "pid_ccc")].episodes[1].update(failed=True, finished=False)
+    for cell in (cells[("000-b", "no_ccc")], cells[("000-b", "pid_ccc")]):
+        cell.episodes[0].update(failed=True, finished=False)
+    rows = {(r["group"], r["policy"]): r for r in summary_rows(suite, cells)}
+    assert rows[("000", "pid_ccc")]["worse_than_baseline"] == 2  # path 2's failure, 000-b's peak
+    assert rows[("000", "pid_ccc")]["within_tolerance"] == 1
+
+
 def test_the_record_component_sums_to_the_episodes_max_contour_error():
     env = gym.make("contour_gym/CCC-v1", path="random", reward_weights={"record": 30.0})
     env.reset(seed=3)
