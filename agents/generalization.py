@@ -141,6 +141,7 @@ def _row(group: str, task: str, label: str, paths: Mapping[PathKey, PathResult],
         "worst_max_ce_um": float(ce.max()) if ce.size else math.nan,
         "within_tolerance": sum(r.within for r in paths.values()),
         "worse_than_baseline": math.nan if worse is None else worse,
+        "failed": sum(r.failed for r in paths.values()),
         "median_cycle_time_s": float(np.median(times)) if times.size else math.nan,
     }
 
@@ -149,7 +150,7 @@ COLUMNS = (
     ("group", "machine"), ("task", "task"), ("policy", "policy"), ("paths", "paths"),
     ("median_max_ce_um", "median max CE um"), ("worst_max_ce_um", "worst max CE um"),
     ("within_tolerance", "within tol"), ("worse_than_baseline", "worse than baseline"),
-    ("median_cycle_time_s", "median cycle s"),
+    ("failed", "failed"), ("median_cycle_time_s", "median cycle s"),
 )  # fmt: skip
 
 
@@ -159,8 +160,9 @@ def markdown(rows: Sequence[Mapping[str, Any]]) -> str:
     for row in rows:
         lines.append("| " + " | ".join(format_value(row[key]) for key, _ in COLUMNS) + " |")
     lines += ["", "Per path (every scenario x seed of a machine): median and worst over the "
-              "paths; within tol and worse than baseline count paths (the baseline is each "
-              "scenario's own; a failed episode is worse than a baseline that finished); "
+              "paths; within tol, worse than baseline and failed count paths (the baseline is "
+              "each scenario's own; a failed episode, its peak counted until it ended, is worse "
+              "than a baseline that finished); "
               "`best X`: per path the fastest X policy within the tolerance."]
     return "\n".join(lines) + "\n"
 

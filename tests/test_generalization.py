@@ -162,6 +162,7 @@ def test_a_failed_episode_counts_worse_than_a_baseline_that_finished(tmp_path):
     rows = {(r["group"], r["policy"]): r for r in summary_rows(suite, cells)}
     assert rows[("000", "pid_ccc")]["worse_than_baseline"] == 2  # path 2's failure, 000-b's peak
     assert rows[("000", "pid_ccc")]["within_tolerance"] == 1
+    assert (rows[("000", "pid_ccc")]["failed"], rows[("000", "no_ccc")]["failed"]) == (2, 1)
 
 
 def test_the_record_component_sums_to_the_episodes_max_contour_error():
