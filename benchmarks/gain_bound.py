@@ -1,12 +1,13 @@
 """How far can any CCC gain policy go? A per-path search that knows the path, as a bound.
 
-For each path, CMA-ES (``cma``) searches the CCC env's actions to minimise the episode's peak
-contour error on that one path: first one constant action (3 numbers), then, from the best
-constant, a schedule of ``--segments`` constant actions over equal shares of the episode's
-decisions. The search knows the whole path and sees every trial's outcome, which no controller
-can, so its peak bounds what a policy of the env's actions reaches there (up to the search's own
-shortfall). A failed or unfinished trial counts as 10 mm in the search; a reference that
-fails shows its peak until then, marked F, as the bench harness counts it.
+For each path, CMA-ES (``agents.optim.minimize("cma", ...)``, the project's optimiser
+interface) searches the CCC env's actions to minimise the episode's peak contour error on that
+one path: first one constant action, then, from the best constant, a schedule of ``--segments``
+constant actions over equal shares of the episode's decisions. The search knows the whole path
+and sees every trial's outcome, which no controller can, so its peak bounds what a policy of the
+env's actions reaches there (up to the search's own shortfall). A failed or unfinished trial
+scores ``inf`` in the search; a reference that fails shows its peak until then, marked F, as
+the bench harness counts it.
 
 Paths: random paths of ``--seeds`` on ``--plant`` (the env's ``path="random"`` draw for that
 seed), registered ids (``--ids``: their own paths), library paths (``--library``) and G-code
@@ -29,26 +30,26 @@ import time
 from pathlib import Path as FilePath
 from typing import Any
 
-import cma
 import gymnasium as gym
 import numpy as np
 
 import contour_gym  # noqa: F401 (registers the ids)
 from agents.evaluate import make_vector_env, run_episodes, run_policy_batch
+from agents.optim import minimize
 from agents.policies import Policy, make_policy
 from contour_gym.paths import from_gcode
 
-POPULATION = 16
-FAILED_UM = 1e4  # a failed or unfinished trial's score, um
+POPULATION = 16  # members of the search's vector env, and CMA-ES's population
 
 
 class Schedule(Policy):
-    """Member b holds ``table[b, k]`` over the k-th of K equal shares of ``decisions``."""
+    """Member b holds ``table[b, k]`` over the k-th of ``segments`` shares of ``decisions``."""
 
     tasks = ("ccc",)
 
-    def __init__(self, decisions: int) -> None:
-        self.decisions, self.table, self.k = decisions, np.zeros((1, 1, 3)), 0
+    def __init__(self, decisions: int, segments: int) -> None:
+        self.decisions, self.segments, self.k = decisions, segments, 0
+        self.table = np.zeros((POPULATION, segments, 0))  # set by :func:`search`
 
     def reset(self, env: Any = None) -> None:
         """Back to the first decision."""
@@ -62,25 +63,32 @@ class Schedule(Policy):
         return self.table[:, seg, :]
 
 
-def peak_um(out: dict[str, np.ndarray]) -> np.ndarray:
-    """Each member's peak contour error, um; failed or unfinished: :data:`FAILED_UM`."""
-    bad = out["failed"] | ~out["finished"].astype(bool)
-    return np.where(bad, FAILED_UM, out["max_contour_error"] * 1e6)
+def failed(out: dict[str, np.ndarray]) -> np.ndarray:
+    """Each member: failed, or never in position at the end."""
+    return np.asarray(out["failed"] | ~out["finished"].astype(bool))
 
 
 def search(venv: gym.vector.VectorEnv, policy: Schedule, x0: np.ndarray, n_seg: int,
            generations: int, seed: int) -> tuple[float, np.ndarray]:  # fmt: skip
-    """CMA-ES over ``n_seg`` actions from ``x0``: the best peak (um) and its actions."""
-    es = cma.CMAEvolutionStrategy(x0, 0.4 if n_seg == 1 else 0.2,
-                                  {"popsize": POPULATION, "bounds": [-1, 1], "verbose": -9,
-                                   "seed": seed % 2**31 + 1})  # fmt: skip
-    for _ in range(generations):
-        xs = es.ask()
-        policy.table = np.repeat(np.array(xs).reshape(POPULATION, n_seg, 3),
-                                 policy.table.shape[1] // n_seg, axis=1)  # fmt: skip
-        out, _ = run_episodes(venv, policy, seed=seed)
-        es.tell(xs, peak_um(out).tolist())
-    return float(es.result.fbest), np.asarray(es.result.xbest)
+    """CMA-ES over ``n_seg`` actions per member from ``x0``: the best peak (um), its point."""
+    n_act = venv.single_action_space.shape[0]
+
+    def objective(x: np.ndarray) -> np.ndarray:
+        peaks = np.empty(len(x))
+        for i in range(0, len(x), POPULATION):  # whole batches of the env's members
+            chunk = x[i:i + POPULATION]
+            rows = np.vstack([chunk, np.repeat(chunk[-1:], POPULATION - len(chunk), axis=0)])
+            policy.table = np.repeat(rows.reshape(POPULATION, n_seg, n_act),
+                                     policy.segments // n_seg, axis=1)  # fmt: skip
+            out, _ = run_episodes(venv, policy, seed=seed)
+            peak = np.where(failed(out), np.inf, out["max_contour_error"] * 1e6)
+            peaks[i:i + len(chunk)] = peak[:len(chunk)]
+        return peaks
+
+    res = minimize("cma", objective, [[-1.0, 1.0]] * (n_seg * n_act), population=POPULATION,
+                   iterations=generations, seed=seed, x0=x0[None, :],
+                   sigma0=0.2 if n_seg == 1 else 0.1)  # fmt: skip
+    return float(res.fun), np.asarray(res.x)
 
 
 def bound(spec: dict[str, Any], seed: int, segments: int, generations: int,
@@ -93,14 +101,14 @@ def bound(spec: dict[str, Any], seed: int, segments: int, generations: int,
     for name in ("no_ccc", "pid_ccc"):
         out = run_policy_batch(spec, make_policy(name), num_envs=1, seed=seed)
         row[name] = float(out["max_contour_error"][0] * 1e6)
-        if peak_um(out)[0] == FAILED_UM:
+        if failed(out)[0]:
             row[f"{name} failed"] = 1.0
         decisions = max(decisions, int(out["steps"][0]))
-    policy = Schedule(decisions)
-    policy.table = np.zeros((POPULATION, segments, 3))
+    policy = Schedule(decisions, segments)
     venv = make_vector_env({**spec, **search_kwargs}, policy, num_envs=POPULATION)
     try:
-        row["constant"], x1 = search(venv, policy, np.zeros(3), 1, generations // 2, seed)
+        x0 = np.zeros(venv.single_action_space.shape[0])
+        row["constant"], x1 = search(venv, policy, x0, 1, generations // 2, seed)
         row["schedule"], _ = search(venv, policy, np.tile(x1, segments), segments, generations,
                                     seed)  # fmt: skip
     finally:
@@ -143,8 +151,27 @@ def seed_range(text: str) -> list[int]:
     """``"7000-7011"`` or ``"7000,7003"`` as a list of seeds."""
     if "-" in text:
         lo, hi = (int(v) for v in text.split("-"))
+        if hi < lo:
+            raise argparse.ArgumentTypeError(f"empty seed range {text!r}")
         return list(range(lo, hi + 1))
     return [int(v) for v in text.split(",") if v]
+
+
+def json_object(text: str) -> dict[str, Any]:
+    """A JSON object of keyword arguments."""
+    value = json.loads(text)
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(f"not a JSON object: {text!r}")
+    return value
+
+
+def at_least(low: int) -> Any:
+    """An argparse type: an int >= ``low``."""
+    def parse(text: str) -> int:
+        if int(text) < low:
+            raise argparse.ArgumentTypeError(f"must be >= {low}, got {text!r}")
+        return int(text)
+    return parse
 
 
 def main() -> None:
@@ -155,15 +182,18 @@ def main() -> None:
     parser.add_argument("--library", nargs="*", default=[], help="library path names")
     parser.add_argument("--gcode", nargs="*", default=[])
     parser.add_argument("--path-tolerance", type=float, default=None)
-    parser.add_argument("--env-kwargs", type=json.loads, default={},
+    parser.add_argument("--env-kwargs", type=json_object, default={},
                         help='more env keyword arguments, JSON (e.g. \'{"controller_options": '
                         '{"friction": "feedforward"}}\')')  # fmt: skip
-    parser.add_argument("--search-kwargs", type=json.loads, default={},
+    parser.add_argument("--search-kwargs", type=json_object, default={},
                         help="env keyword arguments of the search alone, JSON (an agent's "
                         "action map: ccc_gains, kd_scale)")  # fmt: skip
-    parser.add_argument("--segments", type=int, default=8)
-    parser.add_argument("--generations", type=int, default=60)
+    parser.add_argument("--segments", type=at_least(1), default=8)
+    parser.add_argument("--generations", type=at_least(2), default=60,
+                        help="of the schedule's search; the constant's gets half")  # fmt: skip
     args = parser.parse_args()
+    if not (args.seeds or args.ids or args.library or args.gcode):
+        parser.error("give paths: --seeds, --ids, --library or --gcode")
     cols = ("no_ccc", "pid_ccc", "constant", "schedule")
     print(f"| path | {' | '.join(cols)} | schedule vs PID CCC | s |\n|---|{'---|' * 6}")
     rows = []
