@@ -132,13 +132,28 @@ def random_specs(plant: str, seeds: list[int]) -> list[tuple[str, dict[str, Any]
     return out
 
 
+def add_path_arguments(parser: argparse.ArgumentParser, gcode: bool = True) -> None:
+    """The path options (module docstring): ``--plant``, ``--seeds``, ``--ids``, ``--library``,
+    ``--gcode`` and ``--path-tolerance`` (if ``gcode``), ``--env-kwargs``."""
+    parser.add_argument("--plant", default="lugre_linear_motor")
+    parser.add_argument("--seeds", type=seed_range, default=[])
+    parser.add_argument("--ids", nargs="*", default=[])
+    parser.add_argument("--library", nargs="*", default=[], help="library path names")
+    if gcode:
+        parser.add_argument("--gcode", nargs="*", default=[])
+        parser.add_argument("--path-tolerance", type=float, default=None)
+    parser.add_argument("--env-kwargs", type=json_object, default={},
+                        help='more env keyword arguments, JSON (e.g. \'{"controller_options": '
+                        '{"friction": "feedforward"}}\')')  # fmt: skip
+
+
 def paths(args: argparse.Namespace) -> list[tuple[str, dict[str, Any], int]]:
-    """(name, env spec, seed) of every path asked for."""
+    """(name, env spec, seed) of every path asked for, ``--env-kwargs`` not yet applied."""
     out = random_specs(args.plant, args.seeds)
     out += [(env_id.split("/")[-1], {"id": env_id}, 0) for env_id in args.ids]
     out += [(name, {"id": "contour_gym/CCC-v1", "plant": args.plant, "path": name}, 0)
             for name in args.library]  # fmt: skip
-    for file in args.gcode:
+    for file in getattr(args, "gcode", []):
         part = from_gcode(FilePath(file).read_text(encoding="utf-8"), name=FilePath(file).stem)
         spec = {"id": "contour_gym/CCC-v1", "plant": args.plant, "path": part}
         if args.path_tolerance is not None:
@@ -176,15 +191,7 @@ def at_least(low: int) -> Any:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--plant", default="lugre_linear_motor")
-    parser.add_argument("--seeds", type=seed_range, default=[])
-    parser.add_argument("--ids", nargs="*", default=[])
-    parser.add_argument("--library", nargs="*", default=[], help="library path names")
-    parser.add_argument("--gcode", nargs="*", default=[])
-    parser.add_argument("--path-tolerance", type=float, default=None)
-    parser.add_argument("--env-kwargs", type=json_object, default={},
-                        help='more env keyword arguments, JSON (e.g. \'{"controller_options": '
-                        '{"friction": "feedforward"}}\')')  # fmt: skip
+    add_path_arguments(parser)
     parser.add_argument("--search-kwargs", type=json_object, default={},
                         help="env keyword arguments of the search alone, JSON (an agent's "
                         "action map: ccc_gains, kd_scale)")  # fmt: skip
