@@ -152,6 +152,8 @@ def evaluate_cell(scenario: ScenarioSpec, spec: PolicySpec, envs: EnvPool) -> Ce
     for i, (first, count) in enumerate(scenario.seed_blocks()):
         venv = envs.get(scenario, policy, count, record=i == 0)
         out, trace = run_episodes(venv, policy, seed=first, trace_member=0 if i == 0 else None)
+        if trace is not None:  # the cell keeps member 0's copy; the pooled env, no record
+            venv.unwrapped.task.loop.clear_trace()
         cell.trace = cell.trace or trace
         for b in range(count):
             episode = {key: value[b].item() for key, value in out.items()}

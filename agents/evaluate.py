@@ -162,7 +162,8 @@ def run_episodes(
         raise ValueError(f"trace_member={trace_member!r} needs a member of a recording env "
                          f"(make_vector_env(..., record=True)); the env has {n} member(s), "
                          f"recording {task.loop.record}")  # fmt: skip
-    start = task.loop.tick  # a reset restarts the members, not the loop's clock or record
+    # a reset restarts the members, not the loop's clock or record: the episode's first row
+    start = task.loop.tick - task.loop.trace_start
     obs, _ = venv.reset(seed=seed, options={"keep_paths": True})  # later episodes are unused
     policy.reset(venv)
     out = _episodes(venv, policy, obs, n)
@@ -170,15 +171,17 @@ def run_episodes(
     if trace_member is None:
         return out, None
     ticks = int(out["steps"][trace_member]) * task.config.decision_ticks
-    return out, _member_trace(task.loop.trace(), trace_member, start, ticks)
+    return out, _first_episode(task.loop.trace(trace_member), start, ticks)
 
 
-def _member_trace(trace: Trace, b: int, start: int, ticks: int) -> Trace:
-    # member b's rows [start, start + ticks) (its first episode), batch dimension 1
+def _first_episode(trace: Trace, start: int, ticks: int) -> Trace:
+    # a member's trace, its rows [start, start + ticks) (its first episode), copied: a view
+    # would keep the whole record alive
     rows = slice(start, start + ticks)
+    n = len(trace.t[rows])
     return Trace(
-        t=trace.t[rows] - trace.t[start] if ticks else trace.t[rows],
-        **{f.name: getattr(trace, f.name)[b : b + 1, rows] for f in fields(Trace)[1:]},
+        t=trace.t[:n].copy(),  # from 0, as a record that starts with the episode
+        **{f.name: getattr(trace, f.name)[:, rows].copy() for f in fields(Trace)[1:]},
     )  # fmt: skip
 
 

@@ -26,11 +26,13 @@ from __future__ import annotations
 import atexit
 import collections
 import contextlib
+import ctypes
 import functools
 import gc
 import importlib
 import multiprocessing
 import os
+import signal
 import sys
 import threading
 import warnings
@@ -53,6 +55,7 @@ R = TypeVar("R")
 
 RAY_RETRIES = 3  # a unit whose Ray worker or node died runs again up to this many times
 RAY_HINT = 'Ray is not installed: pip install "contour-gym[ray]" (or pip install "ray[tune]")'
+_PR_SET_PDEATHSIG = 1  # linux/prctl.h
 _SINGLE_THREADED = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
                     THREADS_VARIABLE: "1"}
 
@@ -204,10 +207,31 @@ def start_method() -> str:
     return "fork" if safe and sys.platform.startswith("linux") else "spawn"
 
 
-def _init_worker(*modules: str, filters: list[Any] | None = None) -> None:
+def die_with_parent(parent: int) -> None:
+    """End this worker process when process ``parent`` ends (Linux; elsewhere nothing).
+
+    A pool's worker waits for work from its parent; if the parent is killed (by the kernel
+    out of memory, or ``kill -9``) it would wait for ever. The kernel sends it SIGTERM when its
+    parent's thread that started it ends (``prctl(PR_SET_PDEATHSIG)``: a pool is started and used
+    by one thread); a parent gone before that is checked.
+    """
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+    except (OSError, AttributeError):  # no libc prctl: the worker lives as before
+        return
+    if os.getppid() != parent:  # the parent ended before the request
+        os._exit(1)
+
+
+def _init_worker(*modules: str, filters: list[Any] | None = None, parent: int = 0) -> None:
     # a worker process: one thread for torch and BLAS (the cores are the workers'), no
     # background compiles (contour_gym._tiers: the parent compiled up front); ``modules``
-    # imported at once; the parent's warning filters (a command's own, e.g. the CLI's)
+    # imported at once; the parent's warning filters (a command's own, e.g. the CLI's); it
+    # ends with its parent
+    if parent:
+        die_with_parent(parent)
     if filters is not None:
         warnings.resetwarnings()
         for action, message, category, module, lineno in reversed(filters):
@@ -250,7 +274,8 @@ class Processes(Runner):
     def _executor(self) -> ProcessPoolExecutor:
         if self._pool is None:
             context = multiprocessing.get_context(start_method())
-            start = functools.partial(_init_worker, filters=list(warnings.filters))
+            start = functools.partial(_init_worker, filters=list(warnings.filters),
+                                      parent=os.getpid())  # fmt: skip
             self._pool = ProcessPoolExecutor(self.workers - 1, mp_context=context,
                                              initializer=start, initargs=self._modules)
         return self._pool

@@ -94,11 +94,18 @@ class Recorder:
                              f"{MAX_RECORD_BYTES / 2**30:.3g} GiB; run without record=True, or "
                              "a shorter max_time")  # fmt: skip
 
-    def trace(self, ts: float) -> Trace:
-        """The kept calls as one :class:`Trace`, at ``ts`` seconds per tick."""
+    def trace(self, ts: float, member: int | None = None) -> Trace:
+        """The kept calls as one :class:`Trace`, at ``ts`` seconds per tick.
+
+        Args:
+            ts: Seconds per tick.
+            member: Only this member's rows (batch dimension 1, copied out of the calls, so
+                that a long run's other members are not copied too); None: every member.
+        """
         a, c = self.n_axes, self.n_contours
-        rec = (np.concatenate(self.calls, axis=1) if self.calls
-               else np.zeros((self.batch, 0, self.width)))  # fmt: skip
+        rows = slice(None) if member is None else slice(member, member + 1)
+        rec = (np.concatenate([call[rows] for call in self.calls], axis=1) if self.calls
+               else np.zeros((self.batch if member is None else 1, 0, self.width)))  # fmt: skip
         base = 2 + 3 * a
         return Trace(
             t=np.arange(rec.shape[1], dtype=np.float64) * ts,

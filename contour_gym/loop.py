@@ -325,7 +325,7 @@ class ServoLoop(LoopPaths, LoopParameters):
 
     # ----------------------------------------------------------------- state
     def _restart_clock(self) -> None:
-        self.tick = 0
+        self.tick = self.trace_start = 0
         self._recorder.clear()
         active = draws_noise(self.stage, self.opts.ideal)
         self._noise = NoiseSource(self.batch_size, 2 * self.stage.n_axes, active)
@@ -532,14 +532,33 @@ class ServoLoop(LoopPaths, LoopParameters):
             v[diverged] = np.inf
         return out
 
-    def trace(self) -> Trace:
+    def trace(self, member: int | None = None) -> Trace:
         """The per-tick record since reset (requires ``record=True``).
 
-        Rows after a member's end (arrival or failure) are NaN.
+        Its first row is the loop's tick :attr:`trace_start` (0, unless :meth:`clear_trace`
+        came since). Rows after a member's end (arrival or failure) are NaN.
+
+        Args:
+            member: Only this member's record (batch dimension 1); None: every member's.
+
+        Raises:
+            ValueError: without ``record=True``, or for a member out of range.
         """
         if not self.record:
             raise ValueError("trace() needs ServoLoop(record=True)")
-        return self._recorder.trace(self.stage.ts)
+        if member is not None and not 0 <= member < self.batch_size:
+            raise ValueError(f"member must lie in [0, {self.batch_size}), got {member!r}")
+        return self._recorder.trace(self.stage.ts, member)
+
+    def clear_trace(self) -> None:
+        """Forget the per-tick record kept so far (its memory), as a reset of every member does.
+
+        The record grows with members x ticks: a caller that took what it needs of it (a
+        member's :meth:`trace`) frees it here while it keeps the loop for later runs. The
+        record then restarts at the current tick (:attr:`trace_start`).
+        """
+        self._recorder.clear()
+        self.trace_start = self.tick
 
 
 def _check_sizes(stage: Stage, path: Path, axis_gains: Sequence[PIDGains], batch: Any) -> None:

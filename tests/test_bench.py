@@ -355,6 +355,29 @@ def test_a_suite_takes_v1_ids_and_random_paths(tmp_path):
                                                 "task: ccc\n    path: randomly")))
 
 
+def test_a_pooled_env_keeps_no_record_after_a_cell(tmp_path):
+    # policies sharing a scenario's env (the pool) ran one after another on its record, which
+    # grew with members x ticks and stayed: a 256-seed suite of agents filled 24 GiB. The cell
+    # keeps member 0's trace (a copy), the env none; traces are as a fresh env's, bit for bit
+    suite = load_suite(_bad(tmp_path, SUITE.replace("baseline: no_ccc",
+                                                    "baseline: no_ccc\n    seeds: [3, 4]")))
+    scenario = suite.scenarios[0]
+    pool, fresh = bench.EnvPool(), []
+    cells = [bench.evaluate_cell(scenario, suite.policies[label], pool)
+             for label in ("no_ccc", "pid_ccc", "no_ccc")]  # fmt: skip
+    env = pool.any_env()
+    assert env.unwrapped.task.loop.trace().x.shape[1] == 0
+    for label in ("no_ccc", "pid_ccc"):
+        fresh.append(bench.evaluate_cell(scenario, suite.policies[label], bench.EnvPool()))
+    for got, want in zip(cells, [*fresh, fresh[0]], strict=True):
+        assert got.trace.x.shape[0] == 1 and got.trace.x.base is None
+        for name in ("t", "x", "eps", "u"):
+            assert np.array_equal(getattr(got.trace, name), getattr(want.trace, name),
+                                  equal_nan=True), name  # fmt: skip
+        assert got.episodes == want.episodes
+    pool.close()
+
+
 def test_an_agent_s_row_does_not_depend_on_the_cpu_s_instruction_set(tmp_path):
     # an agent's float32 network under MKL: ppo_feedrate_corner on 004's corner gave 6.35 um
     # with AVX-512 kernels and 5.63 um with MKL held to AVX2 before importing `agents` asked

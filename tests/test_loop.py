@@ -35,6 +35,26 @@ def test_batch_members_with_equal_parameters_equal_batch_of_one_bit_for_bit():
         assert np.array_equal(many.ax_s[b], one.ax_s[0])
 
 
+def test_one_member_s_trace_and_a_cleared_record():
+    # trace(member) copies that member's rows alone; clear_trace frees the record, which
+    # restarts at the current tick (trace_start) while the loop runs on unchanged
+    sc = noisy_scenario()
+    gains = sc.preset.ccc_gains.as_tuple()
+    loop = run(sc, 3, [4, 5, 6], gains, record=True)
+    whole, one = loop.trace(), loop.trace(member=1)
+    assert one.x.shape == (1, 600, 3) and np.array_equal(one.x[0], whole.x[1])
+    assert np.array_equal(one.eps[0], whole.eps[1]) and np.array_equal(one.t, whole.t)
+    with pytest.raises(ValueError, match=r"member must lie in \[0, 3\), got 3"):
+        loop.trace(member=3)
+    loop.clear_trace()
+    assert loop.trace_start == 600 and loop.trace().x.shape == (3, 0, 3)
+    loop.step(200)
+    later = run(sc, 3, [4, 5, 6], gains, n=800, record=True).trace()
+    assert np.array_equal(loop.trace().x, later.x[:, 600:])
+    loop.reset([4, 5, 6])  # a reset of every member restarts the clock and the record
+    assert loop.trace_start == 0 and loop.trace().x.shape == (3, 0, 3)
+
+
 def test_different_disturbance_seeds_differ_and_same_seed_repeats():
     sc = noisy_scenario()
     gains = sc.preset.ccc_gains.as_tuple()

@@ -235,6 +235,38 @@ def _inverse(x: int) -> float:
     return 1.0 / x
 
 
+@LINUX
+def test_a_worker_ends_when_its_parent_is_killed() -> None:
+    # an out-of-memory kill of a command's process left its worker waiting for ever
+    code = ("import os, time\nfrom agents.parallel import Processes\nwhere = Processes(2)\n"
+            "where.warm()\nprint(where._executor().submit(os.getpid).result(), flush=True)\n"
+            "time.sleep(120)\n")  # fmt: skip
+    parent = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    try:
+        assert parent.stdout is not None
+        worker = int(parent.stdout.readline())
+        assert _alive(worker)
+    finally:
+        parent.kill()
+        parent.wait()
+    deadline = time.monotonic() + 20
+    while _alive(worker) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    ended = not _alive(worker)
+    if not ended:  # leave no orphan behind a failure
+        os.kill(worker, 9)
+    assert ended
+
+
+def _alive(pid: int) -> bool:
+    # running, not a zombie nobody reaps (a container's first process may not)
+    try:
+        with open(f"/proc/{pid}/status") as fh:
+            return not any(line.startswith("State:\tZ") for line in fh)
+    except FileNotFoundError:
+        return False
+
+
 def test_units_done_before_the_workers_start_do_not_wait_for_them(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
