@@ -33,8 +33,7 @@ POLICIES = ("no_ccc", "pid_ccc", "ppo_002_ccc_general")
 def split(spec: dict[str, Any], policy_name: str, seed: int, reach: float) -> tuple[float, ...]:
     """(peak, peak before ``reach`` of the end, peak after) of one episode, um, and failed."""
     policy = make_policy(policy_name)
-    venv = make_vector_env({**spec, **getattr(policy, "env_kwargs", {})}, policy, num_envs=1,
-                           record=True)  # fmt: skip
+    venv = make_vector_env(spec, policy, num_envs=1, record=True)  # with the policy's env_kwargs
     try:
         out, trace = run_episodes(venv, policy, seed=seed, trace_member=0)
     finally:

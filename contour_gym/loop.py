@@ -309,6 +309,7 @@ class ServoLoop(LoopPaths, LoopParameters):
 
     def __setstate__(self, state: dict[str, object]) -> None:
         self.__dict__.update(state)
+        self.__dict__.setdefault("trace_start", 0)  # a loop pickled before clear_trace existed
         self.controller = CONTROLLERS.get(state["controller"])  # type: ignore[arg-type]
         self.ccc_law = CCC_LAWS.get(state["ccc_law"])  # type: ignore[arg-type]
         est_name, est_params = cast(tuple[str, Array], state["estimator"])
