@@ -162,8 +162,7 @@ def run_episodes(
         raise ValueError(f"trace_member={trace_member!r} needs a member of a recording env "
                          f"(make_vector_env(..., record=True)); the env has {n} member(s), "
                          f"recording {task.loop.record}")  # fmt: skip
-    # a reset restarts the members, not the loop's clock or record: the episode's first row
-    start = task.loop.tick - task.loop.trace_start
+    start = task.loop.tick  # a reset restarts the members, not the loop's clock or record
     obs, _ = venv.reset(seed=seed, options={"keep_paths": True})  # later episodes are unused
     policy.reset(venv)
     out = _episodes(venv, policy, obs, n)
@@ -171,7 +170,9 @@ def run_episodes(
     if trace_member is None:
         return out, None
     ticks = int(out["steps"][trace_member]) * task.config.decision_ticks
-    return out, _first_episode(task.loop.trace(trace_member), start, ticks)
+    # the record now starts at trace_start (earlier episodes' rows dropped, ServoLoop.step)
+    first = start - task.loop.trace_start
+    return out, _first_episode(task.loop.trace(trace_member), first, ticks)
 
 
 def _first_episode(trace: Trace, start: int, ticks: int) -> Trace:

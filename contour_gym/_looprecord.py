@@ -66,20 +66,33 @@ class Recorder:
         """Forget the calls kept so far (a reset of every member)."""
         self.calls = []
 
-    def keep(self, rec: Array, ended: NDArray[np.bool_], end: Array, local: NDArray[np.int64]
-             ) -> None:  # fmt: skip
-        """Keep a recorded call; rows after a member's end were never written: NaN, not data.
+    def keep(self, rec: Array, ended: NDArray[np.bool_], end: Array, local: NDArray[np.int64],
+             paused: NDArray[np.bool_] | None = None) -> None:  # fmt: skip
+        """Keep a recorded call; rows a member never wrote are NaN, not data.
 
         Args:
             rec: The call's buffer.
             ended: (B,) members that arrived or failed.
             end: (B,) the tick of each ended member's end, on its own clock.
             local: (B,) each member's own clock at the call's first tick.
+            paused: (B,) members that sat the call out (None: none).
         """
         for b in np.flatnonzero(ended):
             first = int(end[b]) - local[b]
             rec[b, max(first, 0) :] = np.nan
+        if paused is not None:
+            rec[paused] = np.nan
         self.calls.append(rec)
+
+    def drop(self, rows: int) -> None:
+        """Forget the first ``rows`` rows kept (their memory)."""
+        while rows > 0 and self.calls:
+            first = self.calls[0]
+            if first.shape[1] <= rows:
+                rows -= first.shape[1]
+                self.calls.pop(0)
+            else:
+                self.calls[0], rows = first[:, rows:].copy(), 0
 
     def check_size(self, ticks: int, what: str) -> None:
         """Raise ValueError if recording ``ticks`` ticks would exceed MAX_RECORD_BYTES.

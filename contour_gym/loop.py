@@ -25,7 +25,7 @@ import contextlib
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from types import ModuleType
 from typing import Any, cast
 
@@ -309,7 +309,8 @@ class ServoLoop(LoopPaths, LoopParameters):
 
     def __setstate__(self, state: dict[str, object]) -> None:
         self.__dict__.update(state)
-        self.__dict__.setdefault("trace_start", 0)  # a loop pickled before clear_trace existed
+        self.__dict__.setdefault("trace_start", 0)  # a loop pickled before these existed
+        self.__dict__.setdefault("_reset_tick", np.zeros(self.batch_size, dtype=np.int64))
         self.controller = CONTROLLERS.get(state["controller"])  # type: ignore[arg-type]
         self.ccc_law = CCC_LAWS.get(state["ccc_law"])  # type: ignore[arg-type]
         est_name, est_params = cast(tuple[str, Array], state["estimator"])
@@ -327,6 +328,7 @@ class ServoLoop(LoopPaths, LoopParameters):
     # ----------------------------------------------------------------- state
     def _restart_clock(self) -> None:
         self.tick = self.trace_start = 0
+        self._reset_tick = np.zeros(self.batch_size, dtype=np.int64)  # each member's last reset
         self._recorder.clear()
         active = draws_noise(self.stage, self.opts.ideal)
         self._noise = NoiseSource(self.batch_size, 2 * self.stage.n_axes, active)
@@ -358,7 +360,7 @@ class ServoLoop(LoopPaths, LoopParameters):
         self.foot[idx, :, FT.e_qx : FT.e_qx + dim] = q0
         self.ip_s[idx] = motion.initial_state(len(idx))
         self.status[idx] = STATUS_OK
-        self.k_start[idx] = self.tick
+        self.k_start[idx] = self._reset_tick[idx] = self.tick
         self.sums.contour[idx] = 0.0
         self.sums.axis[idx] = 0.0
         gens = member_generators(seed, len(idx), self._noise.active)
@@ -408,6 +410,8 @@ class ServoLoop(LoopPaths, LoopParameters):
         if not isinstance(n_ticks, (int, np.integer)) or n_ticks < 0:
             raise ValueError(f"n_ticks must be a non-negative int, got {n_ticks!r}")
         paused = None if skip is None else self._pause(skip)
+        if self.record:
+            self._drop_past_episodes()
         # reading noise ahead leaves no trace: each member's stream is consumed in order
         noise = self._noise.take(n_ticks, self.status, self.noise_at)
         rec = self._recorder.new(n_ticks) if self.record else self._no_record
@@ -422,7 +426,7 @@ class ServoLoop(LoopPaths, LoopParameters):
             return result
         if self.record:  # rows after a member's end were never written: NaN, not data
             ends = self.mem[:, MEM_COL.end]
-            self._recorder.keep(rec, self._ended, ends, self.tick - self.k_start)
+            self._recorder.keep(rec, self._ended, ends, self.tick - self.k_start, paused)
         self.tick += n_ticks
         if paused is not None:
             self._resume(paused, n_ticks)
@@ -536,8 +540,10 @@ class ServoLoop(LoopPaths, LoopParameters):
     def trace(self, member: int | None = None) -> Trace:
         """The per-tick record since reset (requires ``record=True``).
 
-        Its first row is the loop's tick :attr:`trace_start` (0, unless :meth:`clear_trace`
-        came since). Rows after a member's end (arrival or failure) are NaN.
+        Its first row is the loop's tick :attr:`trace_start`: 0 after a reset of every member;
+        later once every member has reset since (an env's members, one by one: the rows of
+        finished episodes are dropped as the next call starts) or :meth:`clear_trace` came.
+        Rows after a member's end (arrival or failure), and of a call it sat out, are NaN.
 
         Args:
             member: Only this member's record (batch dimension 1); None: every member's.
@@ -550,6 +556,25 @@ class ServoLoop(LoopPaths, LoopParameters):
         if member is not None and not 0 <= member < self.batch_size:
             raise ValueError(f"member must lie in [0, {self.batch_size}), got {member!r}")
         return self._recorder.trace(self.stage.ts, member)
+
+    def episode_trace(self, member: int) -> Trace:
+        """``member``'s record since its last reset (batch dimension 1, time from 0).
+
+        Raises:
+            ValueError: as :meth:`trace`.
+        """
+        trace = self.trace(member)
+        first = max(int(self._reset_tick[member]) - self.trace_start, 0)
+        return Trace(t=trace.t[: max(len(trace.t) - first, 0)],
+                     **{f.name: getattr(trace, f.name)[:, first:] for f in fields(Trace)[1:]})
+
+    def _drop_past_episodes(self) -> None:
+        # rows before every member's last reset belong to finished episodes: a loop whose
+        # members reset one by one (an env's) keeps only the episodes under way
+        oldest = int(self._reset_tick.min())
+        if oldest > self.trace_start:
+            self._recorder.drop(oldest - self.trace_start)
+            self.trace_start = oldest
 
     def clear_trace(self) -> None:
         """Forget the per-tick record kept so far (its memory), as a reset of every member does.

@@ -340,6 +340,38 @@ def test_rgb_array_render_shows_the_contour():
     assert img.std() > 5  # not a blank canvas
 
 
+def test_a_recording_env_keeps_only_the_episodes_under_way():
+    # an env resets its members one by one, never the loop's clock: the record of every
+    # episode since the env was made grew for ever, and render drew them all on the current
+    # path. Now rows before every member's last reset are dropped, and render draws the
+    # member's own episode; a member sitting out its auto-reset call is NaN, not zeros
+    env = CCCEnv(render_mode="rgb_array", decision_ticks=100)
+    loop = env.unwrapped.task.loop
+    lengths = []
+    for seed in (0, 1, 2):
+        env.reset(seed=seed)
+        done, steps = False, 0
+        while not done:
+            _, _, term, trunc, _ = env.step(np.zeros(3))
+            done, steps = term or trunc, steps + 1
+        episode = loop.episode_trace(0)
+        assert loop.trace().x.shape[1] == episode.x.shape[1] == steps * 100
+        assert episode.t[0] == 0.0 and np.isfinite(episode.x[0, 0]).all()
+        lengths.append(steps)
+    assert env.render().std() > 5
+    venv = CCCVectorEnv(num_envs=2, decision_ticks=100, render_mode="rgb_array")
+    venv.reset(seed=0)
+    vloop = venv.task.loop
+    most = 0
+    for _ in range(3 * max(lengths)):  # every member through about three episodes
+        venv.step(np.zeros((2, 3)))
+        most = max(most, vloop.trace().x.shape[1])
+    assert most <= 2 * (max(lengths) + 1) * 100 and vloop.trace_start > 0
+    first = vloop.episode_trace(0)
+    paused = ~np.isfinite(first.x[0, :, 0])
+    assert paused[:100].all() and np.isfinite(first.x[0, 100:, 0]).any()  # its auto-reset call
+
+
 def test_vector_env_survives_every_member_resetting_at_once():
     venv = CCCVectorEnv(num_envs=3, decision_ticks=1000)  # same path, same end for all
     venv.reset(seed=0)

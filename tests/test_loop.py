@@ -53,6 +53,15 @@ def test_one_member_s_trace_and_a_cleared_record():
     assert np.array_equal(loop.trace().x, later.x[:, 600:])
     loop.reset([4, 5, 6])  # a reset of every member restarts the clock and the record
     assert loop.trace_start == 0 and loop.trace().x.shape == (3, 0, 3)
+    loop.step(100)
+    loop.reset(1, members=[0])  # member 0 starts again; member 1's episode still runs
+    loop.step(50, skip=[2])  # member 2 sits the call out: NaN rows
+    assert loop.trace().x.shape[1] == 150 and np.isnan(loop.trace().x[2, 100:]).all()
+    assert loop.episode_trace(0).x.shape[1] == 50 and loop.episode_trace(1).x.shape[1] == 150
+    loop.reset([2, 3], members=[1, 2])  # every member has reset since tick 100 (member 0)
+    loop.step(10)  # rows before it are dropped
+    assert loop.trace_start == 100 and loop.trace().x.shape[1] == 60
+    assert loop.episode_trace(0).x.shape[1] == 60 and loop.episode_trace(1).x.shape[1] == 10
 
 
 def test_different_disturbance_seeds_differ_and_same_seed_repeats():

@@ -46,9 +46,9 @@ def _figure(task: ContourTask, kind: str, member: int = 0) -> NDArray[np.uint8]:
     from contour_gym.render import contour_figure, figure_to_array
 
     contour = task.stage.contours[0]
-    fig = contour_figure(
-        task.loop.paths[member], {kind: task.loop.trace()}, axes=contour.axes[:2],
-        offset=(contour.offset or (0.0, 0.0))[:2], member=member,
+    fig = contour_figure(  # the member's episode under way (or just ended), not earlier ones
+        task.loop.paths[member], {kind: task.loop.episode_trace(member)}, axes=contour.axes[:2],
+        offset=(contour.offset or (0.0, 0.0))[:2],
     )  # fmt: skip
     return figure_to_array(fig)
 
