@@ -144,7 +144,7 @@ class ContourEnv(GainsMap, gym.Env):
         return self.task.observe(0), reward, terminated, truncated, info
 
     def render(self) -> NDArray[np.uint8] | None:
-        """The contour with the error magnified 200x (rgb_array) or shown in a window."""
+        """The episode under way, error magnified 200x (rgb_array, or shown in a window)."""
         if self.render_mode is None:
             gym.logger.warn("render() needs render_mode='rgb_array' or 'human'")
             return None
@@ -302,7 +302,7 @@ class ContourVectorEnv(GainsMap, VectorEnv):
             self._prev_done)
 
     def render(self) -> tuple[Any, ...] | None:
-        """An rgb_array per member (render_mode='rgb_array')."""
+        """An rgb_array per member, of its episode under way (render_mode='rgb_array')."""
         if self.render_mode is None:
             return None
         return tuple(_figure(self.task, self.kind, b) for b in range(self.num_envs))
