@@ -15,7 +15,6 @@ that needs the same env arguments) or keeps a member's per-tick trace.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import fields
 from typing import Any, cast
 
 import gymnasium as gym
@@ -171,19 +170,7 @@ def run_episodes(
         return out, None
     ticks = int(out["steps"][trace_member]) * task.config.decision_ticks
     # the record now starts at trace_start (earlier episodes' rows dropped, ServoLoop.step)
-    first = start - task.loop.trace_start
-    return out, _first_episode(task.loop.trace(trace_member), first, ticks)
-
-
-def _first_episode(trace: Trace, start: int, ticks: int) -> Trace:
-    # a member's trace, its rows [start, start + ticks) (its first episode), copied: a view
-    # would keep the whole record alive
-    rows = slice(start, start + ticks)
-    n = len(trace.t[rows])
-    return Trace(
-        t=trace.t[:n].copy(),  # from 0, as a record that starts with the episode
-        **{f.name: getattr(trace, f.name)[:, rows].copy() for f in fields(Trace)[1:]},
-    )  # fmt: skip
+    return out, task.loop.trace(trace_member).window(start - task.loop.trace_start, ticks)
 
 
 def _episodes(venv: Any, policy: Policy, obs: Mapping[str, Any], n: int) -> dict[str, NDArray[Any]]:

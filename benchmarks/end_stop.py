@@ -22,7 +22,7 @@ import argparse
 from typing import Any
 
 import numpy as np
-from gain_bound import add_path_arguments, paths
+from gain_bound import add_path_arguments, failed, paths
 
 from agents.evaluate import make_vector_env, run_episodes
 from agents.policies import make_policy
@@ -31,7 +31,10 @@ POLICIES = ("no_ccc", "pid_ccc", "ppo_002_ccc_general")
 
 
 def split(spec: dict[str, Any], policy_name: str, seed: int, reach: float) -> tuple[float, ...]:
-    """(peak, peak before ``reach`` of the end, peak after) of one episode, um, and failed."""
+    """(peak, peak before ``reach`` of the end, peak after) of one episode, um, and failed.
+
+    Failed as in gain_bound.py: failed, or never in position at the end.
+    """
     policy = make_policy(policy_name)
     venv = make_vector_env(spec, policy, num_envs=1, record=True)  # with the policy's env_kwargs
     try:
@@ -49,7 +52,7 @@ def split(spec: dict[str, Any], policy_name: str, seed: int, reach: float) -> tu
     if not np.isclose(max(before, after), peak, rtol=1e-6, atol=1e-3):
         raise RuntimeError(f"{policy_name}: the trace's peak {max(before, after)} um is not the "
                            f"episode's {peak} um")  # fmt: skip
-    return peak, before, after, float(bool(out["failed"][0]))
+    return peak, before, after, float(failed(out)[0])
 
 
 def main() -> None:
@@ -78,7 +81,8 @@ def main() -> None:
                         for i, p in enumerate(args.policies))  # fmt: skip
     print(f"Peak contour error, um: the episode's, before the reference comes within "
           f"{args.end_reach * 1e3:g} mm of the path's end, and from then on (the stop); "
-          f"F: failed. Peaks at the stop: {at_stop} of {len(table)}.")  # fmt: skip
+          f"F: failed or never in position. Peaks at the stop: {at_stop} of "
+          f"{len(table)}.")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ per contour) into a buffer from :meth:`Recorder.new`; :meth:`Recorder.keep` keep
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,6 +41,16 @@ class Trace:
     u: Array
     eps: Array
     eps_est: Array
+
+    def window(self, start: int, ticks: int | None = None) -> Trace:
+        """Rows ``[start, start + ticks)`` (to the end if None) as a trace of their own.
+
+        Copied, so that it does not keep the whole record alive; its time starts at 0.
+        """
+        rows = slice(start, None if ticks is None else start + ticks)
+        n = len(self.t[rows])
+        return Trace(t=self.t[:n].copy(),
+                     **{f.name: getattr(self, f.name)[:, rows].copy() for f in fields(Trace)[1:]})
 
 
 class Recorder:

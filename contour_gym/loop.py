@@ -25,7 +25,7 @@ import contextlib
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from types import ModuleType
 from typing import Any, cast
 
@@ -563,10 +563,7 @@ class ServoLoop(LoopPaths, LoopParameters):
         Raises:
             ValueError: as :meth:`trace`.
         """
-        trace = self.trace(member)
-        first = max(int(self._reset_tick[member]) - self.trace_start, 0)
-        return Trace(t=trace.t[: max(len(trace.t) - first, 0)],
-                     **{f.name: getattr(trace, f.name)[:, first:] for f in fields(Trace)[1:]})
+        return self.trace(member).window(max(int(self._reset_tick[member]) - self.trace_start, 0))
 
     def _drop_past_episodes(self) -> None:
         # rows before every member's last reset belong to finished episodes: a loop whose
