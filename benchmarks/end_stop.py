@@ -26,6 +26,7 @@ from gain_bound import add_path_arguments, failed, paths
 
 from agents.evaluate import make_vector_env, run_episodes
 from agents.policies import make_policy
+from contour_gym.params import positive
 
 POLICIES = ("no_ccc", "pid_ccc", "ppo_002_ccc_general")
 
@@ -62,8 +63,10 @@ def main() -> None:
     parser.add_argument("--end-reach", type=float, default=1e-4,
                         help="m: the split, this far before the path's end (default 0.1 mm)")
     args = parser.parse_args()
-    if args.end_reach <= 0:
-        parser.error(f"--end-reach must be > 0, got {args.end_reach!r}")
+    try:
+        positive(args.end_reach, "--end-reach")
+    except ValueError as err:
+        parser.error(str(err))
     specs = paths(args)
     if not specs:
         parser.error("give paths: --seeds, --ids or --library")
