@@ -13,10 +13,10 @@ rounding. Measured on an Intel Xeon, ``ppo_ccc_infinity`` on 002's B-spline (max
 error): 199.0 um with AVX-512 kernels, 188.8 with MKL held to AVX2, 184.1 held to SSE4.2;
 177.4 in this mode with AVX-512 allowed or MKL held to AVX2, at one or two threads; MKL's
 compatible code gave 174.1, as does an AMD EPYC in this mode. ``COMPATIBLE``, which AMD CPUs
-take too, would make the two makers agree but changes training: the shipped
-``ppo_002_ccc_general`` retrained under it came out different, while this mode reproduces it
-bit for bit on the AMD EPYC it was trained on. Training ran as fast either way (PPO, 120 000
-steps on 000's circle: 19.0-20.3 s without, 19.2-19.8 s with).
+take too, gave the AMD EPYC's default suite bit for bit (not measured on an Intel CPU), but it
+changes training: the shipped ``ppo_002_ccc_general`` retrained under it came out different,
+while this mode reproduces it bit for bit on the AMD EPYC it was trained on. Training ran as
+fast either way (PPO, 120 000 steps on 000's circle: 19.0-20.3 s without, 19.2-19.8 s with).
 """
 
 import os as _os
