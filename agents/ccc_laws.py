@@ -51,6 +51,15 @@ Chosen conservatively from a coarse sweep on 000's machine (circle, "infinity" a
 rig and ideal); the sweep and what it showed are in the documentation's "Measurements and
 design notes", the resulting table in :mod:`agents.ccc_policies`.
 
+**On every machine.** The rules above, not their numbers on 000's machine, are the law's
+defaults: on another preset, a factor not given is made by the same rule from that machine's
+tolerance, encoder count per tick and PID CCC gains (:func:`fuzzy_pid_units`: the law is
+registered with ``home="xy_dc_servo"`` and these units; :meth:`contour_gym.ccc.CCCLaw.params_for`).
+On 002's machine (``lugre_linear_motor``, pre-compensation: its gains are dimensionless, kp0 1)
+000's numbers would move Kp by up to 2300 and the CCC diverged on every path; by the rule the
+fuzzy terms move it by up to a third of kp0 there too. A factor set tuned on one machine
+carries to another in the same units (``ccc_law_params={..., "machine": "xy_dc_servo"}``).
+
 ``adaptive_fuzzy_pid`` (paper 001, "Adaptive fuzzy PID cross coupled control for multi-axis
 motion system based on sliding mode disturbance observation", section "Design of CCC based
 on adaptive fuzzy PID"). What survived extraction: adaptive fuzzy systems approximate the
@@ -138,7 +147,7 @@ from agents.fuzzy import (
 )
 from contour_gym.ccc import PID_PARAMS, CCCLaw, pid_commit, register_ccc_law
 from contour_gym.params import Param, Schema, non_negative, state_schema
-from contour_gym.presets import get_preset
+from contour_gym.presets import Preset, get_preset
 from contour_gym.servo.pid import STATE as PID_STATE
 from contour_gym.servo.pid import pid_terms
 
@@ -220,12 +229,30 @@ def fuzzy_pid_table() -> np.ndarray:
     return table
 
 
+def fuzzy_pid_units(machine: Preset) -> dict[str, float]:
+    """The units the fuzzy PID's factors scale with on a machine (module docstring).
+
+    ``k_e`` in 1 / tolerance, ``k_de`` in ticks per encoder count (the finest axis's), ``k_pf``
+    and ``k_if`` in the PID CCC gains kp0 and ki0, ``k_df`` in kp0 times one tick.
+
+    Raises:
+        ValueError: for a machine without an encoder on any axis.
+    """
+    stage, gains = machine.stage, machine.ccc_gains
+    counts = [a.encoder_resolution for a in stage.axes if a.encoder_resolution > 0.0]
+    if not counts:
+        raise ValueError(f"fuzzy_pid: machine {machine.name!r} has no encoder to scale k_de by")
+    return {"k_e": 1.0 / machine.tolerance, "k_de": stage.ts / min(counts),
+            "k_pf": gains.kp, "k_if": gains.ki, "k_df": gains.kp * stage.ts}  # fmt: skip
+
+
 FUZZY_PID = register_ccc_law(
     CCCLaw(
         "fuzzy_pid", FUZZY_PID_PARAMS, PID_STATE, fuzzy_pid_output, pid_commit,
         data=fuzzy_pid_table,
         doc="fuzzy PID on the contour error, gains K0 + k_f dK(k_e e, k_de de) (paper 000)",
         inline=False,  # called: the kernel compiles faster, protocol 000 runs as fast
+        home=_MACHINE_000.name, units=fuzzy_pid_units,
     )
 )  # fmt: skip
 

@@ -133,6 +133,10 @@ class FuzzyPIDCCC(HeldGains):
         base_gains: The base gains (Kp0, Ki0, Kd0), (3,) or (C, 3), which the action
             holds; None: the env's PID CCC gains.
 
+    A factor not given is the law's default *for the env's machine* (the rule of
+    :mod:`agents.ccc_laws` applied to its tolerance, encoder and PID CCC gains); a factor
+    given is used as it is, in the env machine's units.
+
     Raises:
         ValueError: for a NaN, infinite or negative factor or bad base gains, naming it.
     """
@@ -149,11 +153,13 @@ class FuzzyPIDCCC(HeldGains):
         base_gains: ArrayLike | None = None,
     ) -> None:
         super().__init__(base_gains)
-        self.factors = law_params(FUZZY_PID_PARAMS, (k_e, k_de, k_pf, k_if, k_df))
+        given = dict(zip(_FACTORS, (k_e, k_de, k_pf, k_if, k_df), strict=True))
+        self.factors = {k: FUZZY_PID_PARAMS.value(k, v) for k, v in given.items()
+                        if v is not None}  # fmt: skip
 
     @property
     def env_kwargs(self) -> dict[str, Any]:
-        """``ccc_law="fuzzy_pid"`` and ``ccc_law_params`` with the five factors."""
+        """``ccc_law="fuzzy_pid"``; ``ccc_law_params``: the factors given (the machine's rest)."""
         return {"ccc_law": FUZZY_PID.name, "ccc_law_params": dict(self.factors)}
 
 
@@ -217,9 +223,17 @@ class PSOFuzzyPIDCCC(FuzzyPIDCCC):
 
     name = "pso_fuzzy_pid_ccc"
     shipped: ClassVar[Callable[[], dict[str, float]]] = staticmethod(tuned_factors_general)
+    tuned_on: ClassVar[str] = "xy_dc_servo"  # the machine protocols 000 and 000_general tune on
 
     def __init__(self, base_gains: ArrayLike | None = None) -> None:
         super().__init__(**type(self).shipped(), base_gains=base_gains)
+
+    @property
+    def env_kwargs(self) -> dict[str, Any]:
+        """The fuzzy law's, with ``"machine"``: the factors carry from :attr:`tuned_on`."""
+        kwargs = super().env_kwargs
+        kwargs["ccc_law_params"]["machine"] = self.tuned_on
+        return kwargs
 
 
 class PSOFuzzyPIDCCC000(PSOFuzzyPIDCCC):

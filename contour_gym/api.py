@@ -9,7 +9,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from contour_gym._validate import positive
-from contour_gym.ccc import CCCGains
+from contour_gym.ccc import CCC_LAWS, CCCGains
 from contour_gym.loop import LoopOptions, ServoLoop, Trace
 from contour_gym.metrics import member_metrics
 from contour_gym.motion import Interpolator
@@ -54,12 +54,15 @@ class Scenario:
     ) -> ServoLoop:  # fmt: skip
         """A :class:`ServoLoop` of this scenario; ``kwargs`` are loop options overriding ours.
 
-        ``ccc_weights`` None: the preset's; ``threads``: :class:`ServoLoop`'s.
+        ``ccc_weights`` None: the preset's; ``threads``: :class:`ServoLoop`'s. The CCC law's
+        parameters are those it runs with on this machine (:func:`machine_law_params`).
         """
         options = _merged_controller(
             self.options["axis_controller"], self.options.get("controller_options") or {},
             {**self.options, **kwargs}, kwargs,
         )  # fmt: skip
+        options["ccc_law_params"] = machine_law_params(
+            self.preset, options.get("ccc_law", "pid"), options.get("ccc_law_params"))
         loop = ServoLoop(
             self.preset.stage, self.path, self.preset.axis_gains, self.interpolator(),
             batch_size=batch_size, ccc_gains=ccc_gains, record=record,
@@ -69,6 +72,25 @@ class Scenario:
         if self.feed_override != 1.0:
             loop.set_feed_override(self.feed_override)
         return loop
+
+
+def machine_law_params(
+    preset: Preset, law: str, given: Mapping[str, Any] | None
+) -> dict[str, float]:
+    """A CCC law's parameters beyond kp, ki, kd on ``preset``'s machine.
+
+    ``given`` are the loop option ``ccc_law_params``: values in the law's units, used as they
+    are, unless it holds ``"machine"``: a preset (or its name) they were set on, from which
+    they carry to this machine in proportion to the law's units (a tuned factor set of paper
+    000's law on another machine). What is not given takes the law's default for this
+    machine (:meth:`~contour_gym.ccc.CCCLaw.params_for`).
+
+    Raises:
+        ValueError: for an unknown law, or ``"machine"`` for a law without machine units.
+    """
+    values = dict(given or {})
+    set_on = values.pop("machine", None)
+    return CCC_LAWS.get(law).params_for(preset, values, set_on)
 
 
 def _programmed_feedrate(path: Path) -> float | None:
@@ -290,4 +312,6 @@ def run_scenario(
     return loop
 
 
-__all__ = ["Scenario", "make_scenario", "run_scenario", "run_trace", "simulate"]
+__all__ = [
+    "Scenario", "machine_law_params", "make_scenario", "run_scenario", "run_trace", "simulate",
+]

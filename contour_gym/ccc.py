@@ -27,7 +27,8 @@ built in; register others with :func:`register_ccc_law`.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import math
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from operator import attrgetter
 from typing import Any
@@ -99,6 +100,12 @@ class CCCLaw:
         doc: One line on the law and its source.
         inline: Whether the kernel inlines the law (fast, but compiled into the kernel) or
             calls it (compiled apart: for a large law whose work per tick dwarfs a call).
+        home: The preset the parameters' schema defaults were set on (None: defaults that
+            hold on every machine). Needs ``units``.
+        units: ``units(preset)`` -> each parameter's unit on that machine (beyond kp, ki,
+            kd; positive, finite), e.g. ``1 / tolerance`` for an error scaling: a value set
+            on one machine carries to another in proportion to it (:meth:`params_for`).
+            None: the parameters are absolute and carry unchanged.
     """
 
     name: str
@@ -109,6 +116,58 @@ class CCCLaw:
     data: Callable[[], np.ndarray] | None = field(default=None, repr=False)
     doc: str = ""
     inline: bool = True
+    home: str | None = None
+    units: Callable[[Any], Mapping[str, float]] | None = field(default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        if (self.home is None) != (self.units is None):
+            raise ValueError(f"CCC law {self.name!r}: give home and units together")
+
+    def params_for(
+        self, machine: Any, given: Mapping[str, float], set_on: Any = None
+    ) -> dict[str, float]:
+        """The parameters beyond kp, ki, kd the law runs with on ``machine`` (a preset).
+
+        The values ``given`` stand as they are, or, with ``set_on`` (the preset they were set
+        on, or its name), carry to ``machine`` in proportion to :attr:`units`. A parameter not
+        given takes its schema default carried from the preset :attr:`home`: the rule the
+        default was made by, applied to this machine. On the machine a value was set on it
+        is the value, bit for bit (the ratio of equal units is 1).
+
+        Raises:
+            ValueError: ``set_on`` for a law without units, or a unit that is not positive
+                and finite (naming the parameter and machine).
+        """
+        from contour_gym.presets import resolve_preset  # presets import this module
+
+        names = self.params.names[3:]
+        out = {k: float(v) for k, v in given.items()}
+        if self.units is None or self.home is None:
+            if set_on is not None:
+                raise ValueError(f"CCC law {self.name!r} has no machine units: its parameters "
+                                 "cannot carry from the machine they were set on")  # fmt: skip
+            return out
+        here = self._units(machine, names)
+        if set_on is not None:
+            there = self._units(resolve_preset(set_on), names)
+            out = {k: v * (here[k] / there[k]) if k in here else v for k, v in out.items()}
+        base = self._units(resolve_preset(self.home), names)
+        defaults = self.params.defaults()
+        for k in names:
+            default = defaults[k]
+            if k not in out and default is not None:  # None: a parameter with no default
+                out[k] = default * (here[k] / base[k])
+        return out
+
+    def _units(self, machine: Any, names: Sequence[str]) -> dict[str, float]:
+        assert self.units is not None
+        units = {k: float(self.units(machine)[k]) for k in names}
+        bad = {k: u for k, u in units.items() if not (0.0 < u < math.inf)}
+        if bad:
+            raise ValueError(f"CCC law {self.name!r}: units {bad} on machine "
+                             f"{getattr(machine, 'name', machine)!r} must be positive and "
+                             "finite")  # fmt: skip
+        return units
 
     def table(self) -> np.ndarray:
         """The law's constant data table (a one-element placeholder when it has none)."""

@@ -23,6 +23,8 @@ from contour_gym.loop import ServoLoop
 
 TICKS = 300
 PRESET = make_scenario("xy_dc_servo").preset
+FUZZY_PID_PARAMS = ccc_laws.FUZZY_PID_PARAMS
+FACTORS = FUZZY_PID_PARAMS.names[3:]
 KP0, KI0 = PRESET.ccc_gains.kp, PRESET.ccc_gains.ki
 BASE = (KP0, KI0, 2e-3 * KP0)  # a derivative too, so that every term is exercised
 # inputs spanning the surface on the circle's start (errors of a few um, encoder steps in
@@ -120,3 +122,53 @@ def test_the_kernel_cache_key_follows_the_fuzzy_module_the_law_calls() -> None:
     assert key.startswith("agents.ccc_laws.fuzzy_pid_output @ ")
     assert " + agents.fuzzy.kernels @ " in key
     assert " + " not in _compile.identity(CCC_LAWS.get("pid").output)
+
+
+def law_row(plant: str, **options: object) -> dict[str, float]:
+    """The fuzzy law's parameters a loop of ``plant`` runs with (no step: nothing compiles)."""
+    loop = make_scenario(plant, ccc_law="fuzzy_pid", **options).loop(batch_size=1)
+    return dict(zip(FUZZY_PID_PARAMS.names, loop.ccc_p[0, 0].tolist(), strict=True))
+
+
+def test_the_default_factors_follow_each_machine_by_000s_rule() -> None:
+    # 000's machine: the schema's defaults, bit for bit
+    on_000 = law_row("xy_dc_servo")
+    assert all(on_000[k] == FUZZY_PID_PARAMS.defaults()[k] for k in FACTORS)
+    # 002's (pre-compensation, kp0 1): 000's numbers moved Kp by up to 2300 and diverged
+    preset = make_scenario("lugre_linear_motor").preset
+    row, g = law_row("lugre_linear_motor"), preset.ccc_gains
+    assert row["k_pf"] == pytest.approx(g.kp / 8.0, rel=1e-12)
+    assert row["k_if"] == pytest.approx(g.ki / 16.0, rel=1e-12)
+    assert row["k_e"] == pytest.approx(3.0 / (8.0 * preset.tolerance), rel=1e-12)
+    assert row["k_de"] == pytest.approx(3.0 / (3.0 * 1e-7 / preset.stage.ts), rel=1e-12)
+    assert row["k_df"] == 0.0
+
+
+def test_given_factors_stand_or_carry_from_the_machine_they_were_set_on() -> None:
+    given = {"k_e": 2e5, "k_de": 500.0, "k_pf": 700.0, "k_if": 9000.0, "k_df": 3.0}
+    assert law_row("lugre_linear_motor", ccc_law_params=given) == pytest.approx(
+        {**law_row("lugre_linear_motor"), **given}, rel=0)  # fmt: skip
+    carried = {**given, "machine": "xy_dc_servo"}
+    assert {k: law_row("xy_dc_servo", ccc_law_params=carried)[k] for k in FACTORS} == given
+    target = make_scenario("lugre_linear_motor").preset
+    units, home = ccc_laws.fuzzy_pid_units(target), ccc_laws.fuzzy_pid_units(PRESET)
+    row = law_row("lugre_linear_motor", ccc_law_params=carried)
+    for k in FACTORS:
+        assert row[k] == pytest.approx(given[k] * units[k] / home[k], rel=1e-12)
+
+
+def test_the_tuned_policies_carry_their_factors_and_the_untuned_one_gives_none() -> None:
+    from agents.policies import make
+
+    assert make("fuzzy_pid_ccc").env_kwargs["ccc_law_params"] == {}
+    assert make("fuzzy_pid_ccc", k_pf=5.0).env_kwargs["ccc_law_params"] == {"k_pf": 5.0}
+    for name in ("pso_fuzzy_pid_ccc", "pso_fuzzy_pid_ccc_000"):
+        params = make(name).env_kwargs["ccc_law_params"]
+        assert params.pop("machine") == "xy_dc_servo" and set(params) == set(FACTORS)
+
+
+def test_a_machine_for_a_law_without_units_raises_naming_the_law() -> None:
+    with pytest.raises(ValueError, match="'pid' has no machine units"):
+        make_scenario("xy_dc_servo", ccc_law_params={"machine": "xy_dc_servo"}).loop()
+    with pytest.raises(ValueError, match="unknown plant preset 'nowhere'"):
+        law_row("xy_dc_servo", ccc_law_params={"machine": "nowhere"})
