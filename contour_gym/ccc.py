@@ -147,6 +147,8 @@ class CCCLaw:
                 raise ValueError(f"CCC law {self.name!r} has no machine units: its parameters "
                                  "cannot carry from the machine they were set on")  # fmt: skip
             return out
+        if set_on is None and all(k in out for k in names):
+            return out  # every value given for this machine: no unit needed
         here = self._units(machine, names)
         if set_on is not None:
             there = self._units(resolve_preset(set_on), names)

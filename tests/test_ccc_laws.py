@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -124,7 +125,7 @@ def test_the_kernel_cache_key_follows_the_fuzzy_module_the_law_calls() -> None:
     assert " + " not in _compile.identity(CCC_LAWS.get("pid").output)
 
 
-def law_row(plant: str, **options: object) -> dict[str, float]:
+def law_row(plant: str | dict[str, Any], **options: object) -> dict[str, float]:
     """The fuzzy law's parameters a loop of ``plant`` runs with (no step: nothing compiles)."""
     loop = make_scenario(plant, ccc_law="fuzzy_pid", **options).loop(batch_size=1)
     return dict(zip(FUZZY_PID_PARAMS.names, loop.ccc_p[0, 0].tolist(), strict=True))
@@ -165,6 +166,16 @@ def test_the_tuned_policies_carry_their_factors_and_the_untuned_one_gives_none()
     for name in ("pso_fuzzy_pid_ccc", "pso_fuzzy_pid_ccc_000"):
         params = make(name).env_kwargs["ccc_law_params"]
         assert params.pop("machine") == "xy_dc_servo" and set(params) == set(FACTORS)
+
+
+def test_a_machine_without_encoder_runs_given_factors_and_names_the_missing_unit() -> None:
+    bare = {"preset": "xy_dc_servo", "stage": {"axes": {"x": {"encoder_resolution": 0.0},
+                                                        "y": {"encoder_resolution": 0.0}}}}
+    given = {"k_e": 2e5, "k_de": 500.0, "k_pf": 700.0, "k_if": 9000.0, "k_df": 3.0}
+    row = law_row(bare, ccc_law_params=given)
+    assert {k: row[k] for k in FACTORS} == given
+    with pytest.raises(ValueError, match="has no encoder to scale k_de by"):
+        law_row(bare)
 
 
 def test_a_machine_for_a_law_without_units_raises_naming_the_law() -> None:
