@@ -125,12 +125,15 @@ gains ``kp0 = 3000`` A/m, ``ki0 = 10 kp0`` per s, ``kd0 = 0``, ts 1 ms) at impor
 Chosen by a sweep on 001's machine (``CCC-PMLSM-Helix-v0`` on ``smc_dob`` axes, rig and ideal):
 the gain comes from the derivative. The sweep, its figures and the comparison with a fixed
 PID CCC are in the documentation's "Measurements and design notes"; the resulting table in
-:class:`agents.ccc_policies.AdaptiveFuzzyPIDCCC`.
+:class:`agents.ccc_policies.AdaptiveFuzzyPIDCCC`. On another machine a parameter not given is
+made by the same rule from that machine's tolerance, encoder and PID CCC gains
+(:func:`adaptive_fuzzy_pid_units`; ``home="xyz_pmlsm"``), as ``fuzzy_pid``'s are.
 """
 
 from __future__ import annotations
 
 import functools
+import math
 
 import numba
 import numpy as np
@@ -424,6 +427,28 @@ def adaptive_fuzzy_pid_commit(p, s, data, q, row, e, ts, out, saturated):
     pid_commit(p, s, data, q, row, e, ts, out, saturated)
 
 
+def adaptive_fuzzy_pid_units(machine: Preset) -> dict[str, float]:
+    """The units the adaptive law's parameters scale with on a machine (module docstring).
+
+    Those of the defaults' rule: ``k_e``, ``k_de`` as :func:`fuzzy_pid_units`; the bounds in
+    kp0, ki0 and kp0 times one tick; each rate in its bound over the error reference (the
+    tolerance) times its regressor's reference (the tolerance, the integral reference
+    ``tol kp0 / ki0``, one encoder count per tick).
+
+    Raises:
+        ValueError: for a machine without an encoder on any axis.
+    """
+    units = fuzzy_pid_units(machine)
+    kp0, ki0, tol = machine.ccc_gains.kp, machine.ccc_gains.ki, machine.tolerance
+    kd_unit, de_ref = units["k_df"], 1.0 / units["k_de"]  # kp0 ts; one count per tick
+    # gamma_i: ki0 over tol times the integral reference tol kp0 / ki0 (inf without kp0)
+    gamma_i = ki0 * ki0 / (kp0 * tol * tol) if kp0 > 0.0 else math.inf * ki0
+    return {"k_e": units["k_e"], "k_de": units["k_de"],
+            "gamma_p": kp0 / (tol * tol), "gamma_i": gamma_i,
+            "gamma_d": kd_unit / (tol * de_ref),
+            "dkp_max": kp0, "dki_max": ki0, "dkd_max": kd_unit}  # fmt: skip
+
+
 ADAPTIVE_FUZZY_PID = register_ccc_law(
     CCCLaw(
         "adaptive_fuzzy_pid", ADAPTIVE_FUZZY_PID_PARAMS, ADAPTIVE_STATE,
@@ -431,5 +456,6 @@ ADAPTIVE_FUZZY_PID = register_ccc_law(
         doc="adaptive fuzzy PID on the contour error, gains K0 + theta^T xi(k_e e, k_de de), "
         "theta adapted by the error (paper 001)",
         inline=False,  # called, not inlined (as fuzzy_pid)
+        home=_MACHINE_001.name, units=adaptive_fuzzy_pid_units,
     )
 )  # fmt: skip

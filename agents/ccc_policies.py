@@ -60,16 +60,16 @@ _FACTORS = FUZZY_PID_PARAMS.names[3:]  # the law's parameters beyond kp, ki, kd
 
 
 def law_params(schema: Schema, given: tuple[float | None, ...]) -> dict[str, float]:
-    """A CCC law's parameters beyond kp, ki, kd: ``given`` in schema order, None = default.
+    """The CCC law parameters given beyond kp, ki, kd (``given`` in schema order).
+
+    None is not given: the env's machine makes it (:func:`contour_gym.api.machine_law_params`).
 
     Raises:
         ValueError: for a value the schema rejects (NaN, infinite, out of range), naming it.
     """
-    names, defaults = schema.names[3:], schema.defaults()
-    return {
-        name: schema.value(name, defaults[name] if value is None else value)
-        for name, value in zip(names, given, strict=True)
-    }
+    names = schema.names[3:]
+    return {name: schema.value(name, value)
+            for name, value in zip(names, given, strict=True) if value is not None}  # fmt: skip
 
 
 class HeldGains(ConstantPolicy):
@@ -153,9 +153,7 @@ class FuzzyPIDCCC(HeldGains):
         base_gains: ArrayLike | None = None,
     ) -> None:
         super().__init__(base_gains)
-        given = dict(zip(_FACTORS, (k_e, k_de, k_pf, k_if, k_df), strict=True))
-        self.factors = {k: FUZZY_PID_PARAMS.value(k, v) for k, v in given.items()
-                        if v is not None}  # fmt: skip
+        self.factors = law_params(FUZZY_PID_PARAMS, (k_e, k_de, k_pf, k_if, k_df))
 
     @property
     def env_kwargs(self) -> dict[str, Any]:

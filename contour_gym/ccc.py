@@ -103,8 +103,9 @@ class CCCLaw:
         home: The preset the parameters' schema defaults were set on (None: defaults that
             hold on every machine). Needs ``units``.
         units: ``units(preset)`` -> each parameter's unit on that machine (beyond kp, ki,
-            kd; positive, finite), e.g. ``1 / tolerance`` for an error scaling: a value set
-            on one machine carries to another in proportion to it (:meth:`params_for`).
+            kd; finite, >= 0, and > 0 on a machine values carry from), e.g.
+            ``1 / tolerance`` for an error scaling: a value set on one machine carries to
+            another in proportion to it (:meth:`params_for`).
             None: the parameters are absolute and carry unchanged.
     """
 
@@ -149,7 +150,7 @@ class CCCLaw:
             return out
         if set_on is None and all(k in out for k in names):
             return out  # every value given for this machine: no unit needed
-        here = self._units(machine, names)
+        here = self._units(machine, names, zero=True)
         if set_on is not None:
             there = self._units(resolve_preset(set_on), names)
             out = {k: v * (here[k] / there[k]) if k in here else v for k, v in out.items()}
@@ -161,14 +162,15 @@ class CCCLaw:
                 out[k] = default * (here[k] / base[k])
         return out
 
-    def _units(self, machine: Any, names: Sequence[str]) -> dict[str, float]:
+    def _units(self, machine: Any, names: Sequence[str], zero: bool = False) -> dict[str, float]:
+        """The units on ``machine``: positive and finite (``zero``: or 0, a value made 0)."""
         assert self.units is not None
         units = {k: float(self.units(machine)[k]) for k in names}
-        bad = {k: u for k, u in units.items() if not (0.0 < u < math.inf)}
+        bad = {k: u for k, u in units.items() if not ((zero and u == 0.0) or 0.0 < u < math.inf)}
         if bad:
             raise ValueError(f"CCC law {self.name!r}: units {bad} on machine "
-                             f"{getattr(machine, 'name', machine)!r} must be positive and "
-                             "finite")  # fmt: skip
+                             f"{getattr(machine, 'name', machine)!r} must be "
+                             f"{'>= 0' if zero else 'positive'} and finite")  # fmt: skip
         return units
 
     def table(self) -> np.ndarray:

@@ -212,10 +212,8 @@ def lissajous(t: np.ndarray) -> np.ndarray:
 def test_the_policy_is_registered_with_its_parameters() -> None:
     entry = POLICIES.get("adaptive_fuzzy_pid_ccc")
     assert entry.params() == (*NAMES[3:], "axes", "base_gains")
-    defaults = L.ADAPTIVE_FUZZY_PID_PARAMS.defaults()
-    assert make_policy("adaptive_fuzzy_pid_ccc").env_kwargs == {
-        "axis_controller": "smc_dob", "ccc_law": "adaptive_fuzzy_pid",
-        "ccc_law_params": {k: defaults[k] for k in NAMES[3:]}}  # fmt: skip
+    assert make_policy("adaptive_fuzzy_pid_ccc").env_kwargs == {  # the machine makes them
+        "axis_controller": "smc_dob", "ccc_law": "adaptive_fuzzy_pid", "ccc_law_params": {}}
     pid_axes = make_policy("adaptive_fuzzy_pid_ccc", axes="pid", gamma_d=0.0)
     assert pid_axes.env_kwargs["axis_controller"] == "pid"
     assert pid_axes.env_kwargs["ccc_law_params"]["gamma_d"] == 0.0
@@ -251,3 +249,26 @@ def test_zero_rates_are_the_pid_ccc_and_the_defaults_lower_its_mean_error() -> N
     adaptive = run_policy(HELIX, make_policy("adaptive_fuzzy_pid_ccc"), seed=3)
     assert adaptive["finished"]
     assert adaptive["mean_contour_error"] < pid["mean_contour_error"]
+
+
+def adaptive_row(plant: str) -> dict[str, float]:
+    """The law's parameters a loop of ``plant`` runs with, by default (no step, no compile)."""
+    loop = make_scenario(plant, ccc_law="adaptive_fuzzy_pid").loop(batch_size=1)
+    return dict(zip(NAMES, loop.ccc_p[0, 0].tolist(), strict=True))
+
+
+def test_the_defaults_follow_each_machine_by_001s_rule() -> None:
+    on_001 = adaptive_row("xyz_pmlsm")
+    defaults = L.ADAPTIVE_FUZZY_PID_PARAMS.defaults()
+    assert all(on_001[k] == defaults[k] for k in NAMES[3:])  # bit for bit
+    for plant in ("lugre_linear_motor", "xyy_gantry"):  # dimensionless gains; ki0 = 0
+        m = make_scenario(plant).preset
+        kp0, ki0, tol, ts = m.ccc_gains.kp, m.ccc_gains.ki, m.tolerance, m.stage.ts
+        count = min(a.encoder_resolution for a in m.stage.axes)
+        row = adaptive_row(plant)
+        want = {"k_e": 3.0 / (32.0 * tol), "k_de": ts / count, "dkp_max": kp0 / 4.0,
+                "dki_max": ki0 / 2.0, "dkd_max": 6.0 * kp0 * ts,
+                "gamma_p": kp0 / 4.0 / (10.0 * tol * tol),
+                "gamma_i": ki0 / 2.0 / (tol * tol * kp0 / ki0) if ki0 else 0.0,
+                "gamma_d": 6.0 * kp0 * ts / (0.03 * tol * count / ts)}  # fmt: skip
+        assert {k: row[k] for k in want} == pytest.approx(want, rel=1e-12), plant
