@@ -102,7 +102,9 @@ class LoopOptions:
         estimator: Name in :data:`contour_gym.contour.ESTIMATORS`.
         estimator_options: Its options.
         ccc_law: Name in :data:`contour_gym.ccc.CCC_LAWS`.
-        ccc_law_params: The law's parameters beyond kp, ki, kd.
+        ccc_law_params: The law's parameters beyond kp, ki, kd; those not given take the
+            law's schema defaults here (:meth:`contour_gym.api.Scenario.loop` gives its
+            machine's: :func:`contour_gym.api.machine_law_params`).
         ccc_injection: ``"control"`` or ``"reference"`` (:mod:`contour_gym.ccc`).
         ideal: Drop the rig's encoder, noise and computation delay.
         path_control: ``"none"``, ``"G61"``, ``"G61.1"``, ``"G64"`` or None (the path's own).
