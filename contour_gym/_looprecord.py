@@ -46,7 +46,13 @@ class Trace:
         """Rows ``[start, start + ticks)`` (to the end if None) as a trace of their own.
 
         Copied, so that it does not keep the whole record alive; its time starts at 0.
+
+        Raises:
+            ValueError: for a negative ``start`` or ``ticks`` (rows no longer kept, or none).
         """
+        if start < 0 or (ticks is not None and ticks < 0):
+            raise ValueError(f"a trace window needs start >= 0 and ticks >= 0, got start "
+                             f"{start!r}, ticks {ticks!r}")  # fmt: skip
         rows = slice(start, None if ticks is None else start + ticks)
         n = len(self.t[rows])
         return Trace(t=self.t[:n].copy(),

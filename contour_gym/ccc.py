@@ -136,8 +136,9 @@ class CCCLaw:
         is the value, bit for bit (the ratio of equal units is 1).
 
         Raises:
-            ValueError: ``set_on`` for a law without units, or a unit that is not positive
-                and finite (naming the parameter and machine).
+            ValueError: ``set_on`` for a law without units, or a unit that is not finite and
+                >= 0 on ``machine`` or > 0 on ``home`` or ``set_on`` (naming the parameter and
+                machine).
         """
         from contour_gym.presets import resolve_preset  # presets import this module
 

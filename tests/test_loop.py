@@ -213,3 +213,14 @@ def test_plant_scaling_changes_only_the_scaled_member():
     assert not np.allclose(loop.ax_s[1], ref.ax_s[0])
     with pytest.raises(ValueError, match="mass"):
         loop.set_plant_scaling([0], mass=-1.0)
+
+
+def test_a_trace_window_before_the_rows_kept_raises() -> None:
+    from contour_gym._looprecord import Trace
+
+    empty = np.zeros((1, 4, 1))
+    trace = Trace(np.arange(4.0), *(empty for _ in range(len(dataclasses.fields(Trace)) - 1)))
+    assert trace.window(1, 2).t.tolist() == [0.0, 1.0]
+    for start, ticks in ((-1, 2), (0, -1)):
+        with pytest.raises(ValueError, match="start >= 0 and ticks >= 0"):
+            trace.window(start, ticks)

@@ -229,6 +229,20 @@ def test_the_general_factors_are_protocol_000_generals_and_the_policy_uses_them(
     assert f == pytest.approx(data["fitness"], rel=1e-12)
 
 
+def test_the_tuned_policies_carry_their_factors_from_the_machine_they_were_tuned_on() -> None:
+    import gymnasium as gym
+
+    from agents.ccc_policies import PSOFuzzyPIDCCC, PSOFuzzyPIDCCC000
+
+    for protocol, policy in (("000", PSOFuzzyPIDCCC000), ("000_general", PSOFuzzyPIDCCC)):
+        p = get_protocol(protocol)
+        plants = set()
+        for name in p.scenarios:
+            given = dict(p.scenario_kwargs.get(name) or {})
+            plants.add(given.get("plant", gym.spec(given.get("id", name)).kwargs.get("plant")))
+        assert plants == {policy.tuned_on}, protocol
+
+
 def test_a_protocol_started_at_the_reference_never_returns_worse(tmp_path, capsys) -> None:
     general = get_protocol("000_general")
     two = general.scenarios[:2]
