@@ -341,26 +341,72 @@ def _backward_pass(vj: Array, vcap: Array, lengths: Array, accel: float) -> None
 # ------------------------------------------------------------------------------ kernel
 
 
+# The share of the jerk limit a braking curve is planned with. The follower (``_advance``)
+# reaches the curve's deceleration only by J per tick, so it needs slack: planned at J / 2 it
+# stops within J everywhere (tests/test_motion.py); at 0.7 J or J it reached the end at
+# 1.5-13 mm/s and stepped to rest (measured on lines and random polylines).
+JERK_PLAN = 0.5
+
+
 @numba.njit(cache=True, inline="always")
-def brake_speed(room, v, v_end, a_max, j_max, ts):
+def brake_speed(room, v, a, v_end, a_max, j_max, ts):
     """Highest speed for the coming tick from which the reference can still slow to ``v_end``.
 
     Picks ``v_new`` so that after this tick's travel ``(v + v_new) ts / 2`` the remaining
-    ``room`` still holds the braking distance
-    ``(v_new^2 - v_end^2) / (2A) + (v_new - v_end) (A / J + ts / 2)``. ``A/J`` is twice the
-    trapezoidal-acceleration profile's ramp term ``A/(2J)``: with that margin the jerk-limited
-    profile joins the braking curve from below and never needs more than ``J``; the price is a
-    final approach that decays with time constant ``A/J``. Without a jerk limit the term
-    vanishes and the stop is the exact discrete constant-deceleration ramp.
+    ``room`` still holds the braking distance. Without a jerk limit it is the exact discrete
+    constant-deceleration ramp, ``(v_new^2 - v_end^2) / (2A) + (v_new - v_end) ts / 2``. With
+    one it is the jerk-limited stop from and to zero acceleration (:func:`jerk_brake_speed`),
+    planned at ``JERK_PLAN`` of ``J``: an S-curve that arrives at ``v_end`` in finite time. A
+    reference still speeding up (``a > 0``) first needs ``a / J`` to end its acceleration, and
+    covers ``v a / J + a^3 / (3 J^2)`` meanwhile: the stop is planned from there.
     """
     if math.isinf(a_max):
         return math.inf
     rest = room - 0.5 * v * ts
+    if not math.isinf(j_max) and a > 0.0:
+        rest -= v * a / j_max + a * a * a / (3.0 * j_max * j_max)
     if rest <= 0.0:
         return v_end
-    c = 0.5 * ts + (0.0 if math.isinf(j_max) else 2.0 * a_max / j_max)
+    if not math.isinf(j_max):
+        return jerk_brake_speed(rest, v_end, a_max, JERK_PLAN * j_max)
+    c = 0.5 * ts
     rhs = rest + v_end * v_end / (2.0 * a_max) + c * v_end
     return -a_max * c + math.sqrt((a_max * c) ** 2 + 2.0 * a_max * rhs)
+
+
+@numba.njit(cache=True, inline="always")
+def jerk_brake_speed(rest, v_end, a_max, j_max):
+    """Speed ``v`` whose jerk-limited stop to ``v_end`` covers exactly ``rest``.
+
+    From and to zero acceleration at jerk ``J`` and deceleration at most ``A``, slowing by
+    ``dv = v - v_end`` takes ``T = 2 sqrt(dv / J)`` while ``dv <= A^2 / J`` (the deceleration
+    a triangle), else ``T = dv / A + A / J`` (a trapezoid); the profile is point-symmetric, so
+    the distance is ``(v + v_end) T / 2``. The triangle in ``y = sqrt(dv / J)`` is the cubic
+    ``J y^3 + 2 v_end y = rest``, solved by Cardano's formula (one real root); the trapezoid
+    is the quadratic ``v^2 + k v - (v_end^2 - k v_end + 2 A rest) = 0``, ``k = A^2 / J``.
+    """
+    k = a_max * a_max / j_max
+    p = 2.0 * v_end / j_max
+    q = rest / j_max
+    root = math.sqrt(0.25 * q * q + p * p * p / 27.0)
+    u = (0.5 * q + root) ** (1.0 / 3.0)
+    y = u - p / (3.0 * u)
+    dv = j_max * y * y
+    if dv <= k:
+        return v_end + dv
+    return 0.5 * (-k + math.sqrt(k * k + 4.0 * (v_end * v_end - k * v_end + 2.0 * a_max * rest)))
+
+
+@numba.njit(cache=True, inline="always")
+def brake_reach(v, a_max, j_max, ts):
+    """Room beyond which no limit needs braking yet at speed ``v``: twice the stop's distance.
+
+    A stop at ``A`` takes ``v^2 / (2A)``; with a jerk limit at most ``v A / J_plan`` more.
+    """
+    reach = v * v / a_max + 2.0 * v * ts + 1e-6
+    if not math.isinf(j_max):
+        reach += v * a_max / (JERK_PLAN * j_max)
+    return reach
 
 
 @numba.njit(cache=True, inline="always")
@@ -398,8 +444,8 @@ def _curve(p, st, b, s0, plan, ts, a_max):
         v_end = prog_vj[j]
         if j + 1 < n:
             v_end = min(v_end, _cap(p, b, prog_feed, prog_flags, prog_vcap, j + 1))
-        curve = min(curve, brake_speed(room, v, v_end, a_max, j_max, ts))
-        if math.isinf(a_max) or room > v * v / a_max + 2.0 * v * ts + 1e-6:
+        curve = min(curve, brake_speed(room, v, st[b, IS.a], v_end, a_max, j_max, ts))
+        if math.isinf(a_max) or room > brake_reach(v, a_max, j_max, ts):
             break
     return curve
 

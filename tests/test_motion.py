@@ -5,15 +5,16 @@ import pytest
 
 from contour_gym import motion
 from contour_gym.motion import IP, IS, Interpolator, build_program, interp_tick
-from contour_gym.paths import line
+from contour_gym.paths import line, polyline
 
 NO_LAW = (np.zeros(1), np.zeros(1))
 
 
-def profile(length, interp, ts=1e-3, n=None, changes=None, path=None, in_position=True):
+def profile(length, interp, ts=1e-3, n=None, changes=None, path=None, in_position=True,
+            path_control=None):
     """Run the interpolator kernel; returns arrays s, v, a per tick and the done tick."""
     path = path or line((0.0, 0.0), (length, 0.0))
-    prog = build_program(path, interp, ts).arrays()
+    prog = build_program(path, interp, ts, path_control=path_control).arrays()
     p = interp.params(1)
     st = motion.initial_state(1)
     n = n or int(10 * path.length / interp.feedrate / ts) + 1000
@@ -67,6 +68,49 @@ def test_jerk_limit_is_respected():
     s, v, a, done = profile(L, Interpolator(0.04, accel=A, jerk=J), ts)
     assert np.max(np.abs(np.diff(np.concatenate([[0.0], a])))) <= J * ts * (1 + 1e-9)
     assert s[-1] == L and done >= 0
+
+
+def _s_curve_time(length, feed, accel, jerk):
+    # rest to rest at the feed: each ramp from and to zero acceleration takes T, half of it
+    # lost against cruising at the feed (T = 2 sqrt(F / J) or F / A + A / J)
+    ramp = 2 * math.sqrt(feed / jerk) if feed <= accel**2 / jerk else feed / accel + accel / jerk
+    return length / feed + ramp
+
+
+@pytest.mark.parametrize(("feed", "jerk"), [(0.04, 20.0), (0.0233, 10.0), (0.2, 10.0)])
+def test_a_jerk_limited_stop_takes_the_s_curves_time(feed, jerk):
+    # the stop joins an S-curve and arrives: before, it crept up to the end point for 1-2 s
+    # (a braking curve ~ room / 0.1 s near the end)
+    L, A, ts = 0.1, 0.5, 1e-3
+    s, v, a, done = profile(L, Interpolator(feed, accel=A, jerk=jerk), ts)
+    ideal = _s_curve_time(L, feed, A, jerk)
+    assert ideal - 2 * ts <= done * ts <= 1.12 * ideal
+    assert s[-1] == L and v[-1] == 0.0
+    assert np.max(np.abs(np.diff(np.concatenate([[0.0], a])))) <= jerk * ts * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_jerk_limited_moves_keep_jerk_and_junction_speeds(seed):
+    # polylines under exact stops and blending, with a time constant or an override change
+    # mid-move: every tick within J, every junction met (within one tick's jerk, J ts^2),
+    # the end reached; a reference still speeding up plans its stop from where its
+    # acceleration can end (a 2 mm move at 0.2 m/s never reaches its feed)
+    rng = np.random.default_rng(seed)
+    ts = 1e-3
+    pts = np.cumsum(rng.uniform(-0.02, 0.02, size=(5, 2)), axis=0)
+    pts[-1] = pts[-2] + [0.002, 0.0]
+    path = polyline(pts)
+    interp = Interpolator(float(rng.uniform(0.02, 0.2)), accel=float(rng.choice([0.5, 2.0])),
+                          jerk=float(rng.choice([5.0, 20.0, 100.0])),
+                          time_constant=float(rng.choice([0.0, 0.1])))  # fmt: skip
+    mode = ("G61", "G64")[seed % 2]
+    s, v, a, done = profile(path.length, interp, ts, path=path, path_control=mode,
+                            changes={300: interp.feedrate * rng.uniform(0.5, 1.5)})  # fmt: skip
+    assert done >= 0 and s[-1] == path.length and v[-1] == 0.0
+    assert np.max(np.abs(np.diff(np.concatenate([[0.0], a])))) <= interp.jerk * ts * (1 + 1e-9)
+    vj = build_program(path, interp, ts, path_control=mode).vj
+    at = np.searchsorted(s, path.table.s0[1:-1] - 1e-12)
+    assert np.all(v[at] <= vj[:-1] + interp.jerk * ts**2)
 
 
 def test_feedrate_change_follows_accel_limit():
