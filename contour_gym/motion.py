@@ -374,7 +374,7 @@ def brake_speed(room, v, a, v_end, a_max, j_max, ts):
     return -a_max * c + math.sqrt((a_max * c) ** 2 + 2.0 * a_max * rhs)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def jerk_brake_speed(rest, v_end, a_max, j_max):
     """Speed ``v`` whose jerk-limited stop to ``v_end`` covers exactly ``rest``.
 
@@ -384,6 +384,7 @@ def jerk_brake_speed(rest, v_end, a_max, j_max):
     the distance is ``(v + v_end) T / 2``. The triangle in ``y = sqrt(dv / J)`` is the cubic
     ``J y^3 + 2 v_end y = rest``, solved by Cardano's formula (one real root); the trapezoid
     is the quadratic ``v^2 + k v - (v_end^2 - k v_end + 2 A rest) = 0``, ``k = A^2 / J``.
+    Not inlined: compiled once, not into every kernel (no preset sets a jerk limit).
     """
     k = a_max * a_max / j_max
     p = 2.0 * v_end / j_max
