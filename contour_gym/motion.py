@@ -356,22 +356,34 @@ def brake_speed(room, v, a, v_end, a_max, j_max, ts):
     ``room`` still holds the braking distance. Without a jerk limit it is the exact discrete
     constant-deceleration ramp, ``(v_new^2 - v_end^2) / (2A) + (v_new - v_end) ts / 2``. With
     one it is the jerk-limited stop from and to zero acceleration (:func:`jerk_brake_speed`),
-    planned at ``JERK_PLAN`` of ``J``: an S-curve that arrives at ``v_end`` in finite time. A
-    reference still speeding up (``a > 0``) first needs ``a / J`` to end its acceleration, and
-    covers ``v a / J + a^3 / (3 J^2)`` meanwhile: the stop is planned from there.
+    planned at ``JERK_PLAN`` of ``J``: an S-curve that arrives at ``v_end`` in finite time,
+    planned from where a reference still speeding up has ended its acceleration
+    (:func:`ramp_out`).
     """
     if math.isinf(a_max):
         return math.inf
     rest = room - 0.5 * v * ts
-    if not math.isinf(j_max) and a > 0.0:
-        rest -= v * a / j_max + a * a * a / (3.0 * j_max * j_max)
+    if math.isinf(j_max):
+        if rest <= 0.0:
+            return v_end
+        c = 0.5 * ts
+        rhs = rest + v_end * v_end / (2.0 * a_max) + c * v_end
+        return -a_max * c + math.sqrt((a_max * c) ** 2 + 2.0 * a_max * rhs)
+    rest -= ramp_out(v, a, j_max)
     if rest <= 0.0:
         return v_end
-    if not math.isinf(j_max):
-        return jerk_brake_speed(rest, v_end, a_max, JERK_PLAN * j_max)
-    c = 0.5 * ts
-    rhs = rest + v_end * v_end / (2.0 * a_max) + c * v_end
-    return -a_max * c + math.sqrt((a_max * c) ** 2 + 2.0 * a_max * rhs)
+    return jerk_brake_speed(rest, v_end, a_max, JERK_PLAN * j_max)
+
+
+@numba.njit(cache=True, inline="always")
+def ramp_out(v, a, j_max):
+    """Distance a reference at speed ``v`` still speeding up (``a > 0``) covers ending it.
+
+    Its acceleration falls at ``J`` for ``a / J``: ``v a / J + a^3 / (3 J^2)``; 0 for ``a <= 0``.
+    """
+    if a <= 0.0:
+        return 0.0
+    return v * a / j_max + a * a * a / (3.0 * j_max * j_max)
 
 
 @numba.njit(cache=True)
