@@ -94,8 +94,8 @@ def test_jerk_limited_moves_keep_jerk_and_junction_speeds(seed):
     # polylines under exact stops and blending, with a time constant or an override change
     # mid-move: every tick within J, every junction met (within one tick's jerk, J ts^2),
     # the end reached; a reference still speeding up plans its stop from where its
-    # acceleration can end (the last move, 2 mm, is short of its feed at most feeds; seeds 1-3
-    # fail without it, as does the stop at 0.2 m/s)
+    # acceleration can end (the last move, 2 mm, is short of its feed at most feeds; seeds 0-3
+    # all fail without it, measured)
     rng = np.random.default_rng(seed)
     ts = 1e-3
     pts = np.cumsum(rng.uniform(-0.02, 0.02, size=(5, 2)), axis=0)
