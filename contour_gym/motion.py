@@ -411,14 +411,15 @@ def jerk_brake_speed(rest, v_end, a_max, j_max):
 
 
 @numba.njit(cache=True, inline="always")
-def brake_reach(v, a_max, j_max, ts):
+def brake_reach(v, a, a_max, j_max, ts):
     """Room beyond which no limit needs braking yet at speed ``v``: twice the stop's distance.
 
-    A stop at ``A`` takes ``v^2 / (2A)``; with a jerk limit at most ``v A / J_plan`` more.
+    A stop at ``A`` takes ``v^2 / (2A)``; with a jerk limit at most ``v A / (2 J_plan)`` more
+    (doubled too), after :func:`ramp_out` for a reference still speeding up.
     """
     reach = v * v / a_max + 2.0 * v * ts + 1e-6
     if not math.isinf(j_max):
-        reach += v * a_max / (JERK_PLAN * j_max)
+        reach += v * a_max / (JERK_PLAN * j_max) + ramp_out(v, a, j_max)
     return reach
 
 
@@ -449,7 +450,7 @@ def _curve(p, st, b, s0, plan, ts, a_max):
     # F / T, less at a low feed or override, over more junctions than any fixed window holds)
     prog_feed, prog_flags, prog_vcap, prog_vj = plan
     n = prog_feed.shape[0]
-    s, v = st[b, IS.s], st[b, IS.v]
+    s, v, a = st[b, IS.s], st[b, IS.v], st[b, IS.a]
     j_max = p[b, IP.j_max]
     curve = math.inf
     for j in range(int(st[b, IS.seg]), n):
@@ -457,8 +458,8 @@ def _curve(p, st, b, s0, plan, ts, a_max):
         v_end = prog_vj[j]
         if j + 1 < n:
             v_end = min(v_end, _cap(p, b, prog_feed, prog_flags, prog_vcap, j + 1))
-        curve = min(curve, brake_speed(room, v, st[b, IS.a], v_end, a_max, j_max, ts))
-        if math.isinf(a_max) or room > brake_reach(v, a_max, j_max, ts):
+        curve = min(curve, brake_speed(room, v, a, v_end, a_max, j_max, ts))
+        if math.isinf(a_max) or room > brake_reach(v, a, a_max, j_max, ts):
             break
     return curve
 
