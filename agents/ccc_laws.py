@@ -148,7 +148,7 @@ from agents.fuzzy import (
     surface_eval_flat,
     surface_table,
 )
-from contour_gym.ccc import PID_PARAMS, CCCLaw, pid_commit, register_ccc_law
+from contour_gym.ccc import PID_PARAMS, CCCLaw, pid_commit, register_ccc_law, release_integral
 from contour_gym.params import Param, Schema, non_negative, state_schema
 from contour_gym.presets import Preset, get_preset
 from contour_gym.servo.pid import STATE as PID_STATE
@@ -255,7 +255,7 @@ FUZZY_PID = register_ccc_law(
         data=fuzzy_pid_table,
         doc="fuzzy PID on the contour error, gains K0 + k_f dK(k_e e, k_de de) (paper 000)",
         inline=False,  # called: the kernel compiles faster, protocol 000 runs as fast
-        home=_MACHINE_000.name, units=fuzzy_pid_units,
+        home=_MACHINE_000.name, units=fuzzy_pid_units, release=release_integral,
     )
 )  # fmt: skip
 
@@ -456,6 +456,6 @@ ADAPTIVE_FUZZY_PID = register_ccc_law(
         doc="adaptive fuzzy PID on the contour error, gains K0 + theta^T xi(k_e e, k_de de), "
         "theta adapted by the error (paper 001)",
         inline=False,  # called, not inlined (as fuzzy_pid)
-        home=_MACHINE_001.name, units=adaptive_fuzzy_pid_units,
+        home=_MACHINE_001.name, units=adaptive_fuzzy_pid_units, release=release_integral,
     )
 )  # fmt: skip

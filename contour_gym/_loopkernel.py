@@ -56,6 +56,7 @@ from contour_gym._loopstate import (
 from contour_gym._slots import (
     CCC_COMMIT,
     CCC_OUTPUT,
+    CCC_RELEASE,
     COMP_COMMIT,
     COMP_OUTPUT,
     CTRL_COMMIT,
@@ -173,9 +174,10 @@ def _estimate(loop, path, cfg, q, c, s, eps, g0, g1, g2):
 
 
 @numba.njit(cache=True, inline="always")
-def _ccc(loop, cfg, q, c, dim, eps, g0, g1, g2):
+def _ccc(loop, cfg, q, c, dim, eps, g0, g1, g2, waiting):
     # Contour row q = b * C + c; its state rows are 3 q + i. 2-D: the law on the signed eps,
     # distributed by C (state row 3 q). 3-D: the law on each signed component C_i eps.
+    # waiting: the reference waits for the axes (the law releases: contour_gym.ccc)
     row = WORK_ROW.r if cfg.inj_ref else WORK_ROW.uccc
     axes, w, work = loop.c_axes, loop.ccc_w, loop.work
     for i in range(1 if dim == 2 else 3):
@@ -189,6 +191,8 @@ def _ccc(loop, cfg, q, c, dim, eps, g0, g1, g2):
             work[row, axes[c, i]] += w[q, i] * out
         CCC_COMMIT(cfg.ccc, loop.ccc_p, loop.ccc_s, loop.ccc_data, q, 3 * q + i, e_i, cfg.ts, out,
                    False)  # fmt: skip
+        if waiting:
+            CCC_RELEASE(cfg.ccc, loop.ccc_p, loop.ccc_s, loop.ccc_data, q, 3 * q + i, cfg.ts)
 
 
 @numba.njit(cache=True, inline="always")
@@ -196,12 +200,13 @@ def _contours(loop, path, cfg, b, s, n_axes):
     n_c = loop.c_axes.shape[0]
     for a in range(n_axes):
         loop.work[WORK_ROW.uccc, a] = 0.0
+    waiting = loop.ip_s[b, IS.done] >= 0.0 or loop.ip_s[b, IS.wait] > 0.0
     for c in range(n_c):
         q = b * n_c + c
         dim, p0, p1, p2 = _coords(loop, c, WORK_ROW.x)
         eps, g0, g1, g2 = _track_foot(loop, path, cfg, q, p0, p1, p2)
         eh, h0, h1, h2 = _estimate(loop, path, cfg, q, c, s, eps, g0, g1, g2)
-        _ccc(loop, cfg, q, c, dim, eh, h0, h1, h2)
+        _ccc(loop, cfg, q, c, dim, eh, h0, h1, h2, waiting)
         loop.last[q, LS.true], loop.last[q, LS.est] = eps, eh
     history_push(loop.hist[b], s)
 

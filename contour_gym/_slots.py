@@ -26,6 +26,7 @@ DISPATCHED: dict[str, tuple[str, bool]] = {
     "COMP_COMMIT": ("p, s, i, r_dot, y, ts", False),
     "CCC_OUTPUT": ("p, s, data, q, row, e, ts", True),
     "CCC_COMMIT": ("p, s, data, q, row, e, ts, out, saturated", False),
+    "CCC_RELEASE": ("p, s, data, q, row, ts", False),
     "REWARD": ("comp, w", True),
     "TASK_APPLY": ("loop, env, ec, b", False),
     "TASK_OBSERVE": ("loop, path, env, ec, b, col", True),
@@ -86,6 +87,11 @@ def CCC_OUTPUT(code, p, s, data, q, row, e, ts):
 @numba.njit(cache=True, inline="always")
 def CCC_COMMIT(code, p, s, data, q, row, e, ts, out, saturated):
     """CCC law: state update."""
+
+
+@numba.njit(cache=True, inline="always")
+def CCC_RELEASE(code, p, s, data, q, row, ts):
+    """CCC law: state update while the reference waits for the axes (after the commit)."""
 
 
 @numba.njit(cache=True)

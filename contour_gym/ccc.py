@@ -23,6 +23,15 @@ The law is a registered component (:data:`CCC_LAWS`): ``output(p, s, data, q, ro
 returns U for parameter row ``q`` (``b * C + c``) on error ``e`` with state row ``row``;
 ``commit(p, s, data, q, row, e, ts, out, saturated)`` updates the state. ``pid`` (PID on eps) is
 built in; register others with :func:`register_ccc_law`.
+
+**Release at a stop.** While the reference stands at an exact stop or at the path's end waiting
+for the axes to be in position, the kernel calls ``release(p, s, data, q, row, ts)`` after each
+commit. The built-in laws bleed their integral off with the time constant
+:data:`RELEASE_TIME` (a CNC hands the axes over to their own loops for the in-position check):
+held, an integral that built up along the path keeps the axes off the point they must reach,
+and the axes never come in position (measured: every CCC failed to finish 002's machine's
+``part_2d`` with the nearest-point estimator; with the release each finishes). A law that
+keeps the default (:func:`keep_state`) runs as before.
 """
 
 from __future__ import annotations
@@ -84,6 +93,24 @@ class CCCGains:
 
 OFF = CCCGains(0.0, 0.0, 0.0)
 
+RELEASE_TIME = 0.05
+"""Time constant, s, of the integral's release while the reference waits for the axes.
+
+Chosen, not published: the papers do not say what their CCC does at a stop. 50 ms is a few of
+the axes' time constants on every preset, so the axes settle within the in-position wait.
+"""
+
+
+@numba.njit(cache=True, inline="always")
+def keep_state(p, s, data, q, row, ts):
+    """A law's release that changes nothing (the default: the state stays as committed)."""
+
+
+@numba.njit(cache=True, inline="always")
+def release_integral(p, s, data, q, row, ts):
+    """Bleed the integral (the PID state's, :data:`PID_STATE`) off with :data:`RELEASE_TIME`."""
+    s[row, _S.integral] *= math.exp(-ts / RELEASE_TIME)
+
 
 @dataclass(frozen=True)
 class CCCLaw:
@@ -96,6 +123,8 @@ class CCCLaw:
         state: State schema per error row.
         output: Compiled output (module docstring).
         commit: Compiled state update.
+        release: Compiled update while the reference waits for the axes (module docstring;
+            default :func:`keep_state`).
         data: ``data()`` -> constant (n,) float table the law reads (fuzzy surfaces), or None.
         doc: One line on the law and its source.
         inline: Whether the kernel inlines the law (fast, but compiled into the kernel) or
@@ -119,6 +148,7 @@ class CCCLaw:
     inline: bool = True
     home: str | None = None
     units: Callable[[Any], Mapping[str, float]] | None = field(default=None, repr=False)
+    release: Any = field(default=keep_state, repr=False)
 
     def __post_init__(self) -> None:
         if (self.home is None) != (self.units is None):
@@ -187,7 +217,11 @@ CCC_LAWS: Registry[CCCLaw] = Registry("ccc_law")
 # the kernels' slots of a CCC law (contour_gym._slots)
 CCC_FAMILY = Family(
     "ccc law",
-    {"CCC_OUTPUT": attrgetter("output"), "CCC_COMMIT": attrgetter("commit")},
+    {
+        "CCC_OUTPUT": attrgetter("output"),
+        "CCC_COMMIT": attrgetter("commit"),
+        "CCC_RELEASE": attrgetter("release"),
+    },
     CCC_LAWS.components,
     attrgetter("inline"),
 )
@@ -229,7 +263,7 @@ def pid_commit(p, s, data, q, row, e, ts, out, saturated):
 
 PID = register_ccc_law(
     CCCLaw("pid", PID_PARAMS, PID_STATE, pid_output, pid_commit,
-           doc="PID on the contour error (Koren 1980)")
+           doc="PID on the contour error (Koren 1980)", release=release_integral)
 )
 
 

@@ -288,3 +288,18 @@ def test_the_seen_groups_are_the_paths_the_shipped_agents_trained_on():
             members = load_config(entry["algo"], entry["env_id"]).n_envs
             assert set(sc.seeds) <= set(range(first, first + members)), (sc.name, label)
             assert sc.kwargs.get("randomize") is entry["env_kwargs"].get("randomize"), sc.name
+            assert sc.kwargs.get("estimator") == entry["env_kwargs"].get("estimator"), sc.name
+
+
+def test_every_scenario_runs_a_shipped_agent_with_the_estimator_it_trained_with():
+    from agents.rl.train_shipped import load_shipped
+
+    shipped = load_shipped()
+    suite = load_suite("generalization")
+    checked = 0
+    for sc in suite.scenarios:
+        for label in (p for p in sc.policies if p in shipped):
+            assert sc.kwargs.get("estimator") == shipped[label]["env_kwargs"].get("estimator"), (
+                sc.name, label)
+            checked += 1
+    assert checked >= 30

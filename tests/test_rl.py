@@ -472,8 +472,9 @@ def test_every_shipped_agent_loads_by_name_and_runs_a_user_path(name):
         spec = {"id": "contour_gym/Feedrate-v0", "plant": "xy_servo_coulomb",
                 "path": from_gcode(USER_PART)}  # fmt: skip
     else:
-        spec = {"id": "contour_gym/CCC-v0", "plant": agent.env_kwargs.get("plant", "xy_dc_servo"),
-                "path": curve, "estimator": "two_circle"}  # fmt: skip
+        kw = agent.env_kwargs  # an agent acts with the estimator it trained with
+        spec = {"id": "contour_gym/CCC-v0", "plant": kw.get("plant", "xy_dc_servo"),
+                "path": curve, "estimator": kw.get("estimator", "two_circle")}  # fmt: skip
     m = run_policy(spec, agent)
     assert m["finished"] and not m["failed"] and not m["truncated"]
     assert np.isfinite(m["max_contour_error"])

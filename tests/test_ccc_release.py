@@ -1,0 +1,48 @@
+"""The CCC laws' release while the reference waits for the axes (contour_gym.ccc)."""
+
+from __future__ import annotations
+
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+from agents import ccc_laws
+from agents.evaluate import run_policy
+from agents.policies import make
+from contour_gym.ccc import CCC_LAWS, RELEASE_TIME, CCCLaw, keep_state, release_integral
+from contour_gym.paths import from_gcode
+from contour_gym.servo.pid import STATE as PID_STATE
+
+PART = pathlib.Path(__file__).parent / "data" / "gcode" / "part_2d.ngc"
+
+
+def test_the_release_bleeds_the_integral_and_the_default_keeps_the_state() -> None:
+    ts = 1e-3
+    s = np.array([[2.0e-6, 1.0e-6, 1.0]])
+    release_integral.py_func(None, s, None, 0, 0, ts)
+    assert s[0, PID_STATE.col.integral] == 2.0e-6 * math.exp(-ts / RELEASE_TIME)
+    assert s[0, 1:].tolist() == [1.0e-6, 1.0]  # the previous error and the start flag stay
+    before = s.copy()
+    keep_state.py_func(None, s, None, 0, 0, ts)
+    assert np.array_equal(s, before)
+    assert CCCLaw.__dataclass_fields__["release"].default is keep_state
+
+
+def test_every_built_in_law_releases_its_integral() -> None:
+    assert ccc_laws.FUZZY_PID.state.names[:3] == PID_STATE.names
+    for name in ("pid", "fuzzy_pid", "adaptive_fuzzy_pid"):
+        assert CCC_LAWS.get(name).release is release_integral, name
+
+
+@pytest.mark.parametrize("policy", ["pid_ccc", "fuzzy_pid_ccc"])
+def test_an_integrating_ccc_comes_in_position_with_a_nearest_point_estimator(policy: str) -> None:
+    # 002's machine, pre-compensation, the exact nearest point: holding its integral, each of
+    # these CCCs kept the axes off the part's waiting points and never finished (2026-11-29)
+    path = from_gcode(PART.read_text(), name="part_2d")
+    m = run_policy({"id": "contour_gym/CCC-v1", "plant": "lugre_linear_motor", "path": path,
+                    "estimator": "ground_truth", "path_tolerance": 1.29e-5},
+                   make(policy))  # fmt: skip
+    assert m["finished"] and not m["failed"]
+    assert m["max_contour_error"] < 100e-6
