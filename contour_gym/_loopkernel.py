@@ -174,6 +174,12 @@ def _estimate(loop, path, cfg, q, c, s, eps, g0, g1, g2):
 
 
 @numba.njit(cache=True, inline="always")
+def _waiting(loop, b):
+    # the reference waits for the axes to be in position: an exact stop, or the path's end
+    return loop.ip_s[b, IS.done] >= 0.0 or loop.ip_s[b, IS.wait] > 0.0
+
+
+@numba.njit(cache=True, inline="always")
 def _ccc(loop, cfg, q, c, dim, eps, g0, g1, g2, waiting):
     # Contour row q = b * C + c; its state rows are 3 q + i. 2-D: the law on the signed eps,
     # distributed by C (state row 3 q). 3-D: the law on each signed component C_i eps.
@@ -200,7 +206,7 @@ def _contours(loop, path, cfg, b, s, n_axes):
     n_c = loop.c_axes.shape[0]
     for a in range(n_axes):
         loop.work[WORK_ROW.uccc, a] = 0.0
-    waiting = loop.ip_s[b, IS.done] >= 0.0 or loop.ip_s[b, IS.wait] > 0.0
+    waiting = _waiting(loop, b)
     for c in range(n_c):
         q = b * n_c + c
         dim, p0, p1, p2 = _coords(loop, c, WORK_ROW.x)
@@ -325,7 +331,7 @@ def _in_position(loop, cfg, b, n_axes):
     # a CNC's in-position check on the encoder (noise-free): following error within the band,
     # and slow (the reading's change over this tick); asked only while something waits on it
     # (an exact stop, or the path end: see member_run)
-    if not (loop.ip_s[b, IS.done] >= 0.0 or loop.ip_s[b, IS.wait] > 0.0):
+    if not _waiting(loop, b):
         return False
     inpos = True
     for a in range(n_axes):

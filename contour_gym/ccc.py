@@ -154,6 +154,13 @@ class CCCLaw:
     def __post_init__(self) -> None:
         if (self.home is None) != (self.units is None):
             raise ValueError(f"CCC law {self.name!r}: give home and units together")
+        integral = PID_STATE.col.integral
+        if self.release is release_integral and self.state.names[integral:integral + 1] != (
+            "integral",
+        ):
+            raise ValueError(f"CCC law {self.name!r}: release_integral bleeds state column "
+                             f"{integral}, 'integral', but the law's state starts "
+                             f"{self.state.names[:1]}")  # fmt: skip
 
     def params_for(
         self, machine: Any, given: Mapping[str, float], set_on: Any = None

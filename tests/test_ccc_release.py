@@ -12,6 +12,7 @@ from agents import ccc_laws
 from agents.evaluate import run_policy
 from agents.policies import make
 from contour_gym.ccc import CCC_LAWS, RELEASE_TIME, CCCLaw, keep_state, release_integral
+from contour_gym.params import state_schema
 from contour_gym.paths import from_gcode
 from contour_gym.servo.pid import STATE as PID_STATE
 
@@ -31,9 +32,17 @@ def test_the_release_bleeds_the_integral_and_the_default_keeps_the_state() -> No
 
 
 def test_every_built_in_law_releases_its_integral() -> None:
-    assert ccc_laws.FUZZY_PID.state.names[:3] == PID_STATE.names
     for name in ("pid", "fuzzy_pid", "adaptive_fuzzy_pid"):
-        assert CCC_LAWS.get(name).release is release_integral, name
+        law = CCC_LAWS.get(name)
+        assert law.release is release_integral, name
+        assert law.state.names[PID_STATE.col.integral] == "integral", name
+
+
+def test_a_law_whose_state_has_no_integral_cannot_release_one() -> None:
+    law = ccc_laws.FUZZY_PID
+    no_integral = state_schema("no integral", "gain", "e_prev")
+    with pytest.raises(ValueError, match="release_integral bleeds state column 0"):
+        CCCLaw("bad", law.params, no_integral, law.output, law.commit, release=release_integral)
 
 
 @pytest.mark.parametrize("policy", ["pid_ccc", "fuzzy_pid_ccc"])
