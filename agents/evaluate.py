@@ -295,6 +295,8 @@ class _OneMember(gym.vector.VectorEnv):
         self.env, self.num_envs = env, 1
         self.single_observation_space = env.observation_space
         self.single_action_space = env.action_space
+        self.observation_space = gym.vector.utils.batch_space(env.observation_space, 1)
+        self.action_space = gym.vector.utils.batch_space(env.action_space, 1)
         self.task = cast(Any, env.unwrapped).task  # what run_episodes reads (its loop, ...)
 
     @property

@@ -318,6 +318,17 @@ def test_a_saved_agent_acts_on_each_member_as_it_does_alone(agent_dir):
     assert together == [run_policy(kwargs, agent, seed=4 + i) for i in range(3)]
 
 
+def test_a_saved_agent_runs_on_a_users_env_instance(agent_dir):
+    """evaluate(agent, env) on a single env the user made gives what the env's kwargs give
+    (the agent checks the env's spaces at reset: the single env runs as a vector env of one)."""
+    agent = SavedAgent(agent_dir)
+    env = gym.make(CCC, **agent.env_kwargs)
+    mine = evaluate(agent, env, n_episodes=2, seed=4)["episodes"]
+    assert mine == evaluate(agent, {"id": CCC, **agent.env_kwargs}, n_episodes=2,
+                            seed=4)["episodes"]  # fmt: skip
+    env.close()
+
+
 def test_saved_agents_share_a_model_until_its_file_changes(agent_dir, tmp_path):
     first, second = SavedAgent(agent_dir), SavedAgent(agent_dir)
     assert first.model is second.model  # read once per process
