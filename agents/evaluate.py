@@ -298,6 +298,7 @@ class _OneMember(gym.vector.VectorEnv):
         self.observation_space = gym.vector.utils.batch_space(env.observation_space, 1)
         self.action_space = gym.vector.utils.batch_space(env.action_space, 1)
         self.task = cast(Any, env.unwrapped).task  # what run_episodes reads (its loop, ...)
+        self.config = cast(Any, env.unwrapped).config  # what policies check at reset
 
     @property
     def unwrapped(self) -> Any:

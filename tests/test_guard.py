@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import math
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents.evaluate import make_vector_env, run_policy, run_policy_batch
+from agents.evaluate import evaluate, make_vector_env, run_policy, run_policy_batch
 from agents.policies import make_policy
 from agents.rl.guard import CornerGuard
 
@@ -66,6 +67,14 @@ def test_a_guarded_vector_env_runs_each_member_as_a_single_env_would():
     assert (
         batch["return"][0] != run_policy(POLYLINES, make_policy("no_ccc"), seed=11)["return"]
     )  # the guard acted
+
+
+def test_the_guard_runs_on_a_single_env_a_user_made():
+    """evaluate(guard, env) reads the env's observation setting through the single env."""
+    env = gym.make(POLYLINES["id"], **{k: v for k, v in POLYLINES.items() if k != "id"})
+    mine = evaluate(CornerGuard("no_ccc"), env, n_episodes=1, seed=11)["episodes"]
+    assert mine == [run_policy(POLYLINES, CornerGuard("no_ccc"), seed=11)]
+    env.close()
 
 
 @pytest.mark.parametrize(("kwargs", "named"), [
