@@ -23,7 +23,7 @@ to 4.5 %, but neither median nor the paths lost to no CCC (1 and 6).
 The angle became 85 degrees on 2026-12-02, after the suite's per-path results had been seen:
 there the agent (retrained under the CCC's release at stops) beat the PID CCC after corners
 turning 35-73 degrees (random paths 7003, 7004, 7007, 7008: 26-36 um against 47-59) and lost
-to it after 90-102 degree ones (the G-code parts' square corners, path 7010), so a 30-degree
+to it after 90-102 degree ones (three G-code parts' 90-degree corners, path 7010), so a 30-degree
 guard gave away the agent's best corners. On 000's 64 validation paths (nominal machine)
 30, 60 and 85 degrees lose the same 2 paths at the same median (16.30 um); on 128 fresh paths
 (seeds 2000000-2000127, used by nothing else; rule set before the run: 85 degrees if it loses
