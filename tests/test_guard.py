@@ -21,40 +21,59 @@ POLYLINES = {"id": "contour_gym/CCC-v1", "plant": "xy_dc_servo", "estimator": "t
              "path": "random", "path_options": {"family": "polyline"}}  # fmt: skip
 
 
-def _expected_guarded(corners, guard):
-    """Per step and member, whether the guard's rule puts the PID CCC in charge."""
+def _expected_guarded(corners, curvatures, guard):
+    """Per step and member, whether the guard's rule puts the PID CCC in charge (the env's
+    previews 1, 2, 5, 10 and 20 mm: the curvature at the reference, 1 and 2 mm is within 2 mm)."""
     left = np.zeros(corners[0].shape[0], dtype=int)
     was_near = np.zeros_like(left, dtype=bool)
     out = []
-    for c in corners:
+    for c, k in zip(corners, curvatures, strict=True):
         near = (c[:, 0] * 0.02 < guard.near) & (np.abs(c[:, 1]) * math.pi > guard.angle)
+        near |= (np.abs(k[:, :3]) * 100.0 > guard.curvature).any(axis=1)
         left = np.where(was_near & ~near, guard.hold, np.maximum(left - 1, 0))
         was_near = near
         out.append(near | (left > 0))
     return np.array(out)
 
 
-def test_the_guard_acts_as_the_pid_ccc_near_sharp_corners_and_as_the_agent_elsewhere():
-    guard = CornerGuard("no_ccc", hold=5)
-    venv = make_vector_env(POLYLINES, guard, num_envs=3)
+def _roll_out(env, guard, num_envs, seed, steps):
+    """Run ``guard`` for ``steps`` decisions; per step whether it acted as the PID CCC and as
+    its agent, and the rule's expected choice (:func:`_expected_guarded`)."""
+    venv = make_vector_env(env, guard, num_envs=num_envs)
     try:
-        obs, _ = venv.reset(seed=11)
+        obs, _ = venv.reset(seed=seed)
         guard.reset(venv)
         pid = make_policy("pid_ccc")
         pid.reset(venv)
-        corners, took_pid, took_agent = [], [], []
-        for _ in range(150):
+        corners, curvatures, took_pid, took_agent = [], [], [], []
+        for _ in range(steps):
             actions = guard.act(obs)
             corners.append(np.asarray(obs["corner"], dtype=np.float64))
+            curvatures.append(np.asarray(obs["curvature"], dtype=np.float64))
             took_pid.append(np.all(actions == pid.act(obs), axis=1))
             took_agent.append(np.all(actions == guard.agent.act(obs), axis=1))
             obs, *_ = venv.step(actions)
     finally:
         venv.close()
-    expected = _expected_guarded(corners, guard)
+    return np.array(took_pid), np.array(took_agent), _expected_guarded(corners, curvatures, guard)
+
+
+def test_the_guard_acts_as_the_pid_ccc_near_sharp_corners_and_as_the_agent_elsewhere():
+    guard = CornerGuard("no_ccc", hold=5)
+    took_pid, took_agent, expected = _roll_out(POLYLINES, guard, 3, seed=11, steps=150)
     assert expected.any() and (~expected).any()  # both happen on these polylines
-    assert np.all(np.array(took_pid)[expected])
-    assert np.all(np.array(took_agent)[~expected])
+    assert np.all(took_pid[expected])
+    assert np.all(took_agent[~expected])
+
+
+def test_the_guard_takes_over_past_a_near_cusp_where_no_corner_is():
+    """On roses (no corners; angle pi guards none) the PID CCC acts exactly where the path
+    within 2 mm curves tighter than ``curvature`` and for ``hold`` decisions after."""
+    roses = {**POLYLINES, "path_options": {"family": "rose"}}
+    guard = CornerGuard("no_ccc", angle=math.pi, hold=3, curvature=5000.0)
+    took_pid, _, expected = _roll_out(roses, guard, 2, seed=5, steps=200)
+    assert expected.any() and (~expected).any()
+    np.testing.assert_array_equal(took_pid, expected)
 
 
 def test_a_guarded_vector_env_runs_each_member_as_a_single_env_would():
@@ -81,6 +100,7 @@ def test_the_guard_runs_on_a_single_env_a_user_made():
     ({"near": 0.0}, "near"), ({"near": math.nan}, "near"), ({"angle": 4.0}, "angle"),
     ({"angle": "wide"}, "angle"),
     ({"hold": -1}, "hold"), ({"hold": 2.5}, "hold"), ({"agent": "no_such_agent"}, "no_such_agent"),
+    ({"curvature": 0.0}, "curvature"), ({"curvature": "tight"}, "curvature"),
 ])  # fmt: skip
 def test_the_guard_refuses_bad_settings_naming_them(kwargs, named):
     with pytest.raises(ValueError, match=named):

@@ -1,4 +1,4 @@
-"""A CCC agent guarded through sharp corners: the PID CCC's gains there, the agent's elsewhere.
+"""A CCC agent guarded through sharp corners and near-cusps: the PID CCC's gains there.
 
 On 000's machine (G64 blending, 000's ``two_circle`` estimator) the general CCC agent's
 largest losses to no CCC at all were at sharp line corners: the estimate the CCC acts on is
@@ -29,6 +29,15 @@ guard gave away the agent's best corners. On 000's 64 validation paths (nominal 
 (seeds 2000000-2000127, used by nothing else; rule set before the run: 85 degrees if it loses
 no more and its median is no higher) both lose 8, the median is 23.61 um for both and the mean
 33.35 um against 36.03, 85 degrees lower on 25 of the 27 paths where they differ.
+
+It guards near-cusps too since 2026-12-02: where the path within ``near`` curves tighter than
+``curvature`` (5000 1/m: a radius under 0.2 mm), as past a rose's tip, the agent's gains swung
+the error from +31 to -160 um within 30 ms while its estimate was good (validation path
+1000055). By a rule set before measuring (of 2000 and 5000 1/m, the fewest paths lost on the 64
+validation paths, then the lower median; adopted only if losing fewer than the corner guard's 2
+at a median at most 2 % higher, and then fewer than its 8 on the 128 fresh paths at most 2 %
+higher): 5000 loses none at 16.30 um (2000: none at 16.74), and on the fresh paths 5 at 23.82
+um (the corner guard alone 8 at 23.61), the same 5 the PID CCC loses.
 """
 
 from __future__ import annotations
@@ -41,32 +50,37 @@ import numpy as np
 from agents.ccc_policies import PIDCCC
 from agents.policies import Actions, Observation, Policy, batch_size, make_policy, register_policy
 from contour_gym.envs.core import CCC
-from contour_gym.params import finite, positive
+from contour_gym.params import finite, positive, positive_or_inf
 
 
 class CornerGuard(Policy):
-    """A CCC agent that hands the gains to the PID CCC through sharp corners (module doc).
+    """A CCC agent that hands the gains to the PID CCC through sharp corners and near-cusps.
 
     Args:
         agent: A registered CCC policy's name (a trained agent: ``ppo_000_ccc_general``).
         near: Distance before a corner from which the PID CCC acts, m (> 0).
         angle: The smallest turn of a guarded corner, rad (in (0, pi]).
         hold: Decisions (env steps) the PID CCC keeps acting after the corner (>= 0).
+        curvature: Also guard while the path within ``near`` (the observation's curvature at
+            the reference and at the previews no farther) curves tighter than this, 1/m
+            (> 0; ``inf``: corners only; 5000: a radius under 0.2 mm).
 
     Each member's hold is its own; :meth:`reset` clears them, a member's automatic reset in
     a vector env does not (a hold running at its episode's end lasts into its next one).
 
     Raises:
-        ValueError: naming the value, for a bad ``near``, ``angle`` or ``hold``, or an
-            unknown agent.
+        ValueError: naming the value, for a bad ``near``, ``angle``, ``hold`` or
+            ``curvature``, or an unknown agent.
     """
 
     name = "corner_guard"
     tasks = (CCC,)
 
     def __init__(self, agent: str = "ppo_000_ccc_general", near: float = 0.002,
-                 angle: float = math.radians(85.0), hold: int = 20) -> None:  # fmt: skip
+                 angle: float = math.radians(85.0), hold: int = 20,
+                 curvature: float = 5000.0) -> None:  # fmt: skip
         self.near = positive(near, "near")
+        self.curvature = positive_or_inf(curvature, "curvature")
         if not 0.0 < finite(angle, "angle") <= math.pi:
             raise ValueError(f"angle must be in (0, pi] rad, got {angle!r}")
         if isinstance(hold, bool) or not isinstance(hold, int) or hold < 0:
@@ -74,6 +88,7 @@ class CornerGuard(Policy):
         self.angle, self.hold = float(angle), hold
         self.agent, self.fallback = make_policy(agent), PIDCCC()
         self._horizon = math.nan
+        self._within = np.zeros(0, dtype=bool)  # curvature samples within near (reset)
         self._left: np.ndarray | None = None  # per member: decisions the hold still lasts
         self._was_near: np.ndarray | None = None
 
@@ -93,12 +108,13 @@ class CornerGuard(Policy):
             raise ValueError(f"corner_guard needs a contour_gym env of the v1 observation, "
                              f"got {env!r}")  # fmt: skip
         self._horizon = float(max(config.preview))
+        self._within = np.array([True, *(d <= self.near for d in config.preview)])
         self.agent.reset(env)
         self.fallback.reset(env)
         self._left = self._was_near = None
 
     def act(self, obs: Observation) -> Actions:
-        """The agent's actions, the PID CCC's for members near a sharp corner or just past one."""
+        """The agent's actions; the PID CCC's near a sharp corner or near-cusp, or just past one."""
         if math.isnan(self._horizon):
             raise ValueError("corner_guard reads the env's preview horizon at reset(env): "
                              "call it first")  # fmt: skip
@@ -112,6 +128,9 @@ class CornerGuard(Policy):
         corner = np.asarray(obs["corner"], dtype=np.float64)
         near = (corner[:, 0] * self._horizon < self.near) & (
             np.abs(corner[:, 1]) * math.pi > self.angle)  # fmt: skip
+        if math.isfinite(self.curvature):  # the observation's curvature is 1/m x 1 cm
+            kappa = np.abs(np.asarray(obs["curvature"], dtype=np.float64)[:, self._within]) / 0.01
+            near |= (kappa > self.curvature).any(axis=1)
         passed = self._was_near & ~near
         self._left = np.where(passed, self.hold, np.maximum(self._left - 1, 0))
         self._was_near = near
