@@ -15,7 +15,7 @@ import pytest
 
 from agents.evaluate import evaluate, make_vector_env, run_policy, run_policy_batch
 from agents.policies import make_policy
-from agents.rl.guard import CornerGuard
+from agents.rl.guard import CappedFeedrate, CornerGuard
 
 POLYLINES = {"id": "contour_gym/CCC-v1", "plant": "xy_dc_servo", "estimator": "two_circle",
              "path": "random", "path_options": {"family": "polyline"}}  # fmt: skip
@@ -121,3 +121,28 @@ def test_the_guard_needs_an_env_and_a_dict_of_the_v1_observation():
             guard.act({"obs": np.zeros((1, 14))})
     finally:
         venv.close()
+
+
+def test_a_capped_feedrate_agent_passes_its_agents_actions_up_to_the_cap():
+    """Capped at 0 the fuzzy feedrate controller (standing in for an agent) never speeds up,
+    and acts as it does wherever it would not."""
+    capped = CappedFeedrate("fuzzy_feedrate", cap=0.0)
+    venv = make_vector_env({"id": "contour_gym/Feedrate-Corner-v1"}, capped, num_envs=2)
+    try:
+        obs, _ = venv.reset(seed=3)
+        capped.reset(venv)
+        free = make_policy("fuzzy_feedrate")
+        free.reset(venv)
+        raised = False
+        for _ in range(60):
+            actions, theirs = capped.act(obs), free.act(obs)
+            np.testing.assert_array_equal(actions, np.minimum(theirs, 0.0))
+            raised |= bool((theirs > 0.0).any())
+            obs, *_ = venv.step(actions)
+    finally:
+        venv.close()
+    assert raised  # the cap acted
+    assert capped.env_kwargs == free.env_kwargs
+    for cap in (1.5, -2.0, math.nan):
+        with pytest.raises(ValueError, match="cap"):
+            CappedFeedrate("fuzzy_feedrate", cap=cap)

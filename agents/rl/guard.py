@@ -49,7 +49,7 @@ import numpy as np
 
 from agents.ccc_policies import PIDCCC
 from agents.policies import Actions, Observation, Policy, batch_size, make_policy, register_policy
-from contour_gym.envs.core import CCC
+from contour_gym.envs.core import CCC, FEEDRATE
 from contour_gym.params import finite, positive, positive_or_inf
 
 
@@ -140,4 +140,47 @@ class CornerGuard(Policy):
         return actions
 
 
+class CappedFeedrate(Policy):
+    """A feedrate agent whose action is capped (``capped_feedrate``): never faster than ``cap``.
+
+    The general feedrate agent acts ``a`` in [-1, 1] on the curvature feed limit ``L``, the
+    override target ``L 2^(a span)``; capped at 0 it only ever slows below the limit. Chosen,
+    not published, before its suite rows were seen: on 256 random paths of 004's nominal
+    machine (seeds 1000128-1000383, docs/training.md "Every candidate on 256 more paths")
+    the shipped agent capped at 0 kept 5 um on 228 at a median cycle of 6.43 s, the most of
+    every candidate (the limit alone 227 at 5.84 s, the agent 212 at 5.86 s, an oracle of
+    per-path constants 231 at 7.59 s); capped at 0.25, 221 at 6.07 s.
+
+    Args:
+        agent: A registered feedrate policy's name (a trained agent:
+            ``ppo_004_feedrate_general``).
+        cap: The largest action it passes on, in [-1, 1].
+
+    Raises:
+        ValueError: naming the value, for a ``cap`` outside [-1, 1] or an unknown agent.
+    """
+
+    name = "capped_feedrate"
+    tasks = (FEEDRATE,)
+
+    def __init__(self, agent: str = "ppo_004_feedrate_general", cap: float = 0.0) -> None:
+        if not -1.0 <= finite(cap, "cap") <= 1.0:
+            raise ValueError(f"cap must be in [-1, 1], got {cap!r}")
+        self.cap, self.agent = float(cap), make_policy(agent)
+
+    @property
+    def env_kwargs(self) -> dict[str, Any]:
+        """The agent's env arguments."""
+        return self.agent.env_kwargs
+
+    def reset(self, env: Any = None) -> None:
+        """Reset the agent (it checks ``env``)."""
+        self.agent.reset(env)
+
+    def act(self, obs: Observation) -> Actions:
+        """The agent's actions, none above ``cap``."""
+        return np.minimum(np.asarray(self.agent.act(obs), dtype=np.float64), self.cap)
+
+
 register_policy(CornerGuard.name, CornerGuard)
+register_policy(CappedFeedrate.name, CappedFeedrate)
