@@ -101,6 +101,7 @@ def test_the_guard_runs_on_a_single_env_a_user_made():
     ({"angle": "wide"}, "angle"),
     ({"hold": -1}, "hold"), ({"hold": 2.5}, "hold"), ({"agent": "no_such_agent"}, "no_such_agent"),
     ({"curvature": 0.0}, "curvature"), ({"curvature": "tight"}, "curvature"),
+    ({"curvature": math.nan}, "curvature"),
 ])  # fmt: skip
 def test_the_guard_refuses_bad_settings_naming_them(kwargs, named):
     with pytest.raises(ValueError, match=named):

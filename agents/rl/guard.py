@@ -144,7 +144,8 @@ class CappedFeedrate(Policy):
     """A feedrate agent whose action is capped (``capped_feedrate``): never faster than ``cap``.
 
     The general feedrate agent acts ``a`` in [-1, 1] on the curvature feed limit ``L``, the
-    override target ``L 2^(a span)``; capped at 0 it only ever slows below the limit. Chosen,
+    override target ``L span^a`` (the env's ``limit_span``: 2 for the shipped agent); capped at
+    0 it only ever slows below the limit. Chosen,
     not published, before its suite rows were seen: on 256 random paths of 004's nominal
     machine (seeds 1000128-1000383, docs/training.md "Every candidate on 256 more paths")
     the shipped agent capped at 0 kept 5 um on 228 at a median cycle of 6.43 s, the most of
