@@ -73,6 +73,14 @@ def test_no_family_draws_every_family_and_random_paths_is_sequential() -> None:
     assert all(_same(p, q) for p, q in zip(random_paths(9, 3), random_paths(9, 3), strict=True))
 
 
+def test_a_list_of_families_draws_among_them_and_all_of_them_is_none() -> None:
+    names = [p.name for p in random_paths(4, 30, family=["cam", "cam", "rose"], length=0.01)]
+    assert set(names) == {"random_cam", "random_rose"}
+    assert names.count("random_cam") > names.count("random_rose")
+    every = random_paths(6, 8, family=list(PATH_FAMILIES), length=0.02)
+    assert all(_same(p, q) for p, q in zip(every, random_paths(6, 8, length=0.02), strict=True))
+
+
 def _check_inside_and_smooth(path: Path, smooth: bool) -> None:
     s = np.unique(np.concatenate([np.linspace(0.0, path.length, 4001), path.table.s0]))
     pts = path.point(s)
@@ -176,6 +184,9 @@ def test_feeds_are_drawn_per_block_within_the_range(family: str) -> None:
 
 @pytest.mark.parametrize(("kwargs", "word"), [
     ({"family": "zigzag"}, "zigzag"),
+    ({"family": ["cam", "zigzag"]}, "zigzag"),
+    ({"family": []}, r"\[\]"),
+    ({"family": 3}, "3"),
     ({"length": (0.9, 2.0)}, "0.9"),
     ({"length": (0.1, 0.05)}, "0.05"),
     ({"length": math.nan}, "nan"),

@@ -2,7 +2,8 @@
 
 :func:`random_path` draws one path from a :class:`numpy.random.Generator` (never the global
 random state): the same generator state gives the same path bit for bit. Families
-(:data:`PATH_FAMILIES`; ``family=None`` draws one uniformly):
+(:data:`PATH_FAMILIES`; ``family=None`` draws one uniformly, a sequence of names one of them
+uniformly, so a name given twice is drawn twice as often):
 
 * ``"spline"``: a cubic B-spline (:func:`~contour_gym.paths.bspline`) on 5 or more control
   points from a random walk (below, turns up to 100 degrees); open (clamped knots) or closed
@@ -46,7 +47,7 @@ path takes milliseconds; the smooth families 0.05 to 0.5 s (the fit of their qui
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -441,10 +442,16 @@ def _check_rng(rng: Any) -> None:
         raise ValueError(f"rng must be a numpy.random.Generator, got {rng!r}")
 
 
-def _check_family(family: Any) -> None:
-    if family is not None and family not in PATH_FAMILIES:
-        raise ValueError(f"unknown family {family!r}; choose from {', '.join(PATH_FAMILIES)} "
-                         "or None")
+def _families(family: Any) -> tuple[str, ...]:
+    """The families one is drawn from (uniformly): all for None, ``(family,)`` for a name."""
+    if family is None:
+        return PATH_FAMILIES
+    names = (family,) if isinstance(family, str) else family
+    if not isinstance(names, (tuple, list)) or not names or any(
+            not isinstance(name, str) or name not in PATH_FAMILIES for name in names):
+        raise ValueError(f"unknown family {family!r}; choose from {', '.join(PATH_FAMILIES)}, "
+                         "a non-empty list of them, or None")
+    return tuple(names)
 
 
 def _check_dim(dim: Any) -> None:
@@ -457,7 +464,7 @@ def _check_dim(dim: Any) -> None:
 # public API ----------------------------------------------------------------------------------
 
 
-def random_path(rng: np.random.Generator, family: str | None = None, *,
+def random_path(rng: np.random.Generator, family: str | Sequence[str] | None = None, *,
                 within: ArrayLike | None = None, dim: int = 2,
                 length: float | tuple[float, float] | None = None,
                 feed_range: tuple[float, float] | None = None,
@@ -466,7 +473,9 @@ def random_path(rng: np.random.Generator, family: str | None = None, *,
 
     Args:
         rng: The generator every random number comes from.
-        family: One of :data:`PATH_FAMILIES`, or None to draw one uniformly.
+        family: One of :data:`PATH_FAMILIES`; a list or tuple of them to draw one uniformly
+            (repeat a name to weight it); None: all of them (the same draws as
+            ``PATH_FAMILIES`` given as the list).
         within: Travel box ``((x_lo, x_hi), (y_lo, y_hi)[, (z_lo, z_hi)])``, m; the z range is
             ignored. Default +-50 mm in x and y.
         dim: 2 (3 raises NotImplementedError).
@@ -480,9 +489,9 @@ def random_path(rng: np.random.Generator, family: str | None = None, *,
         The path, named ``"random_<family>"``.
 
     Raises:
-        ValueError: naming the value, for a non-Generator ``rng``, an unknown family, a
-            non-finite or misshaped box, length, feed range or margin, a length over
-            :data:`MAX_RATIO` times the smaller usable side, or a shape that did not fit.
+        ValueError: naming the value, for a non-Generator ``rng``, an unknown family or a bad
+            list of them, a non-finite or misshaped box, length, feed range or margin, a length
+            over :data:`MAX_RATIO` times the smaller usable side, or a shape that did not fit.
         NotImplementedError: for ``dim=3``.
 
     >>> p = random_path(np.random.default_rng(7), "cam", length=0.1)
@@ -490,7 +499,7 @@ def random_path(rng: np.random.Generator, family: str | None = None, *,
     ('random_cam', 0.1)
     """
     _check_rng(rng)
-    _check_family(family)
+    families = _families(family)
     _check_dim(dim)
     box = _usable_box(within, margin)
     lo, hi = _range(length, "length", DEFAULT_LENGTH) or DEFAULT_LENGTH
@@ -499,7 +508,7 @@ def random_path(rng: np.random.Generator, family: str | None = None, *,
     if lo > MAX_RATIO * side:
         raise ValueError(f"length {length!r} m cannot fit within {within!r}: its lower bound "
                          f"is over {MAX_RATIO:g} x the usable side {side:.6g} m")
-    name = PATH_FAMILIES[int(rng.integers(len(PATH_FAMILIES)))] if family is None else family
+    name = families[0] if isinstance(family, str) else families[int(rng.integers(len(families)))]
     target = lo if lo == hi else float(rng.uniform(lo, hi))
     path = _placed(rng, name, target, box)
     if feeds is None:
