@@ -40,6 +40,7 @@ OBSERVATION_V0 = 0.0
 EC = ENV_CONFIG.col
 
 OBS_LIMIT = 1e4  # every scaled observation is clipped to +-OBS_LIMIT
+CURVATURE_SCALE = 0.01  # m: curvature is observed as kappa x 1 cm (public: contour_gym.envs)
 
 
 @numba.njit(cache=True, inline="always")

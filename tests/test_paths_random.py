@@ -77,6 +77,8 @@ def test_a_list_of_families_draws_among_them_and_all_of_them_is_none() -> None:
     names = [p.name for p in random_paths(4, 30, family=["cam", "cam", "rose"], length=0.01)]
     assert set(names) == {"random_cam", "random_rose"}
     assert names.count("random_cam") > names.count("random_rose")
+    listed, named = random_paths(2, 3, family=["spiral"]), random_paths(2, 3, family="spiral")
+    assert all(_same(p, q) for p, q in zip(listed, named, strict=True))  # one name: that name
     every = random_paths(6, 8, family=list(PATH_FAMILIES), length=0.02)
     assert all(_same(p, q) for p, q in zip(every, random_paths(6, 8, length=0.02), strict=True))
 

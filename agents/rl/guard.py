@@ -49,6 +49,7 @@ import numpy as np
 
 from agents.ccc_policies import PIDCCC
 from agents.policies import Actions, Observation, Policy, batch_size, make_policy, register_policy
+from contour_gym.envs import CURVATURE_SCALE
 from contour_gym.envs.core import CCC, FEEDRATE
 from contour_gym.params import finite, positive, positive_or_inf
 
@@ -128,8 +129,9 @@ class CornerGuard(Policy):
         corner = np.asarray(obs["corner"], dtype=np.float64)
         near = (corner[:, 0] * self._horizon < self.near) & (
             np.abs(corner[:, 1]) * math.pi > self.angle)  # fmt: skip
-        if math.isfinite(self.curvature):  # the observation's curvature is 1/m x 1 cm
-            kappa = np.abs(np.asarray(obs["curvature"], dtype=np.float64)[:, self._within]) / 0.01
+        if math.isfinite(self.curvature):
+            curvature = np.asarray(obs["curvature"], dtype=np.float64)[:, self._within]
+            kappa = np.abs(curvature) / CURVATURE_SCALE
             near |= (kappa > self.curvature).any(axis=1)
         passed = self._was_near & ~near
         self._left = np.where(passed, self.hold, np.maximum(self._left - 1, 0))

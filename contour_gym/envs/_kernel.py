@@ -15,7 +15,7 @@ import math
 import numba
 
 from contour_gym._blob import borrow
-from contour_gym._envstate import EC, OBSERVATION_V0, env_arrays, put
+from contour_gym._envstate import CURVATURE_SCALE, EC, OBSERVATION_V0, env_arrays, put
 from contour_gym._loopstate import (
     AA,
     AC,
@@ -36,7 +36,6 @@ from contour_gym.plant._kernel import AX, ST
 from contour_gym.rewards import RC
 
 TRACKING_SCALE = 1e-3  # m: v0 observes tracking errors in mm (v1: in tolerances)
-CURVATURE_SCALE = 0.01  # m: curvature is observed as kappa x 1 cm
 CORNER_ANGLE = 0.02  # rad: a segment join turning more than this is a corner (v1)
 WINDOW_STEP = 1.25e-4  # m: curvature windows (v1's curvature_peak) are sampled this often
 

@@ -474,8 +474,8 @@ def random_path(rng: np.random.Generator, family: str | Sequence[str] | None = N
     Args:
         rng: The generator every random number comes from.
         family: One of :data:`PATH_FAMILIES`; a list or tuple of them to draw one uniformly
-            (repeat a name to weight it); None: all of them (the same draws as
-            ``PATH_FAMILIES`` given as the list).
+            (repeat a name to weight it; a list of one name is that name); None: all of them
+            (the same draws as ``PATH_FAMILIES`` given as the list).
         within: Travel box ``((x_lo, x_hi), (y_lo, y_hi)[, (z_lo, z_hi)])``, m; the z range is
             ignored. Default +-50 mm in x and y.
         dim: 2 (3 raises NotImplementedError).
@@ -508,7 +508,7 @@ def random_path(rng: np.random.Generator, family: str | Sequence[str] | None = N
     if lo > MAX_RATIO * side:
         raise ValueError(f"length {length!r} m cannot fit within {within!r}: its lower bound "
                          f"is over {MAX_RATIO:g} x the usable side {side:.6g} m")
-    name = families[0] if isinstance(family, str) else families[int(rng.integers(len(families)))]
+    name = families[0] if len(families) == 1 else families[int(rng.integers(len(families)))]
     target = lo if lo == hi else float(rng.uniform(lo, hi))
     path = _placed(rng, name, target, box)
     if feeds is None:
