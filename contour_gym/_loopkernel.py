@@ -4,7 +4,8 @@ One tick of member b (local tick k)::
 
     interpolator -> s, reference r (per axis, contour offsets added)
     encoder: y = quantise(x) + noise                        (rig; exact with ideal=True)
-    per contour: true error eps (exact search hinted by the machine's own foot point),
+    per contour: true error eps (the nearest point of the branch from the machine's previous
+                 foot point to the reference: contour_gym.paths._branch),
                  estimate from y (the registered estimator), CCC law -> U,
                  distributed by the coupling gains: into the control (u += w C U) or into the
                  commanded position (r += w C U, 002's pre-compensation)
@@ -130,14 +131,15 @@ def _coords(loop, c, row):
 
 
 @numba.njit(cache=True, inline="always")
-def _track_foot(loop, path, cfg, q, p0, p1, p2):
-    # the true error, searched around the machine's previous foot point; the foot's progress
-    # is kept unwrapped on closed paths (a lap past the end continues beyond the length)
+def _track_foot(loop, path, cfg, q, s, p0, p1, p2):
+    # the true error: the nearest point of the branch from the machine's previous foot to the
+    # reference s (contour_gym.paths._branch); the foot's progress is kept unwrapped on closed
+    # paths (a lap past the end continues beyond the length)
     foot = loop.foot
     sf_prev = foot[q, FT.s]
     eps, g0, g1, g2, sf, qx, qy, qz = ground_truth_from(
-        path.kind, path.s0, path.data, path.bound, cfg.dim, p0, p1, p2, sf_prev,
-        foot[q, FT.qx], foot[q, FT.qy], foot[q, FT.qz],
+        path.kind, path.s0, path.data, path.bound, cfg.dim, p0, p1, p2, sf_prev, foot[q, FT.qx],
+        foot[q, FT.qy], foot[q, FT.qz], s,
     )  # fmt: skip
     step = sf - sf_prev
     if path.closed and step < -0.5 * path.length:
@@ -159,11 +161,11 @@ def _estimate(loop, path, cfg, q, c, s, eps, g0, g1, g2):
     b = q // loop.c_axes.shape[0]
     if cfg.search:
         # an exact-search estimator tracks its own foot point from tick to tick (the reading's,
-        # never the truth's): its search window is the reading's distance from that point
+        # never the truth's): the same definition on the reading
         f = loop.foot
         e, c0, c1, c2, sf, qx, qy, qz = ground_truth_from(
-            path.kind, path.s0, path.data, path.bound, dim, p0, p1, p2, f[q, FT.e_s], f[q, FT.e_qx],
-            f[q, FT.e_qy], f[q, FT.e_qz],
+            path.kind, path.s0, path.data, path.bound, dim, p0, p1, p2, f[q, FT.e_s],
+            f[q, FT.e_qx], f[q, FT.e_qy], f[q, FT.e_qz], s,
         )  # fmt: skip
         f[q, FT.e_s], f[q, FT.e_qx], f[q, FT.e_qy], f[q, FT.e_qz] = sf, qx, qy, qz
         return e, c0, c1, c2
@@ -210,7 +212,7 @@ def _contours(loop, path, cfg, b, s, n_axes):
     for c in range(n_c):
         q = b * n_c + c
         dim, p0, p1, p2 = _coords(loop, c, WORK_ROW.x)
-        eps, g0, g1, g2 = _track_foot(loop, path, cfg, q, p0, p1, p2)
+        eps, g0, g1, g2 = _track_foot(loop, path, cfg, q, s, p0, p1, p2)
         eh, h0, h1, h2 = _estimate(loop, path, cfg, q, c, s, eps, g0, g1, g2)
         _ccc(loop, cfg, q, c, dim, eh, h0, h1, h2, waiting)
         loop.last[q, LS.true], loop.last[q, LS.est] = eps, eh

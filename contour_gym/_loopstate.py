@@ -177,7 +177,10 @@ def member_path(bank, p_at, b):
         carve(bank.kinds, o, (n,)),
         carve(buf, lay[PATH_AT.s0, 0] + o0, (n + 1,)),
         carve(buf, lay[PATH_AT.data, 0] + o * w, (n, w)),
-        carve(buf, lay[PATH_AT.bound, 0] + o * lay[PATH_AT.bound, 3], (n, lay[PATH_AT.bound, 3])),
+        # a path of n segments has 3n - 1 bound rows (contour_gym.paths._branch); the bank's
+        # path j starts at segment o = first, at row 3 o - j, and o0 = o + j
+        carve(buf, lay[PATH_AT.bound, 0] + (4 * o - o0) * lay[PATH_AT.bound, 3],
+              (3 * n - 1, lay[PATH_AT.bound, 3])),
         carve(buf, lay[PATH_AT.feed, 0] + o, (n,)),
         carve(buf, lay[PATH_AT.flags, 0] + o, (n,)),
         carve(buf, lay[PATH_AT.vcap, 0] + o, (n,)),

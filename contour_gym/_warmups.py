@@ -18,6 +18,7 @@ def path_api() -> None:
         points = np.zeros((2, path.dim))
         path.nearest(points, s_hint=np.zeros(2))
         path.nearest(points)
+        path.track(points, np.zeros(2))
     _batch.chebyshev_many(np.zeros((1, 2, 2)), np.zeros(1, np.int64), np.zeros(1),
                           np.empty((1, 2)))
 

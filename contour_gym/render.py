@@ -35,20 +35,21 @@ def _path_positions(
 
 
 def magnified(
-    path: Path, positions: NDArray[np.float64], s_hint: NDArray[np.float64], factor: float
+    path: Path, positions: NDArray[np.float64], s_ref: NDArray[np.float64], factor: float
 ) -> NDArray[np.float64]:
     """Move each position away from its foot point on ``path`` by ``factor`` (004's 200x plot).
 
     Args:
         path: The contour.
-        positions: (T, dim) actual positions in path coordinates, m.
-        s_hint: (T,) reference arc length per position (to keep the traversed branch).
+        positions: (T, dim) actual positions of one run in tick order, path coordinates, m.
+        s_ref: (T,) the reference's arc length at each position.
         factor: Magnification of the error.
 
     Returns:
-        (T, dim) points ``q + factor (p - q)`` with ``q`` the foot point.
+        (T, dim) points ``q + factor (p - q)`` with ``q`` the true foot point, as the servo
+        loop tracks it (:meth:`~contour_gym.paths.Path.track`).
     """
-    s, _ = path.nearest(positions, s_hint=s_hint)
+    s, _ = path.track(positions, s_ref)
     foot = path.point(s)
     return foot + factor * (positions - foot)
 
@@ -144,14 +145,13 @@ def part_figure(
     """A part's tool path per run (x-y, mm), the cutting moves coloured by |contour error| (um).
 
     One panel per run: the machine's actual positions on the cutting moves as a line coloured
-    by the |contour error| there, on one colour scale shared by the runs (the colour bar), and
-    the program's rapids and other non-cutting moves as thin dashed grey lines. A tick is on a
-    cutting move as the metrics count it (:mod:`contour_gym.metrics`): its foot point (the
-    exact nearest point, searched near the reference) lies on a cutting segment and so does
-    the reference (at a segment end: the segment that ends there); a path without
-    ``cutting`` flags cuts everywhere. The metrics search the foot near the loop's previous
-    one, so at a sharp turn their peak can differ from the plot's by a few ticks. A 3-D part
-    is drawn from above.
+    by the |contour error| there, on one colour scale shared by the runs (the colour bar), the
+    worst point marked with its value, and the program's rapids and other non-cutting moves
+    as thin dashed grey lines. A tick is on a cutting move as the metrics count it
+    (:mod:`contour_gym.metrics`): its true foot point (as the loop tracks it,
+    :meth:`~contour_gym.paths.Path.track`) lies on a cutting segment and so does the
+    reference (at a segment end: the segment that ends there); a path without ``cutting``
+    flags cuts everywhere. A 3-D part is drawn from above.
 
     Args:
         path: The part as the machine runs it (a G-code part mapped onto its axes).
@@ -181,6 +181,7 @@ def part_figure(
         lines = LineCollection(list(strokes * 1e3), cmap="viridis", norm=norm, linewidths=1.8)
         lines.set_array(err)
         ax.add_collection(lines)
+        _mark_worst(ax, strokes, err)
         ax.autoscale_view()
         ax.set(xlabel="x (mm)", ylabel="y (mm)", title=f"{title or path.name}: {label}",
                aspect="equal")  # fmt: skip
@@ -201,7 +202,7 @@ def _cutting_strokes(
     A stroke's error is the larger |contour error| of its two ticks (over contours).
     """
     live, pos = _path_positions(path, trace, axes, offset, member)
-    foot, _ = path.nearest(pos, s_hint=trace.s[member][live])
+    foot, _ = path.track(pos, trace.s[member][live])
     t = path.table
     seg = np.clip(np.searchsorted(t.s0, foot, side="right") - 1, 0, t.n_segments - 1)
     ref = np.clip(np.searchsorted(t.s0, trace.s[member][live], side="left") - 1, 0,
@@ -211,6 +212,17 @@ def _cutting_strokes(
     both = cut[:-1] & cut[1:]
     strokes = np.stack([pos[:-1, :2], pos[1:, :2]], axis=1)[both]
     return strokes, np.maximum(err[:-1], err[1:])[both]
+
+
+def _mark_worst(ax: Axes, strokes: NDArray[np.float64], err: NDArray[np.float64]) -> None:
+    """Mark the stroke of largest error (a red cross and its value in um)."""
+    if not err.size:
+        return
+    k = int(np.argmax(err))
+    x, y = strokes[k, 1, 0] * 1e3, strokes[k, 1, 1] * 1e3
+    ax.plot([x], [y], "x", color="red", ms=9, mew=2, zorder=5)
+    ax.annotate(f"max {err[k]:.3g} um", (x, y), xytext=(6, 6), textcoords="offset points",
+                color="red", fontsize=8, zorder=5)
 
 
 def _idle_points(path: Path, cutting: NDArray[np.bool_], per_segment: int = 48

@@ -136,8 +136,13 @@ def test_a_part_plot_colours_the_cuts_and_dashes_the_rapids(tmp_path):
     assert strokes[:, 0].min() > 0.0099 and strokes[:, 0].max() < 0.0301  # on the square only
     eps = np.abs(traces["no CCC"].eps[0, :, 0])
     assert 0.0 < cuts.get_array().max() <= np.nanmax(eps) * 1e6 + 1e-9
-    (rapids,) = panel.get_lines()
+    rapids, worst = panel.get_lines()  # the dashed rapids, then the worst point's cross
     assert rapids.get_linestyle() == "--"
+    assert worst.get_marker() == "x"
+    wx, wy = worst.get_xydata()[0]
+    assert any(t.get_text() == f"max {cuts.get_array().max():.3g} um" for t in panel.texts)
+    ends = np.concatenate([s[1:2, :2] for s in cuts.get_segments()])
+    assert [wx, wy] == ends[int(np.argmax(cuts.get_array()))].tolist()
     xy = rapids.get_xydata()
     assert np.nanmax(xy[:, 0]) == pytest.approx(10.0) and np.nanmax(xy[:, 1]) == pytest.approx(0.0)
     assert colour_bar.get_ylabel() == "|contour error| (um)"

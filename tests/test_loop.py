@@ -105,14 +105,21 @@ def test_kernel_sums_equal_metrics_recomputed_from_the_trace():
         assert got[key] == pytest.approx(want[key], rel=1e-12), key
 
 
-def test_true_contour_error_matches_path_nearest():
-    sc = make_scenario("xy_dc_servo")
+@pytest.mark.parametrize("name", ["xy_dc_servo", "xyz_pmlsm"])
+def test_true_contour_error_is_path_track_bit_for_bit(name):
+    # one definition: Path.track on the recorded positions and references gives the loop's
+    # true error back exactly (2-D signed, 3-D unsigned), and Path.nearest hinted by the
+    # reference and the previous foot point agrees
+    sc = make_scenario(name)
     loop = sc.loop(record=True)
     loop.reset(0)
     loop.step(1500)
     tr = loop.trace()
-    s, dist = sc.path.nearest(tr.x[0], s_hint=tr.s[0])
-    assert np.max(np.abs(dist - tr.eps[0, :, 0])) < 1e-9
+    dim = sc.path.dim
+    s, dist = sc.path.track(tr.x[0][:, :dim], tr.s[0])
+    np.testing.assert_array_equal(dist, tr.eps[0, :, 0])
+    _, again = sc.path.nearest(tr.x[0][1:, :dim], s_hint=tr.s[0][1:], s_from=s[:-1])
+    np.testing.assert_array_equal(again, dist[1:])
 
 
 @pytest.mark.parametrize("name", PRESETS)

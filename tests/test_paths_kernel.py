@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import contour_gym.paths as cgp
+from contour_gym.paths import _branch as branch
 from contour_gym.paths import _geom as geom
 
 
@@ -34,12 +35,20 @@ def _window_all(kind, s0, data, bound, pts, lo, hi):
 
 
 @numba.njit
+def _foot_d2(kind, s0, data, s, p):
+    # the distance as the loop takes it: from the evaluated foot point
+    r = geom.eval_path(kind, s0, data, s)
+    return (r[0] - p[0]) ** 2 + (r[1] - p[1]) ** 2 + (r[2] - p[2]) ** 2
+
+
+@numba.njit
 def _hint_all(kind, s0, data, bound, closed, pts, hint):
     out = np.empty((pts.shape[0], 3))
     for k in range(pts.shape[0]):
-        s, d2 = geom.nearest_hint(kind, s0, data, bound, pts[k, 0], pts[k, 1], pts[k, 2], hint[k])
+        s, _ = branch.branch_nearest(kind, s0, data, bound, pts[k, 0], pts[k, 1], pts[k, 2],
+                                     hint[k], hint[k])
         out[k, 0] = s
-        out[k, 1] = d2
+        out[k, 1] = _foot_d2(kind, s0, data, s, pts[k])
         out[k, 2] = geom.side_2d(kind, s0, data, closed, s, pts[k, 0], pts[k, 1])
     return out
 
@@ -48,8 +57,9 @@ def _hint_all(kind, s0, data, bound, closed, pts, hint):
 def _global_all(kind, s0, data, bound, pts):
     out = np.empty((pts.shape[0], 2))
     for k in range(pts.shape[0]):
-        out[k, 0], out[k, 1] = geom.nearest_global(kind, s0, data, bound, pts[k, 0], pts[k, 1],
-                                                pts[k, 2])
+        s, _ = branch.nearest_global(kind, s0, data, bound, pts[k, 0], pts[k, 1], pts[k, 2])
+        out[k, 0] = s
+        out[k, 1] = _foot_d2(kind, s0, data, s, pts[k])
     return out
 
 
@@ -189,13 +199,6 @@ def test_window_over_many_spans_matches_restricted_brute_force():
         assert got[k, 1] <= d2.min() + 1e-15
         h = s[1] - s[0]  # between samples d2 can dip by at most 2 |p - P| h + h^2
         assert got[k, 1] >= d2.min() - 2.0 * np.sqrt(d2.min()) * h - h * h
-
-
-def test_hint_window_formula():
-    path = cgp.line([0.0, 0.0], [1.0, 0.0])
-    t = path.table
-    lo, hi = geom.hint_window(t.kind, t.s0, t.data, 0.5, 0.3, 0.0, 0.5)
-    assert (lo, hi) == pytest.approx((0.5 - 1.2 - 1e-9, 0.5 + 1.2 + 1e-9), abs=1e-15)
 
 
 def test_helix_points_on_axis_and_on_cylinder():

@@ -10,7 +10,7 @@ call (the documentation's "Extending" page: an estimator).
 
 | name | method | options |
 |---|---|---|
-| ground_truth | exact nearest point in a window around the reference | - |
+| ground_truth | exact nearest point on the branch of the path the tool is on | - |
 | exact | 000 eqs. 1-3: distance to the reference's line or arc | - |
 | two_circle | 000: two circles through interpolation points near the tool | - |
 | tangent | 001 (Yeh & Hsu): foot on the tangent line at the reference | max_turn |

@@ -31,15 +31,8 @@ from contour_gym._schema import Param, Schema
 from contour_gym._validate import positive
 from contour_gym.contour._history import N_HIST, eval_path_memo, history_at, ref_arc
 from contour_gym.contour.base import ContourEstimator, int_in, one_of, register_estimator
-from contour_gym.paths._geom import (
-    CORNER_TOL,
-    HELIX,
-    LINE,
-    eval_path,
-    find_segment,
-    nearest_segment,
-    unit_tangent,
-)
+from contour_gym.paths._branch import branch_has_nearer
+from contour_gym.paths._geom import HELIX, LINE, eval_path, find_segment
 
 FAIL = (False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 TRUSTED = -1.0  # e2 of a foot that needs no plausibility check
@@ -47,7 +40,6 @@ J_AHEAD = -2  # newest interpolation point searched: two steps ahead of the refe
 J_OLDEST = N_HIST - 1  # oldest interpolation point kept
 _COLLINEAR = 1e-10  # sin of the turn below which three points are taken as a line
 _MIN_CHORD = 1e-10  # shortest chord (m) that still defines a direction
-_MAX_JOINS = 8  # segment boundaries checked for corners by the iteration
 
 
 @numba.njit
@@ -428,76 +420,22 @@ def circle_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz):
 
 
 @numba.njit
-def corner_inside(kind, s0, data, lo, hi):
-    """True if a tangent discontinuity lies strictly inside ``(lo, hi)``.
+def certified(kind, s0, data, bound, p0, p1, p2, sig, s, pt, tol):
+    """Foot and tangent at ``sig`` if it is the exact search's foot (to ``tol``); else FAIL.
 
-    Checks the unit tangents on both sides of each segment boundary there; more than
-    ``_MAX_JOINS`` boundaries count as a corner (the caller then takes the exact search).
+    ``pt`` is :func:`~contour_gym.paths._geom.eval_path` at ``sig``, an iterate within about
+    ``tol`` (m) of a root of ``g``. The exact search
+    (:func:`contour_gym.contour._kernel.ground_truth`) takes the nearest point of the
+    reference's branch (:mod:`contour_gym.paths._branch`); the branch is searched for a point
+    nearer than ``|P(sig) - p| - tol``, which neither the root ``sig`` approximates nor any
+    point within ``tol`` of as near can be (:func:`~contour_gym.paths._branch.branch_has_nearer`:
+    usually a small window around the reference is certain to hold any such point).
     """
-    i_lo = find_segment(s0, lo)
-    i_hi = find_segment(s0, hi)
-    if i_hi - i_lo > _MAX_JOINS:
-        return True
-    for i in range(i_lo + 1, i_hi + 1):
-        if not lo < s0[i] < hi:
-            continue
-        ax, ay, az = unit_tangent(kind, data, i - 1, s0[i] - s0[i - 1])
-        bx, by, bz = unit_tangent(kind, data, i, 0.0)
-        if (ax - bx) ** 2 + (ay - by) ** 2 + (az - bz) ** 2 > CORNER_TOL * CORNER_TOL:
-            return True
-    return False
-
-
-@numba.njit
-def nearer_elsewhere(kind, s0, data, bound, p0, p1, p2, d2, llo, lhi, wlo, whi):
-    """True if a segment inside ``[wlo, whi]`` but clear of ``[llo, lhi]`` comes nearer than d.
-
-    Segments whose bounding sphere stays ``sqrt(d2)`` away are skipped; the others are
-    searched exactly over their part of the window (closed form on lines and arcs; this
-    only sweeps a free-form span when another branch of the path passes near the tool).
-    """
-    total = s0[s0.shape[0] - 1]
-    wlo, whi = max(wlo, 0.0), min(whi, total)
-    for j in range(find_segment(s0, wlo), find_segment(s0, whi) + 1):
-        a, b = s0[j], s0[j + 1]
-        if b > llo and a < lhi:
-            continue
-        lb = math.sqrt((p0 - bound[j, 0]) ** 2 + (p1 - bound[j, 1]) ** 2
-                       + (p2 - bound[j, 2]) ** 2) - bound[j, 3]
-        if lb > 0.0 and lb * lb >= d2:
-            continue
-        ta, tb = max(wlo, a) - a, min(whi, b) - a
-        if tb < ta:
-            continue
-        if nearest_segment(kind, data, bound, j, b - a, p0, p1, p2, ta, tb)[1] < d2 * (1 - 1e-9):
-            return True
-    return False
-
-
-@numba.njit
-def certified(kind, s0, data, bound, p0, p1, p2, sig, lo, hi, pt):
-    """Foot and tangent at ``sig`` if it is the nearest point in ``[lo, hi]``; else FAIL.
-
-    ``pt`` is :func:`~contour_gym.paths._geom.eval_path` at ``sig``.
-
-    Any point nearer p than ``q = P(sig)`` (``d = |q - p|``) lies within chord 2d of q. Along
-    the path from ``sig`` that means within arc 4d, where the path turns little: ``sig``
-    must be strictly inside ``(lo, hi)``, a local minimum (``g' > 0``), with no corner
-    within ``sig +- 4d`` and ``10 kappa d <= 1`` (a heuristic keeping ``g' > 0``, one
-    minimum, over that arc). Elsewhere in ``[lo, hi]`` (another branch passing near the
-    tool) :func:`nearer_elsewhere` checks.
-    """
-    x, y, z, tx, ty, tz, kx, ky, kz = pt
-    d2 = (x - p0) ** 2 + (y - p1) ** 2 + (z - p2) ** 2
-    reach = 4.0 * math.sqrt(d2) + 1e-12
-    gp = tx * tx + ty * ty + tz * tz + (x - p0) * kx + (y - p1) * ky + (z - p2) * kz
-    if not (gp > 0.0 and lo < sig < hi):
+    x, y, z, tx, ty, tz, _, _, _ = pt
+    d = math.sqrt((x - p0) ** 2 + (y - p1) ** 2 + (z - p2) ** 2)
+    if not math.isfinite(d):
         return FAIL
-    if far_off(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz, 0.1):
-        return FAIL
-    if corner_inside(kind, s0, data, sig - reach, sig + reach):
-        return FAIL
-    if nearer_elsewhere(kind, s0, data, bound, p0, p1, p2, d2, sig - reach, sig + reach, lo, hi):
+    if branch_has_nearer(kind, s0, data, bound, p0, p1, p2, s, max(d - tol, 0.0) ** 2):
         return FAIL
     return True, x, y, z, tx, ty, tz, TRUSTED
 
@@ -508,14 +446,12 @@ def est_iterative(n_iter, method, tol, kind, s0, data, bound, p0, p1, p2, s):
 
     At most ``n_iter`` steps of Newton's method on ``g(s) = (P(s) - p) . P'(s) = 0``
     (``method`` 0) or of projection on the osculating circle (``method`` 1, exact in one step
-    on an arc), kept inside the exact search's window ``s +- (4 |p - r| + 1e-9)``. Converged
-    when a step is at most ``tol`` (m). The result is then certified as the nearest point
-    of that window (:func:`certified`), so it equals the exact search's answer. Falls back
-    to the exact search when it has not converged or cannot be certified: the iterate held
-    at the window's or the path's end (e.g. the foot is an end point), a local maximum, a
-    corner near the foot (a local iteration may settle on the other side's local foot, or
-    find none at a vertex), a curvature too high for the foot to be unique, or another
-    branch of the path nearer the tool.
+    on an arc), kept inside the window ``s +- (4 |p - r| + 1e-9)``. Converged when a step is
+    at most ``tol`` (m). The result is then certified as the nearest point of the reference's
+    branch to ``tol`` (:func:`certified`), so it is the exact search's answer. Falls back to
+    the exact search when it has not converged or cannot be certified: the iterate held at
+    the window's or the path's end short of the foot, a local maximum, the other side's
+    local foot at a corner, or another branch of the path nearer the tool.
     """
     total = s0[s0.shape[0] - 1]
     rx, ry, rz, _, _, _, _, _, _ = eval_path(kind, s0, data, s)
@@ -530,7 +466,7 @@ def est_iterative(n_iter, method, tol, kind, s0, data, bound, p0, p1, p2, s):
         else:
             step = circle_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz)
         if abs(step) <= tol:  # the foot is within tol of sig: keep the evaluated point
-            return certified(kind, s0, data, bound, p0, p1, p2, sig, lo, hi, pt)
+            return certified(kind, s0, data, bound, p0, p1, p2, sig, s, pt, tol)
         sig = min(max(sig + step, lo), hi)
     return FAIL
 
@@ -626,7 +562,7 @@ def foot_iterative(p, kind, s0, data, bound, p0, p1, p2, s, hist):
 
 for _est in (
     ContourEstimator("ground_truth", Schema("ground_truth"),
-                     doc="exact nearest point in a window around the reference"),
+                     doc="exact nearest point on the branch the tool is on"),
     ContourEstimator("exact", Schema("exact"), foot_exact, path_check=_lines_and_arcs,
                      doc="000 eqs. 1-3: distance to the reference's line or arc"),
     ContourEstimator("two_circle", Schema("two_circle"), foot_two_circle, needs_history=True,

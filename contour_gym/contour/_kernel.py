@@ -8,6 +8,10 @@ with ``eps_vec = C eps`` pointing from the tool toward the path (see :mod:`conto
 falling back to :func:`ground_truth` when the estimator gave up or its foot point is
 implausible: farther from the tool than the reference point itself (``|q - p| > |r - p|``,
 impossible for the true foot), or not finite.
+
+The exact search is the true contour error's one definition
+(:mod:`contour_gym.paths._branch`): the nearest point of the branch from where the machine
+was to where its reference is, extended until the path turns 180 degrees beyond it.
 """
 
 from __future__ import annotations
@@ -17,13 +21,8 @@ import math
 import numba
 
 from contour_gym.contour._history import N_HIST, history_at, history_push
-from contour_gym.paths._geom import (
-    eval_path,
-    find_segment,
-    is_closed,
-    nearest_window_wrapped,
-    side_2d,
-)
+from contour_gym.paths._branch import branch_nearest_from, is_closed_table
+from contour_gym.paths._geom import eval_path, find_segment, side_2d
 
 __all__ = [
     "N_HIST",
@@ -56,18 +55,19 @@ def error_from_foot(dim, p0, p1, p2, qx, qy, qz, tx, ty):
 
 
 @numba.njit(cache=True, inline="always")
-def _exact_error_2d(kind, s0, data, p0, p1, qx, qy, tx, ty, sf):
+def _exact_error_2d(kind, s0, data, bound, p0, p1, qx, qy, tx, ty, sf):
     """2-D error of an exact foot q: ``|q - p|`` signed (+ left of travel), ``C = (q - p)/eps``.
 
     ``|q - p|`` rather than the normal component: the two differ where ``q - p`` is not normal
-    to the path, i.e. at a corner vertex, an end point, or the search window's edge. On a
-    segment boundary the side is taken against the corner bisector, like
-    :meth:`contour_gym.paths.Path.nearest`, so the two agree.
+    to the path, i.e. at a corner vertex or an end point. On a segment boundary the side is
+    taken against the corner bisector, like :meth:`contour_gym.paths.Path.nearest`, so the
+    two agree.
     """
-    total = s0[s0.shape[0] - 1]
+    n = s0.shape[0] - 1
+    total = s0[n]
     vx, vy = qx - p0, qy - p1
     if sf == s0[find_segment(s0, sf)] or sf >= total:
-        closed = (sf <= 0.0 or sf >= total) and is_closed(kind, s0, data)
+        closed = (sf <= 0.0 or sf >= total) and is_closed_table(bound, n)
         sign = side_2d(kind, s0, data, closed, sf, p0, p1)
     else:
         sign = -1.0 if tx * vy - ty * vx > 0.0 else 1.0  # q - p to the left: p is right
@@ -79,44 +79,42 @@ def _exact_error_2d(kind, s0, data, p0, p1, qx, qy, tx, ty, sf):
 
 @numba.njit(cache=True, inline="always")
 def ground_truth(kind, s0, data, bound, dim, p0, p1, p2, s):
-    """Exact contour error, foot searched near the reference arc length ``s``.
+    """Exact contour error on the branch of the reference arc length ``s``.
 
-    The window is ``s +- (4 d0 + 1e-9)`` with ``d0 = |p - r(s)|``: the foot lies within
-    ``2 d0`` of ``r``, and along a smooth path or a corner of up to 90 degrees that chord
-    bounds the arc length by ``4 d0``. At a self-intersection it keeps the traversed branch.
-    The error is ``|q - p|`` (signed in 2-D, see :func:`_exact_error_2d`), equal to
-    :meth:`contour_gym.paths.Path.nearest` with the reference as hint.
+    What a controller that knows only its reference can compute exactly: the nearest point of
+    the path within a half turn of the reference (:mod:`contour_gym.paths._branch`), equal to
+    :meth:`contour_gym.paths.Path.nearest` with ``s`` as hint. The error is ``|q - p|``
+    (signed in 2-D, see :func:`_exact_error_2d`).
 
     Returns:
         ``(eps, c0, c1, c2, s_foot)``.
     """
     rx, ry, rz, _, _, _, _, _, _ = eval_path(kind, s0, data, s)
     eps, c0, c1, c2, sf, _, _, _ = ground_truth_from(
-        kind, s0, data, bound, dim, p0, p1, p2, s, rx, ry, rz
+        kind, s0, data, bound, dim, p0, p1, p2, s, rx, ry, rz, s
     )
     return eps, c0, c1, c2, sf
 
 
 @numba.njit
-def ground_truth_from(kind, s0, data, bound, dim, p0, p1, p2, s, rx, ry, rz):
-    """:func:`ground_truth` hinted by any path point ``r = P(s)`` the caller already has.
+def ground_truth_from(kind, s0, data, bound, dim, p0, p1, p2, s_from, qx, qy, qz, s_to):
+    """The true contour error of ``p`` on the branch from ``s_from`` to ``s_to``.
 
-    The hint may be the reference (what a controller knows) or the previous tick's foot
-    point (the loop's tracking of the machine's own progress): the same window argument holds
-    for any point of the path near the foot. Returns ``(eps, c0, c1, c2, s_foot, qx, qy, qz)``.
+    ``s_from`` is where the machine's foot point was (the previous tick's, at ``q``), ``s_to``
+    where its reference is: the definition of :mod:`contour_gym.paths._branch`. Returns
+    ``(eps, c0, c1, c2, s_foot, qx, qy, qz)`` (the new foot point).
 
     Called, never ``inline="always"`` (numba's inlining made a kernel's compile 3x longer: the
     documentation's "Measurements and design notes"); not cached, so it compiles with the
     kernel that calls it and LLVM inlines it there (:mod:`contour_gym._compile`).
     """
-    w = 4.0 * math.sqrt((p0 - rx) ** 2 + (p1 - ry) ** 2 + (p2 - rz) ** 2) + 1e-9
-    sf, _ = nearest_window_wrapped(kind, s0, data, bound, p0, p1, p2, s - w, s + w)
-    qx, qy, qz, tx, ty, _, _, _, _ = eval_path(kind, s0, data, sf)
+    sf, _ = branch_nearest_from(kind, s0, data, bound, p0, p1, p2, s_from, s_to, qx, qy, qz)
+    fx, fy, fz, tx, ty, _, _, _, _ = eval_path(kind, s0, data, sf)
     if dim == 2:
-        eps, c0, c1, c2 = _exact_error_2d(kind, s0, data, p0, p1, qx, qy, tx, ty, sf)
+        eps, c0, c1, c2 = _exact_error_2d(kind, s0, data, bound, p0, p1, fx, fy, tx, ty, sf)
     else:
-        eps, c0, c1, c2 = error_from_foot(dim, p0, p1, p2, qx, qy, qz, tx, ty)
-    return eps, c0, c1, c2, sf, qx, qy, qz
+        eps, c0, c1, c2 = error_from_foot(dim, p0, p1, p2, fx, fy, fz, tx, ty)
+    return eps, c0, c1, c2, sf, fx, fy, fz
 
 
 @numba.njit(cache=True, inline="always")

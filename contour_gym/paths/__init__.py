@@ -2,9 +2,11 @@
 
 Every path (line, arc, circle, polyline, helix, composite, parametric, B-spline, NURBS, G-code,
 named library paths) compiles to a :class:`PathTable` of LINE, HELIX and POLY5 segments. The
-numba functions in :mod:`contour_gym.paths._geom` (``eval_path``, ``nearest_window``,
-``nearest_global``, ``nearest_hint``, ``side_2d``, ``find_segment``) evaluate it and find exact
-nearest points, both for the Python API here and for the servo-loop kernel.
+numba functions in :mod:`contour_gym.paths._geom` (``eval_path``, ``find_segment``,
+``nearest_segment``, ``side_2d``) evaluate it and find exact nearest points on a segment;
+:mod:`contour_gym.paths._branch` holds the true contour error's one definition (the nearest
+point of the branch a machine is on) and its search, for the Python API here and for the
+servo-loop kernel.
 
 Units are SI (metres). 2-D paths keep z = 0 in the table. Signed distances in 2-D are positive
 to the left of the direction of travel.

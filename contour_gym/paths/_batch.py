@@ -11,6 +11,7 @@ import math
 import numba
 import numpy as np
 
+from contour_gym.paths._branch import branch_nearest, branch_nearest_from, nearest_global
 from contour_gym.paths._geom import (
     _BOUND_SAMPLES,
     HELIX,
@@ -18,8 +19,6 @@ from contour_gym.paths._geom import (
     _norm3,
     eval_path,
     eval_segment,
-    nearest_global,
-    nearest_hint,
     side_2d,
     unit_tangent,
 )
@@ -34,23 +33,52 @@ def eval_many(kind, s0, data, s, out):
             out[k, j] = r[j]
 
 
+@numba.njit(forceinline=True)
+def _foot_d2(kind, s0, data, sf, px, py, pz):
+    # |P(sf) - p|^2 as the servo loop takes it (from the evaluated foot point), so that the
+    # Python API's distances equal the loop's bit for bit
+    x, y, z = eval_path(kind, s0, data, sf)[:3]
+    vx, vy, vz = x - px, y - py, z - pz
+    return vx * vx + vy * vy + vz * vz
+
+
 @numba.njit(cache=True)
 def nearest_many(kind, s0, data, bound, pts, out_s, out_d2):
     """Nearest point (:func:`nearest_global`) for every row of ``pts`` (N, 3)."""
     for k in range(pts.shape[0]):
-        out_s[k], out_d2[k] = nearest_global(kind, s0, data, bound, pts[k, 0], pts[k, 1], pts[k, 2])
+        px, py, pz = pts[k, 0], pts[k, 1], pts[k, 2]
+        sf, _ = nearest_global(kind, s0, data, bound, px, py, pz)
+        out_s[k], out_d2[k] = sf, _foot_d2(kind, s0, data, sf, px, py, pz)
 
 
 @numba.njit(cache=True)
-def nearest_many_hinted(kind, s0, data, bound, pts, hint, out_s, out_d2):
-    """Nearest point (:func:`nearest_hint` with ``hint[k]``) for every row of ``pts`` (N, 3).
+def nearest_many_hinted(kind, s0, data, bound, pts, s_from, s_to, out_s, out_d2):
+    """The branch's nearest point (:func:`~contour_gym.paths._branch.branch_nearest`) per row.
 
-    Apart from :func:`nearest_many`: a plot of a run searches near its references only, and
-    the global search is a third of a first run's compile.
+    Row ``k`` of ``pts`` (N, 3) on the branch from ``s_from[k]`` to ``s_to[k]``.
     """
     for k in range(pts.shape[0]):
-        out_s[k], out_d2[k] = nearest_hint(kind, s0, data, bound, pts[k, 0], pts[k, 1],
-                                           pts[k, 2], hint[k])  # fmt: skip
+        px, py, pz = pts[k, 0], pts[k, 1], pts[k, 2]
+        sf, _ = branch_nearest(kind, s0, data, bound, px, py, pz, s_from[k], s_to[k])
+        out_s[k], out_d2[k] = sf, _foot_d2(kind, s0, data, sf, px, py, pz)
+
+
+@numba.njit(cache=True)
+def track_many(kind, s0, data, bound, pts, s_ref, s_start, out_s, out_d2):
+    """The true foot point along a trajectory: row ``k`` on the branch from foot ``k - 1``.
+
+    Point ``k`` of ``pts`` (N, 3) with its reference at ``s_ref[k]``; the foot before the first
+    point is at ``s_start``. As the servo loop tracks the machine's foot, tick by tick.
+    """
+    prev = s_start
+    qx, qy, qz = eval_path(kind, s0, data, s_start)[:3]
+    for k in range(pts.shape[0]):
+        px, py, pz = pts[k, 0], pts[k, 1], pts[k, 2]
+        prev, _ = branch_nearest_from(kind, s0, data, bound, px, py, pz, prev, s_ref[k], qx, qy,
+                                      qz)  # fmt: skip
+        qx, qy, qz = eval_path(kind, s0, data, prev)[:3]
+        vx, vy, vz = qx - px, qy - py, qz - pz
+        out_s[k], out_d2[k] = prev, vx * vx + vy * vy + vz * vz
 
 
 @numba.njit(cache=True)

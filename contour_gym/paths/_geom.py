@@ -419,11 +419,12 @@ TIE_D2 = 1e-24
 
 
 @numba.njit(cache=True, inline="always")
-def _visit(kind, s0, data, bound, j, px, py, pz, s_lo, s_hi, best_s, best_d2):
-    """Search segment ``j`` over the window unless its bounding sphere rules it out."""
-    lb = _lower_bound(bound, j, px, py, pz)
-    if lb > 0.0 and lb * lb > best_d2 + TIE_D2:
-        return best_s, best_d2
+def search_segment(kind, s0, data, bound, j, px, py, pz, s_lo, s_hi, best_s, best_d2):
+    """Segment ``j``'s nearest point in the window ``[s_lo, s_hi]``, if it beats the best.
+
+    Returns the better of ``(s, dist2)`` and ``(best_s, best_d2)``: nearer by more than
+    ``TIE_D2``, or as near and farther along the path.
+    """
     a = s0[j]
     b = s0[j + 1]
     seg_len = b - a
@@ -437,6 +438,15 @@ def _visit(kind, s0, data, bound, j, px, py, pz, s_lo, s_hi, best_s, best_d2):
     if d2 < best_d2 - TIE_D2 or (d2 <= best_d2 + TIE_D2 and s > best_s):
         return s, d2
     return best_s, best_d2
+
+
+@numba.njit(cache=True, inline="always")
+def _visit(kind, s0, data, bound, j, px, py, pz, s_lo, s_hi, best_s, best_d2):
+    """:func:`search_segment` unless segment ``j``'s bounding sphere rules it out."""
+    lb = _lower_bound(bound, j, px, py, pz)
+    if lb > 0.0 and lb * lb > best_d2 + TIE_D2:
+        return best_s, best_d2
+    return search_segment(kind, s0, data, bound, j, px, py, pz, s_lo, s_hi, best_s, best_d2)
 
 
 @numba.njit
@@ -467,86 +477,6 @@ def nearest_window(kind, s0, data, bound, px, py, pz, s_lo, s_hi):
                 kind, s0, data, bound, j, px, py, pz, s_lo, s_hi, best_s, best_d2
             )
     return best_s, best_d2
-
-
-@numba.njit
-def nearest_global(kind, s0, data, bound, px, py, pz):
-    """Exact nearest point over the whole path: (s_foot, dist2).
-
-    The segment whose bounding sphere is nearest is searched first, then all others with pruning.
-    """
-    n = kind.shape[0]
-    total = s0[n]
-    first = 0
-    best_lb = np.inf
-    for j in range(n):
-        lb = _lower_bound(bound, j, px, py, pz)
-        if lb < best_lb:
-            best_lb = lb
-            first = j
-    best_s, best_d2 = _visit(kind, s0, data, bound, first, px, py, pz, 0.0, total, 0.0, np.inf)
-    for j in range(n):
-        if j != first:
-            best_s, best_d2 = _visit(kind, s0, data, bound, j, px, py, pz, 0.0, total,
-                                     best_s, best_d2)
-    return best_s, best_d2
-
-
-@numba.njit
-def hint_window(kind, s0, data, px, py, pz, s_hint):
-    """The search window used with a hint: ``[s_hint - W, s_hint + W]``.
-
-    ``W = 4 |p - P(s_hint)| + 1e-9``. The nearest point q satisfies ``|q - P(s_hint)| <= 2 d``
-    (triangle inequality, ``d = |p - P(s_hint)|``), so it lies in the window whenever the path
-    between ``s_hint`` and q has chord >= arc / 2: true across one corner turning up to 120
-    degrees (chord/arc >= cos(turn/2)) and along any arc turning up to 217 degrees.
-    """
-    x, y, z, _, _, _, _, _, _ = eval_path(kind, s0, data, s_hint)
-    dx = px - x
-    dy = py - y
-    dz = pz - z
-    d = math.sqrt(dx * dx + dy * dy + dz * dz)
-    w = 4.0 * d + 1e-9
-    return s_hint - w, s_hint + w
-
-
-@numba.njit
-def nearest_hint(kind, s0, data, bound, px, py, pz, s_hint):
-    """Nearest point in the window :func:`hint_window` around ``s_hint``: (s_foot, dist2)."""
-    lo, hi = hint_window(kind, s0, data, px, py, pz, s_hint)
-    return nearest_window_wrapped(kind, s0, data, bound, px, py, pz, lo, hi)
-
-
-@numba.njit
-def is_closed(kind, s0, data):
-    """Whether the path ends where it starts (within ``CLOSED_TOL``, as ``Path.closed``)."""
-    dx = dy = dz = 0.0
-    for k in range(2):  # start minus end, from one evaluation site (inlined once)
-        sign, r = 1.0 - 2.0 * k, eval_path(kind, s0, data, 0.0 if k == 0 else s0[s0.shape[0] - 1])
-        dx, dy, dz = dx + sign * r[0], dy + sign * r[1], dz + sign * r[2]
-    return math.sqrt(dx**2 + dy**2 + dz**2) <= CLOSED_TOL
-
-
-@numba.njit
-def nearest_window_wrapped(kind, s0, data, bound, px, py, pz, s_lo, s_hi):
-    """:func:`nearest_window`, where on a closed path the window wraps around 0 and L.
-
-    A tool that overshoots the end of a closed contour (or lags behind its start) is near
-    the other end of the arc-length range; a clamped window would report its distance to
-    the end point instead.
-    """
-    sf, d2 = nearest_window(kind, s0, data, bound, px, py, pz, s_lo, s_hi)
-    total = s0[s0.shape[0] - 1]
-    if (s_lo < 0.0 or s_hi > total) and is_closed(kind, s0, data):
-        if s_lo < 0.0:
-            s2, e2 = nearest_window(kind, s0, data, bound, px, py, pz, total + s_lo, total)
-            if e2 < d2:
-                sf, d2 = s2, e2
-        if s_hi > total:
-            s2, e2 = nearest_window(kind, s0, data, bound, px, py, pz, 0.0, s_hi - total)
-            if e2 < d2:
-                sf, d2 = s2, e2
-    return sf, d2
 
 
 @numba.njit(cache=True, inline="always")

@@ -221,25 +221,32 @@ class Path:
         pts[:, : self.dim] = arr
         return pts, single
 
-    def nearest(self, points: ArrayLike, s_hint: ArrayLike | None = None
-                ) -> tuple[FloatArray | float, FloatArray | float]:
+    def nearest(
+        self, points: ArrayLike, s_hint: ArrayLike | None = None, s_from: ArrayLike | None = None
+    ) -> tuple[FloatArray | float, FloatArray | float]:
         """Exact nearest point on the path: its arc length and the (signed) distance.
 
-        Without ``s_hint`` the whole path is searched. With ``s_hint`` (one per point) only the
-        window ``[s_hint - W, s_hint + W]`` with ``W = 4 |p - point(s_hint)| + 1e-9`` is searched
-        (clamped to [0, L], no wrap-around on closed paths): it contains the nearest point of the
-        branch being traversed whenever the path between ``s_hint`` and that point has chord at
-        least half its arc length (one corner turning up to 120 degrees, arcs up to 217 degrees),
-        and it keeps a self-intersecting path (``infinity``) on the branch of the hint.
+        Without ``s_hint`` the whole path is searched. With ``s_hint`` (the reference's arc
+        length, one per point) the point is measured against its *branch*, as the servo loop
+        measures the machine (:mod:`contour_gym.paths._branch`): the stretch from ``s_from``
+        (where the point's foot was a moment before; default ``s_hint``) to ``s_hint``,
+        extended at both ends until the path has turned 180 degrees beyond it. That is the
+        whole path's nearest point wherever the path does not cross or come back near itself
+        after a half turn, and the traversed branch where it does (``infinity``'s centre).
 
         Args:
             points: (N, dim) or (dim,) points, m.
-            s_hint: Optional (N,) arc lengths (or a scalar for one point) near the feet.
+            s_hint: Optional (N,) reference arc lengths (a scalar for one point), m.
+            s_from: Optional (N,) arc lengths of the previous foot points, m (with ``s_hint``).
 
         Returns:
             ``(s, distance)``: arc length of the foot point and the distance, signed in 2-D
             (positive left of the direction of travel; against the corner bisector at a corner),
             non-negative in 3-D. Arrays (N,) or floats for a single point.
+
+        Raises:
+            ValueError: for points or arc lengths that are not finite or not one per point,
+                or ``s_from`` without ``s_hint``.
         """
         pts, single = self._points3(points)
         n = pts.shape[0]
@@ -247,15 +254,61 @@ class Path:
         out_s = np.empty(n)
         out_d2 = np.empty(n)
         if s_hint is None:
+            if s_from is not None:
+                raise ValueError("s_from needs s_hint (the reference the branch reaches to)")
             _batch.nearest_many(t.kind, t.s0, t.data, t.bound, pts, out_s, out_d2)
         else:
-            hint = np.ascontiguousarray(as_finite_array(s_hint, "s_hint").reshape(-1))
-            if hint.shape != (n,):
-                raise ValueError(f"s_hint must have one value per point ({n}), got {hint.shape}")
-            _batch.nearest_many_hinted(t.kind, t.s0, t.data, t.bound, pts, hint, out_s, out_d2)
+            hint = self._arc_lengths(s_hint, "s_hint", n)
+            start = hint if s_from is None else self._arc_lengths(s_from, "s_from", n)
+            _batch.nearest_many_hinted(t.kind, t.s0, t.data, t.bound, pts, start, hint, out_s,
+                                       out_d2)  # fmt: skip
+        return self._signed(pts, out_s, out_d2, single)
+
+    def track(
+        self, points: ArrayLike, s_ref: ArrayLike, s_start: float = 0.0
+    ) -> tuple[FloatArray, FloatArray]:
+        """The true contour error along a trajectory, as the servo loop measures it.
+
+        Point ``k`` is measured against the branch from the foot point of point ``k - 1`` to
+        its reference ``s_ref[k]`` (:meth:`nearest`); a run's recorded positions and
+        references (:class:`~contour_gym.loop.Trace`) give back its ``eps`` exactly.
+
+        Args:
+            points: (N, dim) positions in order, m.
+            s_ref: (N,) the reference's arc length at each, m.
+            s_start: Arc length of the foot before the first point (the path start), m.
+
+        Returns:
+            ``(s, distance)`` (N,) each: the foot points' arc lengths and the signed (2-D) or
+            unsigned (3-D) distances.
+
+        Raises:
+            ValueError: for points or arc lengths that are not finite or not one per point.
+        """
+        pts, _ = self._points3(points)
+        n = pts.shape[0]
+        ref = self._arc_lengths(s_ref, "s_ref", n)
+        start = float(self._arc_lengths(s_start, "s_start", 1)[0])
+        t = self._table
+        out_s, out_d2 = np.empty(n), np.empty(n)
+        _batch.track_many(t.kind, t.s0, t.data, t.bound, pts, ref, start, out_s, out_d2)
+        s, d = self._signed(pts, out_s, out_d2, False)
+        return np.asarray(s), np.asarray(d)
+
+    def _arc_lengths(self, values: ArrayLike, name: str, n: int) -> FloatArray:
+        # (n,) finite arc lengths clamped to [0, L]
+        arr = np.ascontiguousarray(as_finite_array(values, name).reshape(-1))
+        if arr.shape != (n,):
+            raise ValueError(f"{name} must have one value per point ({n}), got {arr.shape}")
+        return np.clip(arr, 0.0, self.length)
+
+    def _signed(self, pts: FloatArray, out_s: FloatArray, out_d2: FloatArray, single: bool
+                ) -> tuple[FloatArray | float, FloatArray | float]:
+        # distances from the squared ones, signed in 2-D (against the corner bisector)
+        t = self._table
         dist = np.sqrt(out_d2)
         if self.dim == 2:
-            sign = np.empty(n)
+            sign = np.empty(pts.shape[0])
             _batch.side_many(t.kind, t.s0, t.data, self._closed, out_s, pts, sign)
             dist = dist * sign
         if single:

@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from contour_gym.paths import _batch
+from contour_gym.paths._branch import NB, build_bound
 from contour_gym.paths._geom import HELIX, LINE, NCOL, POLY5
 
 FloatArray = NDArray[np.float64]
@@ -30,7 +31,10 @@ class PathTable:
         kind: Segment kinds (n,): 0 = LINE, 1 = HELIX (plain arcs have zero rise), 2 = POLY5.
         s0: Cumulative arc length at each segment start (n + 1,), m; ``s0[n]`` is the length.
         data: Segment parameters (n, 18); layout in :mod:`contour_gym.paths._geom`.
-        bound: Bounding sphere per segment (n, 4): centre xyz and radius, m.
+        bound: The search's rows (3n - 1, 8) (:mod:`contour_gym.paths._branch`): per segment
+            its bounding sphere (centre xyz and radius, m) and turning, then a tree of
+            spheres over the segments. Given as the segments' spheres (n, 4), the rest is
+            built.
         dim: 2 or 3; 2-D paths have z = 0 everywhere in ``data`` and ``bound``.
     """
 
@@ -44,11 +48,14 @@ class PathTable:
         object.__setattr__(self, "kind", _frozen(self.kind, np.int64))
         object.__setattr__(self, "s0", _frozen(self.s0, np.float64))
         object.__setattr__(self, "data", _frozen(self.data, np.float64))
-        object.__setattr__(self, "bound", _frozen(self.bound, np.float64))
         n = self.kind.shape[0]
         if n < 1 or self.s0.shape != (n + 1,) or self.data.shape != (n, NCOL):
             raise ValueError("inconsistent PathTable shapes")
-        if self.bound.shape != (n, 4) or self.dim not in (2, 3):
+        bound = np.asarray(self.bound, dtype=np.float64)
+        if bound.shape == (n, 4):
+            bound = build_bound(self.kind, self.s0, self.data, np.ascontiguousarray(bound))
+        object.__setattr__(self, "bound", _frozen(bound, np.float64))
+        if self.bound.shape != (3 * n - 1, NB) or self.dim not in (2, 3):
             raise ValueError("inconsistent PathTable bound shape or dim")
 
     def __reduce__(self) -> tuple[Any, ...]:
@@ -64,10 +71,20 @@ class PathTable:
         """Total arc length, m."""
         return float(self.s0[-1])
 
+    @property
+    def spheres(self) -> FloatArray:
+        """Each segment's bounding sphere (n, 4): centre xyz and radius, m (read-only)."""
+        out: FloatArray = self.bound[: self.n_segments, :4]
+        return out
+
 
 def make_table(kind: Sequence[int] | IntArray, lengths: Sequence[float] | FloatArray,
                data: FloatArray, dim: int, bound: FloatArray | None = None) -> PathTable:
-    """Assemble a table from per-segment kinds, lengths and rows (bounds computed if absent)."""
+    """Assemble a table from per-segment kinds, lengths and rows.
+
+    ``bound``: the segments' bounding spheres (n, 4), computed if absent; the search's other
+    rows are built from them.
+    """
     kind_arr = np.ascontiguousarray(kind, dtype=np.int64)
     lens = np.asarray(lengths, dtype=np.float64)
     s0 = np.concatenate(([0.0], np.cumsum(lens)))
@@ -82,8 +99,8 @@ def concat_tables(tables: Sequence[PathTable]) -> PathTable:
     kind = np.concatenate([t.kind for t in tables])
     lengths = np.concatenate([np.diff(t.s0) for t in tables])
     data = np.concatenate([t.data for t in tables])
-    bound = np.concatenate([t.bound for t in tables])
-    return make_table(kind, lengths, data, tables[0].dim, bound)
+    spheres = np.concatenate([t.spheres for t in tables])
+    return make_table(kind, lengths, data, tables[0].dim, spheres)
 
 
 def line_row(start: FloatArray, end: FloatArray) -> tuple[float, FloatArray]:

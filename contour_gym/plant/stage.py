@@ -136,8 +136,8 @@ class Stage:
                     yield j, a, float(offset[j]), travel
 
     def _spheres_inside(self, path: Any) -> bool:
-        # every segment's bounding sphere (path.table.bound) within every limited axis' travel
-        bound = np.asarray(path.table.bound, dtype=float)
+        # every segment's bounding sphere within every limited axis' travel
+        bound = np.asarray(path.table.spheres, dtype=float)
         for j, _, offset, travel in self.limited_coordinates():
             low = bound[:, j] + offset - bound[:, 3]
             high = bound[:, j] + offset + bound[:, 3]
