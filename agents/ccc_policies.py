@@ -200,7 +200,7 @@ class PSOFuzzyPIDCCC(FuzzyPIDCCC):
     """Paper 000's fuzzy PID CCC with a general improved-PSO factor set (``pso_fuzzy_pid_ccc``).
 
     The factors are the best of tuning protocol ``000_general`` (:mod:`agents.tune`: 000's
-    improved PSO, 50 particles x 100 generations, on 24 random paths of 000's machine, four
+    improved PSO, 50 particles x 100 generations, on 28 random paths of 000's machine, four
     of each family: the worst path's max contour error relative to the untuned law's,
     chattering bounded), shipped in ``agents/data/pso_fuzzy_pid_ccc.json`` with the command
     that reproduces them, ``contour-gym tune 000_general --seed 0``: a factor set for parts it

@@ -122,9 +122,34 @@ def _turns(path: Path) -> np.ndarray:
 def test_polyline_corners_span_sharp_to_shallow() -> None:
     turns = np.concatenate([_turns(_draw(seed, "polyline")) for seed in range(30)])
     assert turns.size > 100
-    assert turns.max() > 135.0 and turns.min() < 6.0
-    assert np.all((turns > 2.9) & (turns < 150.1))
+    assert turns.max() > 165.0 and turns.min() < 6.0
+    assert np.all((turns > 2.9) & (turns < 179.1))
     assert np.sum(turns < 20.0) > 10 and np.sum(turns > 90.0) > 10
+
+
+def test_zigzag_turns_back_at_every_vertex_or_steps_aside() -> None:
+    sharp = steps = 0
+    for seed in range(30):
+        p = _draw(seed, "zigzag")
+        assert set(p.table.kind.tolist()) == {LINE}
+        turns, legs = _turns(p), np.diff(p.table.s0)
+        d = p.evaluate(p.table.s0[:-1])[1]  # each segment's direction
+        cross = d[:-1, 0] * d[1:, 1] - d[:-1, 1] * d[1:, 0]  # > 0: the corner turns left
+        sides, k = [], 0
+        while k < turns.size:  # a vertex turns back (150 to 179.9 degrees) or steps aside
+            if abs(turns[k] - 90.0) < 1e-6:  # a raster step: 90, a short segment, 90 alike
+                assert abs(turns[k + 1] - 90.0) < 1e-6
+                assert np.sign(cross[k + 1]) == np.sign(cross[k])
+                assert legs[k + 1] < 0.3 * min(legs[k], legs[k + 2])  # 0.02-0.08 beside 0.3-1
+                steps, k = steps + 1, k + 1
+            else:
+                assert 149.9 < turns[k] < 179.95, turns[k]
+                sharp += 1
+            sides.append(np.sign(cross[k]))
+            k += 1
+        # alternately left and right
+        assert all(a != b for a, b in zip(sides[:-1], sides[1:], strict=True))
+    assert sharp > 50 and steps > 10
 
 
 def test_cam_joins_lines_and_arcs_tangentially_and_at_corners() -> None:
@@ -185,8 +210,8 @@ def test_feeds_are_drawn_per_block_within_the_range(family: str) -> None:
 
 
 @pytest.mark.parametrize(("kwargs", "word"), [
-    ({"family": "zigzag"}, "zigzag"),
-    ({"family": ["cam", "zigzag"]}, "zigzag"),
+    ({"family": "meander"}, "meander"),
+    ({"family": ["cam", "meander"]}, "meander"),
     ({"family": []}, r"\[\]"),
     ({"family": 3}, "3"),
     ({"length": (0.9, 2.0)}, "0.9"),

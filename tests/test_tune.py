@@ -224,7 +224,7 @@ def test_the_general_factors_are_protocol_000_generals_and_the_policy_uses_them(
     factors = tuned_factors_general()
     assert make("pso_fuzzy_pid_ccc").factors == factors  # type: ignore[attr-defined]
     p = get_protocol("000_general")
-    assert len(p.scenarios) == 24 and p.relative and p.worst_case and p.chatter_bound == 2.0
+    assert len(p.scenarios) == 28 and p.relative and p.worst_case and p.chatter_bound == 2.0
     f = PopulationObjective("000_general").fitness([[factors[n] for n in p.names]])[0]
     assert f == pytest.approx(data["fitness"], rel=1e-12)
 

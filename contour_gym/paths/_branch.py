@@ -19,7 +19,8 @@ centre, a star's crossings, a slot's opposite wall, zig-zag legs two apart, a se
 branch is the one being traversed, decided by where the machine was and where its reference
 is: no leg the machine has left can hold it, since the stretch always reaches the reference.
 
-A table's ``bound`` array carries what the search needs (:func:`build_bound`), ``NB`` columns:
+A table's ``bound`` array carries what the search needs
+(:func:`contour_gym.paths._table.build_bound`), ``NB`` columns:
 
 * rows ``0 .. n-1``, one per segment: its bounding sphere (centre xyz, radius), the turning
   accumulated from the path start to the segment start (``B_TS``, its start corner included),
@@ -168,39 +169,54 @@ def _build_tree(out, n):
         row = n + k
         lo, hi = int(out[row, B_LO]), int(out[row, B_HI])
         if hi - lo == 1:
-            out[row, 0:4] = out[lo, 0:4]
+            for c in range(4):  # element by element: a slice copy compiles its error paths
+                out[row, c] = out[lo, c]
         else:
             mid = (lo + hi) // 2
             _merge(out, row, row + 1, row + 2 * (mid - lo))
 
 
 @numba.njit(cache=True)
-def build_bound(kind, s0, data, spheres):
-    """A table's ``bound`` rows (module doc) from its segments' bounding spheres ``(n, 4)``."""
+def build_rows(kind, s0, data, spheres):
+    """A table's ``bound`` rows (module doc) but the clearances, from the spheres ``(n, 4)``."""
     n = kind.shape[0]
     out = np.zeros((3 * n - 1, NB))
-    out[:n, 0:4] = spheres
+    closed = _is_closed(kind, s0, data)
     total = 0.0
     for i in range(n):
+        for c in range(4):  # element by element: a slice copy compiles its error paths
+            out[i, c] = spheres[i, c]
+        corner = _corner(kind, s0, data, (i - 1) % n, i)  # i = 0: the end to the start
         if i > 0:
-            c = _corner(kind, s0, data, i - 1, i)
-            out[i, B_CORNER] = c
-            total += c
+            out[i, B_CORNER] = corner
+            total += corner
+        elif closed:
+            out[i, B_CORNER] = corner
         out[i, B_TS] = total
         out[i, B_TIN] = _turning_in(kind, s0, data, i)
         total += out[i, B_TIN]
+    _build_tree(out, n)
+    out[n, B_CLOSED] = 1.0 if closed else 0.0
+    return out
+
+
+@numba.njit
+def _is_closed(kind, s0, data):
+    """Whether the path ends where it starts (within ``CLOSED_TOL``)."""
+    n = kind.shape[0]
     start = eval_path(kind, s0, data, 0.0)
     end = eval_path(kind, s0, data, s0[n])
     gap = math.sqrt((start[0] - end[0]) ** 2 + (start[1] - end[1]) ** 2 + (start[2] - end[2]) ** 2)
-    _build_tree(out, n)
-    closed = gap <= CLOSED_TOL
-    if closed:
-        out[n, B_CLOSED] = 1.0
-        out[0, B_CORNER] = _corner(kind, s0, data, n - 1, 0)
-    for i in range(n):
+    return gap <= CLOSED_TOL
+
+
+@numba.njit(cache=True)
+def fill_clearances(kind, s0, data, bound, out):
+    """Every cell's clearance (:func:`_clearance`) into ``out`` (n, ``N_CELLS``)."""
+    closed = is_closed_table(bound, kind.shape[0])
+    for i in range(kind.shape[0]):
         for cell in range(N_CELLS):
-            out[i, B_CLEAR + cell] = _clearance(kind, s0, data, out, i, cell, closed)
-    return out
+            out[i, cell] = _clearance(kind, s0, data, bound, i, cell, closed)
 
 
 @numba.njit
@@ -377,7 +393,7 @@ def _upper_end(s0, bound, closed, t_end, target, b):
 
 
 @numba.njit(forceinline=True)
-def branch_range(s0, bound, closed, a, b, angle=HALF_TURN):
+def branch_range(s0, bound, closed, a, b, angle):
     """The arc lengths within ``angle`` of turning of the stretch ``[a, b]`` (the branch).
 
     ``lo`` is the smallest arc length from which the path up to ``a`` turns less than
@@ -613,7 +629,7 @@ def search_branch(kind, s0, data, bound, px, py, pz, s_from, s_to):
     length = s0[n]
     closed = is_closed_table(bound, n)
     a = unwrap_near(s_from, s_to, length, closed)
-    lo, hi = branch_range(s0, bound, closed, min(a, s_to), max(a, s_to))
+    lo, hi = branch_range(s0, bound, closed, min(a, s_to), max(a, s_to), HALF_TURN)
     windows = branch_windows(length, closed, lo, hi)
     if s_from != s_to:
         seed = find_segment(s0, min(max(s_from, 0.0), length))
@@ -655,7 +671,7 @@ def branch_has_nearer(kind, s0, data, bound, px, py, pz, s, bar):
     qx, qy, qz = eval_path(kind, s0, data, s)[:3]
     certain, lo, hi = _local_window(s0, bound, px, py, pz, s, qx, qy, qz, s, closed)
     if not certain:
-        lo, hi = branch_range(s0, bound, closed, s, s)
+        lo, hi = branch_range(s0, bound, closed, s, s, HALF_TURN)
     windows = branch_windows(length, closed, lo, hi)
     _, best = search_tree(kind, s0, data, bound, px, py, pz, windows, find_segment(s0, s),
                           -1.0, bar)  # fmt: skip

@@ -15,8 +15,12 @@ uniformly, so a name given twice is drawn twice as often):
 * ``"spiral"``: an Archimedean spiral ``rho = r0 + (1 - r0) theta / Theta`` over 1 or more
   turns, ``r0`` in [0.05, 0.4], squashed by [0.6, 1] along y, run inwards or outwards (open).
 * ``"polyline"``: a random walk of 3 or more straight segments of random length (uniform, 0.2
-  to 1) with corners turning log-uniformly from 3 degrees (shallow) to 150 degrees (sharp),
-  left or right; a walk that strays 2 units from its start turns back towards it.
+  to 1) with corners turning log-uniformly from 3 degrees (shallow) to 179 degrees (nearly a
+  reversal), left or right; a walk that strays 2 units from its start turns back towards it.
+* ``"zigzag"``: engraving strokes and zig-zag fills: 3 or more legs (uniform, 0.3 to 1) turning
+  back at every vertex, alternately left and right, by 150 to 179.9 degrees (uniform); with odds
+  1/3 a vertex is a raster step instead, a short segment (2 to 8 % of a unit) between two
+  90-degree corners, so that the legs on either side run back side by side.
 * ``"cam"``: lines and arcs as CAM output joins them: a polyline (some segments short, 2 to 8 %)
   whose inner vertices get, with even odds, a tangent arc fillet or stay corners; segments
   between two corners become bulged arcs (non-tangent at both ends) with odds 0.3.
@@ -40,8 +44,8 @@ arc (polyline, cam) or a run of consecutive quintic spans of a free-form curve (
 at random span boundaries). :func:`contour_gym.make_scenario` runs such a path at its own feeds
 (its nominal feedrate is the highest one), exactly as a G-code part.
 
-Only 2-D paths are drawn; ``dim=3`` raises NotImplementedError. Cost: a polyline or cam
-path takes milliseconds; the smooth families 0.05 to 0.5 s (the fit of their quintic spans).
+Only 2-D paths are drawn; ``dim=3`` raises NotImplementedError. Cost: a polyline, cam or
+zigzag path takes milliseconds; the smooth families 0.05 to 0.5 s (the fit of their quintic spans).
 """
 
 from __future__ import annotations
@@ -66,7 +70,7 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 Curve = Callable[[FloatArray], FloatArray]
 
-PATH_FAMILIES = ("spline", "lissajous", "rose", "spiral", "polyline", "cam")
+PATH_FAMILIES = ("spline", "lissajous", "rose", "spiral", "polyline", "cam", "zigzag")
 DEFAULT_WITHIN = ((-0.05, 0.05), (-0.05, 0.05))  # travel box, m
 DEFAULT_LENGTH = (0.02, 0.2)  # path length range, m
 DEFAULT_MARGIN = 0.002  # free border inside the travel box, m
@@ -260,7 +264,7 @@ def _walk(rng: np.random.Generator, n: int, max_turn_deg: float, short_odds: flo
 def _polyline(rng: np.random.Generator, need: float) -> _Shape | None:
     """A random walk of straight segments."""
     n = int(rng.integers(3, 5 + math.ceil(10.0 * need)))
-    pts, seg, _ = _walk(rng, n, 150.0, 0.0)
+    pts, seg, _ = _walk(rng, n, 179.0, 0.0)
 
     def build(k: float) -> Path:
         return polyline(k * pts)
@@ -346,9 +350,36 @@ def _cam(rng: np.random.Generator, need: float) -> _Shape | None:
                   float(sum(p.length for p in pieces)), build)
 
 
+def _zigzag(rng: np.random.Generator, need: float) -> _Shape | None:
+    """Legs turning back at every vertex, alternately left and right, or raster steps."""
+    n = int(rng.integers(3, 5 + math.ceil(6.0 * need)))
+    legs = rng.uniform(0.3, 1.0, n)
+    side = 1.0 if rng.integers(2) else -1.0
+    pts = [np.zeros(2)]
+    heading = 0.0
+    for j in range(n):
+        if j > 0:
+            side = -side
+            if rng.random() < 1.0 / 3.0:  # a raster step: 90, a short segment, 90
+                heading += side * 0.5 * math.pi
+                step = rng.uniform(0.02, 0.08)
+                pts.append(pts[-1] + step * np.array([math.cos(heading), math.sin(heading)]))
+                heading += side * 0.5 * math.pi
+            else:
+                heading += side * math.radians(rng.uniform(150.0, 179.9))
+        pts.append(pts[-1] + legs[j] * np.array([math.cos(heading), math.sin(heading)]))
+    vertices = np.array(pts)
+    length = float(np.sum(np.linalg.norm(np.diff(vertices, axis=0), axis=1)))
+
+    def build(k: float) -> Path:
+        return polyline(k * vertices)
+
+    return _Shape(vertices, length, build)
+
+
 _MAKERS: dict[str, Maker] = {
     "spline": _spline, "lissajous": _lissajous, "rose": _rose, "spiral": _spiral,
-    "polyline": _polyline, "cam": _cam,
+    "polyline": _polyline, "cam": _cam, "zigzag": _zigzag,
 }
 
 

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from contour_gym.paths import _batch
-from contour_gym.paths._branch import NB, build_bound
+from contour_gym.paths._branch import B_CLEAR, N_CELLS, NB, build_rows, fill_clearances
 from contour_gym.paths._geom import HELIX, LINE, NCOL, POLY5
 
 FloatArray = NDArray[np.float64]
@@ -23,6 +23,25 @@ def _frozen(arr: Any, dtype: type) -> Any:
     return out
 
 
+def build_bound(kind: IntArray, s0: FloatArray, data: FloatArray, spheres: FloatArray
+                ) -> FloatArray:  # fmt: skip
+    """A table's ``bound`` rows (:mod:`contour_gym.paths._branch`) from its segments' spheres.
+
+    ``spheres``: each segment's bounding sphere ``(n, 4)``, centre xyz and radius (m).
+    ``kind``, ``s0`` and ``data`` read-only, as a :class:`~contour_gym.paths.PathTable` holds
+    them: the clearances are searched on a read-only view of the other rows, so the searches
+    compile once for the tables and the servo loop alike (the same array types).
+    """
+    bound = build_rows(kind, s0, data, spheres)
+    rows = bound.view()
+    rows.flags.writeable = False
+    n = kind.shape[0]
+    clear = np.zeros((n, N_CELLS))
+    fill_clearances(kind, s0, data, rows, clear)
+    bound[:n, B_CLEAR:] = clear
+    return bound
+
+
 @dataclass(frozen=True, eq=False)
 class PathTable:
     """Contiguous, read-only arrays describing a path for the compiled kernels.
@@ -31,10 +50,10 @@ class PathTable:
         kind: Segment kinds (n,): 0 = LINE, 1 = HELIX (plain arcs have zero rise), 2 = POLY5.
         s0: Cumulative arc length at each segment start (n + 1,), m; ``s0[n]`` is the length.
         data: Segment parameters (n, 18); layout in :mod:`contour_gym.paths._geom`.
-        bound: The search's rows (3n - 1, 8) (:mod:`contour_gym.paths._branch`): per segment
-            its bounding sphere (centre xyz and radius, m) and turning, then a tree of
-            spheres over the segments. Given as the segments' spheres (n, 4), the rest is
-            built.
+        bound: The search's rows (3n - 1, NB) (:mod:`contour_gym.paths._branch`): per
+            segment its bounding sphere (centre xyz and radius, m), turning and clearances,
+            then a tree of spheres over the segments. Given as the segments' spheres (n, 4),
+            the rest is built.
         dim: 2 or 3; 2-D paths have z = 0 everywhere in ``data`` and ``bound``.
     """
 
