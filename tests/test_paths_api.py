@@ -230,7 +230,7 @@ def test_distance_invariant_under_rigid_motion_3d(quat, shift, seed, reflect):
     np.testing.assert_allclose(moved.point(0.01), rot @ path.point(0.01) + shift, atol=1e-14)
 
 
-def test_hint_window_wraps_on_closed_paths():
+def test_the_branch_wraps_on_closed_paths():
     # a tool past the end of a closed contour is near its start: the hinted search must
     # find that, not the end point (the servo loop's ground truth uses the same search)
     c = cgp.circle(0.02)

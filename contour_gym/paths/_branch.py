@@ -36,10 +36,9 @@ A table's ``bound`` array carries what the search needs
 Usually the nearest point is certain to lie within ``4 d`` of arc of the previous foot point
 (``d`` the machine's distance from it): when the path there turns less than ``CHORD_TURN``
 (so its chord is at least half its arc) and the cell's clearance exceeds ``2 d``
-(:func:`_local_window`); then that small window alone is searched, as a window around the
-previous foot was before this definition. Else the branch is searched: the segment of the
-previous foot first (its distance bounds the rest), then the tree, where a subtree whose
-sphere stays farther than the best distance so far, or whose segments all lie outside the
+(:func:`_local_window`); then that small window alone is searched. Else the branch is
+searched: the segment of the previous foot first (its distance bounds the rest), then the
+tree, where a subtree whose sphere stays farther than the best distance so far, or whose segments all lie outside the
 branch, is skipped whole.
 """
 

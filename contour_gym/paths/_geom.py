@@ -2,8 +2,9 @@
 
 Every function takes the table arrays (``kind``, ``s0``, ``data``, ``bound``) as arguments, so the
 batched loop kernel can call them from its own ``@numba.njit`` code. The hot functions
-(:func:`find_segment`, :func:`eval_path`, :func:`nearest_window`, :func:`nearest_global`,
-:func:`nearest_hint`, :func:`side_2d`) take and return scalars and never allocate.
+(:func:`find_segment`, :func:`eval_path`, :func:`nearest_window`, :func:`side_2d`) take and
+return scalars and never allocate; the branch searches built on them are
+:mod:`contour_gym.paths._branch`.
 
 Table layout (one row per segment, local parameter ``t`` in ``[0, s0[i+1] - s0[i]]``):
 

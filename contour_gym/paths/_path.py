@@ -9,7 +9,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from contour_gym._validate import as_finite_array
 from contour_gym.paths import _batch
-from contour_gym.paths._geom import CLOSED_TOL, CORNER_TOL
+from contour_gym.paths._geom import CORNER_TOL
 from contour_gym.paths._table import PathTable, concat_tables, transform_table
 from contour_gym.paths._timelaw import TimeLaw
 
@@ -60,7 +60,7 @@ class Path:
         if time_law is not None:
             _check_law(time_law, table.length, name)
         ends = _batch.segment_ends(table.kind, table.s0, table.data)
-        closed = bool(np.linalg.norm(ends[0, 0, :3] - ends[-1, 1, :3]) <= CLOSED_TOL)
+        closed = table.closed  # the branch search's flag: one definition of closed
         jump = np.linalg.norm(ends[1:, 0, 3:] - ends[:-1, 1, 3:], axis=1) > CORNER_TOL
         corners = table.s0[1:-1][jump]
         if closed and np.linalg.norm(ends[0, 0, 3:] - ends[-1, 1, 3:]) > CORNER_TOL:

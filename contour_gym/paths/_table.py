@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from contour_gym.paths import _batch
-from contour_gym.paths._branch import B_CLEAR, N_CELLS, NB, build_rows, fill_clearances
+from contour_gym.paths._branch import B_CLEAR, B_CLOSED, N_CELLS, NB, build_rows, fill_clearances
 from contour_gym.paths._geom import HELIX, LINE, NCOL, POLY5
 
 FloatArray = NDArray[np.float64]
@@ -89,6 +89,11 @@ class PathTable:
     def length(self) -> float:
         """Total arc length, m."""
         return float(self.s0[-1])
+
+    @property
+    def closed(self) -> bool:
+        """Whether the path ends where it starts (within ``CLOSED_TOL``; the search's flag)."""
+        return bool(self.bound[self.n_segments, B_CLOSED] != 0.0)
 
     @property
     def spheres(self) -> FloatArray:
