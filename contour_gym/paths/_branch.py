@@ -38,8 +38,8 @@ Usually the nearest point is certain to lie within ``4 d`` of arc of the previou
 (so its chord is at least half its arc) and the cell's clearance exceeds ``2 d``
 (:func:`_local_window`); then that small window alone is searched. Else the branch is
 searched: the segment of the previous foot first (its distance bounds the rest), then the
-tree, where a subtree whose sphere stays farther than the best distance so far, or whose segments all lie outside the
-branch, is skipped whole.
+tree, where a subtree whose sphere stays farther than the best distance so far, or whose
+segments all lie outside the branch, is skipped whole.
 """
 
 from __future__ import annotations
