@@ -6,7 +6,8 @@ One tick of member b (local tick k)::
     encoder: y = quantise(x) + noise                        (rig; exact with ideal=True)
     per contour: true error eps (the nearest point of the branch from the machine's previous
                  foot point to the reference: contour_gym.paths._branch),
-                 estimate from y (the registered estimator), CCC law -> U,
+                 estimate from y (the registered estimator), CCC law -> U (standing aside
+                 while the estimate's foot retraces a leg against the reference: contour_gym.ccc),
                  distributed by the coupling gains: into the control (u += w C U) or into the
                  commanded position (r += w C U, 002's pre-compensation)
     per axis: u = controller(r, y) + friction compensation + CCC share, saturated
@@ -141,38 +142,62 @@ def _track_foot(loop, path, cfg, q, s, p0, p1, p2):
         path.kind, path.s0, path.data, path.bound, cfg.dim, p0, p1, p2, sf_prev, foot[q, FT.qx],
         foot[q, FT.qy], foot[q, FT.qz], s,
     )  # fmt: skip
+    step = _step(path, sf, sf_prev)
+    foot[q, FT.progress] += step
+    foot[q, FT.s], foot[q, FT.qx], foot[q, FT.qy], foot[q, FT.qz] = sf, qx, qy, qz
+    foot[q, FT.seg] = find_segment(path.s0, sf)
+    return eps, g0, g1, g2, (sf if step < 0.0 else -1.0)
+
+
+@numba.njit(cache=True, inline="always")
+def _step(path, sf, sf_prev):
+    # how far a foot point moved along the path, across a closed path's seam the short way
     step = sf - sf_prev
     if path.closed and step < -0.5 * path.length:
         step += path.length
     elif path.closed and step > 0.5 * path.length:
         step -= path.length
-    foot[q, FT.progress] += step
-    foot[q, FT.s], foot[q, FT.qx], foot[q, FT.qy], foot[q, FT.qz] = sf, qx, qy, qz
-    foot[q, FT.seg] = find_segment(path.s0, sf)
-    return eps, g0, g1, g2
+    return step
 
 
 @numba.njit(cache=True, inline="always")
-def _estimate(loop, path, cfg, q, c, s, eps, g0, g1, g2):
-    # the contour error the CCC sees: from the encoder readings, by the run's estimator
+def _estimate(loop, path, cfg, q, c, s, eps, g0, g1, g2, back):
+    # the contour error the CCC sees: from the encoder readings, by the run's estimator, and
+    # where its foot point moved backward this tick (-1: it did not, or is not tracked)
     if cfg.meas_exact and cfg.search:
-        return eps, g0, g1, g2  # the exact search on the exact position: already known
+        return eps, g0, g1, g2, back  # the exact search on the exact position: already known
     dim, p0, p1, p2 = _coords(loop, c, WORK_ROW.y)
     b = q // loop.c_axes.shape[0]
     if cfg.search:
         # an exact-search estimator tracks its own foot point from tick to tick (the reading's,
         # never the truth's): the same definition on the reading
         f = loop.foot
+        sf_prev = f[q, FT.e_s]
         e, c0, c1, c2, sf, qx, qy, qz = ground_truth_from(
-            path.kind, path.s0, path.data, path.bound, dim, p0, p1, p2, f[q, FT.e_s],
-            f[q, FT.e_qx], f[q, FT.e_qy], f[q, FT.e_qz], s,
+            path.kind, path.s0, path.data, path.bound, dim, p0, p1, p2, sf_prev, f[q, FT.e_qx],
+            f[q, FT.e_qy], f[q, FT.e_qz], s,
         )  # fmt: skip
         f[q, FT.e_s], f[q, FT.e_qx], f[q, FT.e_qy], f[q, FT.e_qz] = sf, qx, qy, qz
-        return e, c0, c1, c2
+        return e, c0, c1, c2, (sf if _step(path, sf, sf_prev) < 0.0 else -1.0)
     foot = EST_FOOT(cfg.est, loop.est_p, path.kind, path.s0, path.data, path.bound, p0, p1, p2,
                     s, loop.hist[b])  # fmt: skip
     e, c0, c1, c2, _ = resolve(foot, path.kind, path.s0, path.data, path.bound, dim, p0, p1, p2, s)
-    return e, c0, c1, c2
+    return e, c0, c1, c2, -1.0
+
+
+@numba.njit(cache=True, inline="always")
+def _retracing(loop, path, c, back):
+    # the foot point the CCC acts on moved backward (to ``back``) on a stretch of the path
+    # that runs against the reference (tangents over 90 degrees apart): the machine retraces
+    # a leg it has left after a reversal (contour_gym.ccc, "Standing aside")
+    if back < 0.0:
+        return False
+    _, _, _, tx, ty, tz, _, _, _ = eval_path(path.kind, path.s0, path.data, back)
+    axes, work = loop.c_axes, loop.work
+    dot = tx * work[WORK_ROW.rdot, axes[c, 0]] + ty * work[WORK_ROW.rdot, axes[c, 1]]
+    if axes[c, 2] >= 0:
+        dot += tz * work[WORK_ROW.rdot, axes[c, 2]]
+    return dot < 0.0
 
 
 @numba.njit(cache=True, inline="always")
@@ -182,12 +207,17 @@ def _waiting(loop, b):
 
 
 @numba.njit(cache=True, inline="always")
-def _ccc(loop, cfg, q, c, dim, eps, g0, g1, g2, waiting):
+def _ccc(loop, cfg, q, c, dim, eps, g0, g1, g2, waiting, aside):
     # Contour row q = b * C + c; its state rows are 3 q + i. 2-D: the law on the signed eps,
     # distributed by C (state row 3 q). 3-D: the law on each signed component C_i eps.
-    # waiting: the reference waits for the axes (the law releases: contour_gym.ccc)
+    # waiting: the reference waits for the axes (the law releases); aside: the law stands
+    # aside, no output, released (contour_gym.ccc)
     row = WORK_ROW.r if cfg.inj_ref else WORK_ROW.uccc
     axes, w, work = loop.c_axes, loop.ccc_w, loop.work
+    if aside:
+        for i in range(1 if dim == 2 else 3):
+            CCC_RELEASE(cfg.ccc, loop.ccc_p, loop.ccc_s, loop.ccc_data, q, 3 * q + i, cfg.ts)
+        return
     for i in range(1 if dim == 2 else 3):
         g = g0 if i == 0 else (g1 if i == 1 else g2)
         e_i = eps if dim == 2 else g * eps
@@ -212,9 +242,10 @@ def _contours(loop, path, cfg, b, s, n_axes):
     for c in range(n_c):
         q = b * n_c + c
         dim, p0, p1, p2 = _coords(loop, c, WORK_ROW.x)
-        eps, g0, g1, g2 = _track_foot(loop, path, cfg, q, s, p0, p1, p2)
-        eh, h0, h1, h2 = _estimate(loop, path, cfg, q, c, s, eps, g0, g1, g2)
-        _ccc(loop, cfg, q, c, dim, eh, h0, h1, h2, waiting)
+        eps, g0, g1, g2, back = _track_foot(loop, path, cfg, q, s, p0, p1, p2)
+        eh, h0, h1, h2, back = _estimate(loop, path, cfg, q, c, s, eps, g0, g1, g2, back)
+        aside = _retracing(loop, path, c, back)
+        _ccc(loop, cfg, q, c, dim, eh, h0, h1, h2, waiting, aside)
         loop.last[q, LS.true], loop.last[q, LS.est] = eps, eh
     history_push(loop.hist[b], s)
 

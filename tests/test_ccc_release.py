@@ -11,9 +11,10 @@ import pytest
 from agents import ccc_laws
 from agents.evaluate import run_policy
 from agents.policies import make
+from contour_gym.api import make_scenario, run_trace
 from contour_gym.ccc import CCC_LAWS, RELEASE_TIME, CCCLaw, keep_state, release_integral
 from contour_gym.params import state_schema
-from contour_gym.paths import from_gcode
+from contour_gym.paths import from_gcode, polyline
 from contour_gym.servo.pid import STATE as PID_STATE
 
 PART = pathlib.Path(__file__).parent / "data" / "gcode" / "part_2d.ngc"
@@ -55,3 +56,31 @@ def test_an_integrating_ccc_comes_in_position_with_a_nearest_point_estimator(pol
                    make(policy))  # fmt: skip
     assert m["finished"] and not m["failed"]
     assert m["max_contour_error"] < 100e-6
+
+
+def _zigzag(turn_deg: float, rotate_deg: float) -> np.ndarray:
+    # three 25 mm legs turning back by turn_deg, left then right, the whole rotated
+    dy = 25.0 * math.tan(math.radians(180.0 - turn_deg))
+    c, s = math.cos(math.radians(rotate_deg)), math.sin(math.radians(rotate_deg))
+    legs = np.array([[0.0, 0.0], [25.0, 0.0], [0.0, dy], [25.0, 2.0 * dy]]) * 1e-3
+    return legs @ np.array([[c, s], [-s, c]])
+
+
+@pytest.mark.parametrize(("turn", "rotate"), [(176.0, -30.0), (179.0, 210.0)])
+def test_a_ccc_on_the_nearest_point_is_not_drawn_back_along_a_reversed_leg(
+    turn: float, rotate: float
+) -> None:
+    # 002's machine, the exact nearest point, the PID CCC: after the reversal the machine's
+    # foot stayed on the leg it had left and the CCC pulled it back along that leg, 1.47 mm
+    # off the reference's leg (176 degrees) or failing in position (179) until the law stood
+    # aside while its foot retraced a leg running against the reference (contour_gym.ccc)
+    sc = make_scenario("lugre_linear_motor", polyline(_zigzag(turn, rotate)),
+                       estimator="ground_truth")  # fmt: skip
+    peaks, lags = [], []
+    for gains in (None, sc.preset.ccc_gains.as_tuple()):
+        m, tr = run_trace(sc, gains)
+        assert math.isfinite(m["cycle_time"]), gains
+        peaks.append(m["max_contour_error"])
+        lags.append(np.nanmax(np.linalg.norm(tr.x[0, :, :2] - tr.r[0, :, :2], axis=1)))
+    assert peaks[1] < peaks[0]  # the CCC helps (drawn back: 1473 against 143 um)
+    assert lags[1] < 1.1 * lags[0]  # and lags its reference as the axes alone do (drawn: 3 mm)
