@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import contour_gym.paths as cgp
+from contour_gym.paths import PathTable
 
 # lengths -------------------------------------------------------------------------------------
 
@@ -228,6 +229,26 @@ def test_distance_invariant_under_rigid_motion_3d(quat, shift, seed, reflect):
     _, d2 = moved.nearest(pts @ rot.T + np.array(shift))
     np.testing.assert_allclose(d2, d, atol=1e-12, rtol=0)
     np.testing.assert_allclose(moved.point(0.01), rot @ path.point(0.01) + shift, atol=1e-14)
+
+
+@pytest.mark.parametrize("family", ["lissajous", "cam", "zigzag"])
+def test_a_moved_path_carries_its_search_rows_over(family: str) -> None:
+    # transformed() maps the spheres and keeps turning and clearances (distances and angles)
+    # instead of searching them again: they equal a fresh build's, and so do the searches
+    path = cgp.random_path(np.random.default_rng(3), family)
+    rot = _rot2(0.7)
+    moved = path.transformed(rot, [0.01, -0.02])
+    t = moved.table
+    fresh = PathTable(t.kind, t.s0, t.data, np.ascontiguousarray(t.spheres), t.dim)
+    n = t.n_segments
+    np.testing.assert_allclose(t.bound[:n, 4:], fresh.bound[:n, 4:], rtol=0, atol=1e-12)
+    assert t.closed == fresh.closed
+    rng = np.random.default_rng(0)
+    s = rng.uniform(0, t.length, 50)
+    pts = moved.point(s) + rng.normal(scale=3e-4, size=(50, 2))
+    a = moved.nearest(pts, s_hint=s)
+    b = cgp.Path(fresh).nearest(pts, s_hint=s)
+    np.testing.assert_allclose(a[1], b[1], rtol=0, atol=1e-15)
 
 
 def test_the_branch_wraps_on_closed_paths():

@@ -220,7 +220,13 @@ def eval_poly5_rows(rows: FloatArray, t: FloatArray) -> tuple[FloatArray, FloatA
 
 
 def transform_table(table: PathTable, rotation: FloatArray, offset: FloatArray) -> PathTable:
-    """Table of the path mapped by ``x -> rotation @ x + offset`` (rotation orthogonal, 3x3)."""
+    """Table of the path mapped by ``x -> rotation @ x + offset`` (rotation orthogonal, 3x3).
+
+    The search's rows move with the path: the spheres' centres are mapped, and the radii,
+    turning and clearances (distances and angles) are kept, not searched again.
+    """
+    bound = table.bound.copy()
+    bound[:, 0:3] = bound[:, 0:3] @ rotation.T + offset
     data = table.data.copy()
     det = float(np.sign(np.linalg.det(rotation)))
     for i, k in enumerate(table.kind):
@@ -238,4 +244,4 @@ def transform_table(table: PathTable, rotation: FloatArray, offset: FloatArray) 
             c = row.reshape(6, 3) @ rotation.T
             c[0] += offset
             row[:] = c.reshape(-1)
-    return make_table(table.kind, np.diff(table.s0), data, table.dim)
+    return make_table(table.kind, np.diff(table.s0), data, table.dim, bound)
