@@ -38,14 +38,14 @@ tick to tick (``ground_truth``, the exact nearest point of the branch) keeps the
 machine is nearest to. After a reversal (a turn near 180 degrees, the new leg running almost back
 along the old one) a lagging machine can stay nearer the old leg; a correction toward it then holds
 the machine there, and the machine retraces the old leg while its reference runs down the new one
-(measured on 002's machine with the PID CCC: 1.47 mm off the reference's leg on a 176-degree
-zig-zag, no CCC 0.14 mm; failing in position on a 179-degree one; not at 165 degrees). So while the
-foot point the law acts on moves *backward* on a stretch of the path that runs *against* the
-reference (its tangent more than 90 degrees from the reference's direction of travel), the law
-stands aside: no output, no commit, its ``release`` called. The axes' own loops then bring the
-machine onto the reference's leg, the foot passes to it, and the law acts again. Estimators that
-build their foot from the reference (``exact``, ``two_circle``, ``tangent``, ``frenet``, ``angle``,
-``window``, ``iterative``) are not drawn back so and are never stood aside.
+(on 002's machine, a 176-degree zig-zag: the PID CCC 3 mm behind its reference, peak contour error
+1.47 mm against 0.14 mm without CCC; docs/measurements.md). So while the foot point the law acts on
+moves *backward* on a stretch of the path that runs *against* the reference (its tangent more than
+90 degrees from the reference's direction of travel), the law stands aside: no output, no commit,
+its ``release`` called. The axes' own loops then bring the machine onto the reference's leg, the
+foot passes to it, and the law acts again. Estimators that build their foot from the reference
+(``exact``, ``two_circle``, ``tangent``, ``frenet``, ``angle``, ``window``, ``iterative``) are not
+drawn back so and are never stood aside.
 """
 
 from __future__ import annotations

@@ -122,8 +122,7 @@ register_protocol(Protocol(
     "paths of 000's machine: 16 paths drawn at random (no cam family among them, two "
     "polylines) gave factors that lost to the untuned law on 8 paths, by up to 3.6 % (the G-code "
     "parts and the papers' paths); 24 of six families on 6, by up to 1.9 %. Tuning on 48 paths "
-    "did not "
-    "help: on 24 validation paths it lost on 7 where the 24-path factors then lost on 5 (8 "
+    "did not help: on 24 validation paths it lost on 7 where the 24-path factors then lost on 5 (8 "
     "since their re-tuning after an interpolator fix). Before that, the mean "
     "max error over 8 paths lost on 2 of 12 random paths by up to 5.5 %)",
 ))  # fmt: skip

@@ -106,8 +106,8 @@ def make_table(kind: Sequence[int] | IntArray, lengths: Sequence[float] | FloatA
                data: FloatArray, dim: int, bound: FloatArray | None = None) -> PathTable:
     """Assemble a table from per-segment kinds, lengths and rows.
 
-    ``bound``: the segments' bounding spheres (n, 4), computed if absent; the search's other
-    rows are built from them.
+    ``bound``: the segments' bounding spheres (n, 4), computed if absent, from which the
+    search's other rows are built; or all of a table's rows (3n - 1, ``NB``), taken as given.
     """
     kind_arr = np.ascontiguousarray(kind, dtype=np.int64)
     lens = np.asarray(lengths, dtype=np.float64)
