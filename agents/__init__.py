@@ -9,14 +9,9 @@ so agents' results can differ between Intel and AMD CPUs (docs/benchmarks.md). I
 torch is not loaded yet; if it is, ``MKL_CBWR`` is set empty (MKL's default), so that worker
 processes, which inherit it, compute as this one does. Why: an agent's network runs in
 float32, MKL's kernels round differently per instruction set, and a closed loop grows that
-rounding. Measured on an Intel Xeon, ``ppo_ccc_infinity`` on 002's B-spline (max contour
-error): 199.0 um with AVX-512 kernels, 188.8 with MKL held to AVX2, 184.1 held to SSE4.2;
-177.4 in this mode with AVX-512 allowed or MKL held to AVX2, at one or two threads; MKL's
-compatible code gave 174.1, as does an AMD EPYC in this mode. ``COMPATIBLE``, which AMD CPUs
-take too, gave the AMD EPYC's default suite bit for bit (not measured on an Intel CPU), but it
-changes training: the shipped ``ppo_002_ccc_general`` retrained under it came out different,
-while this mode reproduces it bit for bit on the AMD EPYC it was trained on. Training ran as
-fast either way (PPO, 120 000 steps on 000's circle: 19.0-20.3 s without, 19.2-19.8 s with).
+rounding into a different result. ``COMPATIBLE``, which AMD CPUs take too, changes training;
+this mode reproduces the shipped agents bit for bit on the AMD EPYC they were trained on, and
+training runs as fast in it. The figures: docs/measurements.md, "agents".
 """
 
 import os as _os

@@ -52,9 +52,10 @@ from agents.ccc_laws import (
     FUZZY_PID,
     FUZZY_PID_PARAMS,
 )
-from agents.policies import ConstantPolicy, register_policy
+from agents.policy_base import ConstantPolicy, register_policy
 from contour_gym.envs.core import CCC
 from contour_gym.params import Schema, choice
+from contour_gym.presets import get_preset
 
 _FACTORS = FUZZY_PID_PARAMS.names[3:]  # the law's parameters beyond kp, ki, kd
 
@@ -356,7 +357,6 @@ def hand_tuned_003() -> dict[str, float]:
     0.0488, K_c2y = 0.001`` read as V/mm.
     """
     from agents.tune import ACC2PID_NAMES, acc2pid_hand_tuned
-    from contour_gym.presets import get_preset
 
     values = acc2pid_hand_tuned(get_preset("xyy_gantry"))
     return {name: float(v) for name, v in zip(ACC2PID_NAMES, values, strict=True)}

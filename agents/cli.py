@@ -31,7 +31,9 @@ import numpy as np
 from agents._files import save_figure
 from agents.parallel import exit_quickly
 from agents.rl.algorithms import ALGORITHMS
+from contour_gym import precompile
 from contour_gym.api import Scenario, make_scenario, run_trace
+from contour_gym.loop import REASON_NAMES
 from contour_gym.params import choice
 from contour_gym.paths import WORK_SYSTEMS, GcodeError, GcodePath, from_gcode
 from contour_gym.presets import PRESETS
@@ -333,8 +335,6 @@ def _compile_up_front(args: argparse.Namespace, *groups: str) -> None:
     # the built-ins' kernels a command of many combinations needs, compiled in parallel
     # before it runs (first run). A command of one combination (simulate, tune, train) runs
     # on its own kernel instead, compiled in half the time (contour_gym._tiers)
-    from contour_gym import precompile
-
     precompile(groups, progress=not getattr(args, "quiet", False))
 
 
@@ -362,8 +362,6 @@ def simulate_command(args: argparse.Namespace) -> int:
 
 def _report_failures(columns: dict[str, dict[str, float]]) -> int:
     # a failed run is said on stderr, with its reason, and exits 1 (its metrics are not a result)
-    from contour_gym.loop import REASON_NAMES
-
     failed = {k: REASON_NAMES[m["failure_reason"]] for k, m in columns.items() if m["failed"]}
     for label, reason in failed.items():
         print(f"contour-gym: the {label} run failed: {reason}", file=sys.stderr)

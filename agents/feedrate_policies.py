@@ -24,7 +24,7 @@ from typing import Any, cast
 import numpy as np
 
 from agents.fuzzy import FEEDRATE_GAIN_004, CompiledMamdani, fuzzy_feedrate_004
-from agents.policies import (
+from agents.policy_base import (
     Actions,
     ConstantPolicy,
     Observation,
@@ -275,7 +275,7 @@ class CurvatureFeedLimit(ConstantPolicy):
     of the four paths lost broke at the path's end, where the axes stop; 20 mm/s within the
     last 10 mm kept both, 62 at 5.51 s (30 mm/s within 20 mm: 62 at 5.53 s); 5 mm/s within
     the last 5 mm kept one (Python rule, 60 at 5.70 s), the acc/dec filter still slowing when
-    the end came on the other (docs/training.md).
+    the end came on the other (docs/measurements.md, "the curvature limit it corrects").
 
     Args:
         accel: Centripetal acceleration a_c, m/s^2, > 0.

@@ -136,10 +136,8 @@ def _one_thread() -> Callable[[], None]:
     For a process that is one of several workers: the cores are the workers'. The variables of
     ``_SINGLE_THREADED`` reach only libraries loaded after they are set, and a spawned worker
     has loaded numpy's OpenBLAS before its initializer runs (it imports the parent's main
-    module first), so its two threads stayed: their spinning between calls took the other
-    core from the other worker. Measured with two workers on a 2-core machine, alternating
-    with the code before: the default bench suite 8.50-8.67 s against 9.39-9.49 s (three
-    rounds), the generalization suite 50.9 s against 61.4 s; one worker as before.
+    module first), so the limit is set at run time (``threadpoolctl``): OpenBLAS threads
+    spinning between calls would take the other core from the other worker.
     """
     from threadpoolctl import threadpool_limits
 
@@ -182,9 +180,8 @@ def exit_quickly() -> None:
     For a command's process and its workers only: at exit, after the other exit handlers,
     everything left is frozen (:func:`gc.freeze`), so the final collection does not walk
     torch's, numba's and matplotlib's objects; the memory goes back to the system as the
-    process ends. Measured on ``contour-gym bench`` (default suite, warm, one worker): the
-    process ended 1.3-1.45 s after its command returned, 0.18 s with this (a warm
-    ``contour-gym simulate``: 1.89 s -> 1.55 s in all). What a command writes is closed
+    process ends: ``contour-gym bench`` (default suite, warm, one worker) ends 0.18 s after its
+    command returns, where the collection takes 1.3-1.45 s. What a command writes is closed
     before it returns (:mod:`agents._files`), so nothing waits on a collection.
     """
     # exit handlers run last registered first: this one after those the command registers
@@ -200,8 +197,8 @@ def start_method() -> str:
     would stay held in the worker: a background compile, tqdm's monitor, a unit thread) and
     has not imported torch (whose OpenMP pool does not survive a fork); numpy's OpenBLAS
     threads stop and restart around a fork by themselves. Linux only (macOS: spawn, as its
-    system libraries ask). Measured on the default bench suite with two workers, alternating
-    with spawned workers: 8.85 s against 9.50 s (medians of four; :class:`Processes`).
+    system libraries ask). The default bench suite on two workers takes 8.85 s forked against
+    9.50 s spawned (medians of four).
     """
     safe = threading.active_count() == 1 and "torch" not in sys.modules
     return "fork" if safe and sys.platform.startswith("linux") else "spawn"
@@ -254,13 +251,7 @@ class Processes(Runner):
     units need: 2-4 s for a bench scenario's); the workers take units
     once they have started, and each slot takes the next unit when it is free. A run whose
     units are all done before the workers have started stops them instead of waiting for
-    them. Measured on the default bench suite (53 episodes, ``benchmarks/scaling.py``): two
-    spawned workers and an idle parent took 15.3 s against 14.2 s for one process; this
-    process and one worker, 14.0 s against 14.5 s (12.2 s against 14 s once processes exited
-    quickly, :func:`exit_quickly`; 8.5 s against 12 s once each process ran its BLAS on one
-    thread, :func:`_one_thread`; 8.85 s against 9.50 s once workers forked, four alternating
-    rounds). The tiny suite (2 s on one worker) took 4.5 s on two while its last unit waited
-    for the starting worker.
+    them, so a small run is no slower on two workers than on one.
     """
 
     wait_for_workers = False  # True: map waits for the workers to start (tests use them)

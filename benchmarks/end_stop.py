@@ -10,7 +10,7 @@ of the two, the ``max_contour_error`` every table quotes; the tool checks that i
 Paths: random paths of ``--seeds`` on ``--plant`` (as ``path="random"`` draws them for that
 seed), registered ids (``--ids``) and library paths (``--library``), each with
 ``--env-kwargs``. G-code parts are left out: their rapid moves are traced but not counted by
-the metrics. It is the split docs/training.md quotes for 002's machine::
+the metrics. It is the split docs/measurements.md quotes for 002's machine::
 
     python benchmarks/end_stop.py --plant lugre_linear_motor --seeds 7000-7011 \\
         --ids contour_gym/CCC-LuGre-BSpline-v1

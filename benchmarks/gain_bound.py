@@ -14,7 +14,7 @@ seed), registered ids (``--ids``: their own paths), library paths (``--library``
 files (``--gcode``, with ``--path-tolerance``), each with ``--env-kwargs``; the search alone
 also with ``--search-kwargs`` (e.g. an agent's wider action map). Prints one row per path
 (no CCC, the PID CCC, the best constant, the best schedule, in um) and the medians. It is the
-bound docs/training.md quotes for 002's machine::
+bound docs/measurements.md quotes for 002's machine::
 
     cd tests/data/gcode && python ../../../benchmarks/gain_bound.py \\
         --plant lugre_linear_motor --seeds 7000-7011 --ids contour_gym/CCC-LuGre-BSpline-v1 \\

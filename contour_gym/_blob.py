@@ -70,8 +70,8 @@ def borrow(typingctx, arr):
     """The array ``arr`` without its reference-counted owner (compiled code only).
 
     Every view numba makes (``a[b]``, ``a[b, i]``) increments and later decrements its
-    owner's reference count with atomic instructions; in the servo loop's tick that was
-    ~30 % of the time (perf: ``lock incq``/``lock decq`` in ``NRT_incref``/``NRT_decref``).
+    owner's reference count with atomic instructions: without borrowing, ~30 % of the servo
+    loop's tick (perf: ``lock incq``/``lock decq`` in ``NRT_incref``/``NRT_decref``).
     Views of a borrowed array carry no owner, so those calls do nothing. Use it only inside a
     compiled function whose caller keeps ``arr`` alive, and never return or store the result.
     """

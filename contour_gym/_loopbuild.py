@@ -43,7 +43,7 @@ from contour_gym.plant.stage import (
 from contour_gym.servo.compensation import STATE as COMP_STATE
 
 if TYPE_CHECKING:
-    from contour_gym.loop import LoopOptions
+    from contour_gym._loopoptions import LoopOptions
 
 Array = NDArray[np.float64]
 Shape = tuple[int, ...]

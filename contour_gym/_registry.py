@@ -63,6 +63,16 @@ class Registry(Generic[T]):
         self._items: dict[str, T] = {}
         self._loader = loader  # imports the modules that register the built-in items (once)
 
+    def add_loader(self, loader: Callable[[], object]) -> None:
+        """Have ``loader`` import more modules that register items, once, at the next lookup.
+
+        Called at the next lookup, listing or count (after the loader given at construction,
+        if that has not run). For items whose modules sit above the registry's own: a module
+        that knows them adds the loader, and the registry's module need not import them.
+        """
+        earlier = self._loader
+        self._loader = loader if earlier is None else (lambda: (earlier(), loader()))
+
     def _load(self) -> None:
         # the built-in items, registered by their modules on import, on first use (so that a
         # module defining the registry need not import the modules that fill it)

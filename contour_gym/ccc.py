@@ -31,7 +31,7 @@ commit. The built-in laws bleed their integral off with the time constant
 held, an integral that built up along the path keeps the axes off the point they must reach,
 and the axes never come in position (measured: every CCC failed to finish 002's machine's
 ``part_2d`` with the nearest-point estimator; with the release each finishes). A law that
-keeps the default (:func:`keep_state`) runs as before.
+keeps the default (:func:`keep_state`) keeps its state.
 
 **Standing aside on a leg the machine has left.** An estimator that tracks its own foot point from
 tick to tick (``ground_truth``, the exact nearest point of the branch) keeps the foot on the leg the
@@ -192,8 +192,6 @@ class CCCLaw:
                 >= 0 on ``machine`` or > 0 on ``home`` or ``set_on`` (naming the parameter and
                 machine).
         """
-        from contour_gym.presets import resolve_preset  # presets import this module
-
         names = self.params.names[3:]
         out = {k: float(v) for k, v in given.items()}
         if self.units is None or self.home is None:
@@ -205,9 +203,9 @@ class CCCLaw:
             return out  # every value given for this machine: no unit needed
         here = self._units(machine, names, zero=True)
         if set_on is not None:
-            there = self._units(resolve_preset(set_on), names)
+            there = self._units(_machine_named(set_on), names)
             out = {k: v * (here[k] / there[k]) if k in here else v for k, v in out.items()}
-        base = self._units(resolve_preset(self.home), names)
+        base = self._units(_machine_named(self.home), names)
         defaults = self.params.defaults()
         for k in names:
             default = defaults[k]
@@ -234,6 +232,27 @@ class CCCLaw:
 
 
 CCC_LAWS: Registry[CCCLaw] = Registry("ccc_law")
+
+# How a law finds the machine a name stands for (its ``home``, a ``set_on``): the machines are
+# presets, a layer above, and contour_gym.presets sets its resolve_preset here when imported
+# (``import contour_gym`` imports it), so that this module does not import the presets.
+_MACHINE_LOOKUP: list[Callable[[Any], Any]] = []
+
+
+def set_machine_lookup(lookup: Callable[[Any], Any]) -> None:
+    """Set how :meth:`CCCLaw.params_for` finds a machine: ``lookup(name or preset)``."""
+    _MACHINE_LOOKUP[:] = [lookup]
+
+
+def _machine_named(machine: Any) -> Any:
+    """The preset ``machine`` names (a preset itself is returned as it is).
+
+    Raises:
+        ValueError: for an unknown name.
+    """
+    if not _MACHINE_LOOKUP:
+        raise RuntimeError("no machine lookup is set (import contour_gym.presets)")
+    return _MACHINE_LOOKUP[0](machine)
 
 
 # the kernels' slots of a CCC law (contour_gym._slots)

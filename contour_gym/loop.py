@@ -22,10 +22,10 @@ arrays' construction (:mod:`contour_gym._loopbuild`), the random numbers
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from types import ModuleType
 from typing import Any, cast
 
@@ -43,6 +43,8 @@ from contour_gym._loopbuild import (
 )
 from contour_gym._loopnoise import NOISE_CHUNK as NOISE_CHUNK  # re-exported
 from contour_gym._loopnoise import NoiseSource, draws_noise, member_generators
+from contour_gym._loopoptions import DEFAULT_SETTLE as DEFAULT_SETTLE  # re-exported
+from contour_gym._loopoptions import LoopOptions as LoopOptions  # re-exported
 from contour_gym._loopparams import LoopParameters
 from contour_gym._looppaths import LoopPaths
 from contour_gym._looprecord import MAX_RECORD_BYTES, Recorder, Trace
@@ -59,6 +61,7 @@ from contour_gym._loopstate import (
     STATUS_OK,
     STATUS_PAUSED,
 )
+from contour_gym._stack import on_reserved_stack
 from contour_gym._validate import as_finite_array, choice, non_negative, positive
 from contour_gym.ccc import CCC_FAMILY, CCC_LAWS, INJECTIONS, ccc_params
 from contour_gym.contour import ESTIMATORS, Estimator, get_estimator
@@ -89,44 +92,6 @@ _CODED = {"ctrl": CONTROLLER_FAMILY, "est": ESTIMATOR_FAMILY, "ccc": CCC_FAMILY,
           "comp": COMPENSATION_FAMILY}  # fmt: skip
 MAX_RUN_TICKS = 200_000_000  # ticks one run() may take (55 h of machine time at 1 kHz)
 LOOP_TEMPLATE = "contour_gym._loopkernel"  # the servo loop's kernel template (_compile)
-DEFAULT_SETTLE = 1.0  # s the machine may take to get in position after the reference ends
-
-
-@dataclass(frozen=True)
-class LoopOptions:
-    """The loop's settings beyond the stage, path, gains and interpolator (see ServoLoop).
-
-    Attributes:
-        axis_controller: Name in :data:`contour_gym.servo.CONTROLLERS`.
-        controller_options: Its options.
-        estimator: Name in :data:`contour_gym.contour.ESTIMATORS`.
-        estimator_options: Its options.
-        ccc_law: Name in :data:`contour_gym.ccc.CCC_LAWS`.
-        ccc_law_params: The law's parameters beyond kp, ki, kd; those not given take the
-            law's schema defaults here (:meth:`contour_gym.api.Scenario.loop` gives its
-            machine's: :func:`contour_gym.api.machine_law_params`).
-        ccc_injection: ``"control"`` or ``"reference"`` (:mod:`contour_gym.ccc`).
-        ideal: Drop the rig's encoder, noise and computation delay.
-        path_control: ``"none"``, ``"G61"``, ``"G61.1"``, ``"G64"`` or None (the path's own).
-        path_tolerance: G64 tolerance, m (None: the path's own or the default).
-        use_program_feeds: Run a G-code part at its own F words.
-        settle_time: Time allowed to get in position after the reference ends, s.
-        sample_period: Sampling of P_e and P_eps, s (None: every tick).
-    """
-
-    axis_controller: str = "pid"
-    controller_options: dict[str, Any] | None = None
-    estimator: str = "ground_truth"
-    estimator_options: dict[str, Any] | None = None
-    ccc_law: str = "pid"
-    ccc_law_params: dict[str, Any] | None = None
-    ccc_injection: str = "control"
-    ideal: bool = False
-    path_control: str | None = None
-    path_tolerance: float | None = None
-    use_program_feeds: bool = True
-    settle_time: float = DEFAULT_SETTLE
-    sample_period: float | None = None
 
 
 class ServoLoop(LoopPaths, LoopParameters):
@@ -443,6 +408,8 @@ class ServoLoop(LoopPaths, LoopParameters):
         choice = self._choice
         parts = self._parts if choice is None else choice.parts()
         start = time.perf_counter()
+        if not self._marked:  # the first call may compile: below a reserved stack
+            call = functools.partial(on_reserved_stack, call)
         if len(parts) == 1:
             result = call(*head, 0, self.batch_size, 0)
         else:

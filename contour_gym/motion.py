@@ -53,6 +53,8 @@ from numpy.typing import NDArray
 
 from contour_gym._schema import Param, Schema, state_schema
 from contour_gym._validate import choice, non_negative, positive, positive_or_inf
+from contour_gym.paths._batch import segment_ends
+from contour_gym.paths._geom import CORNER_TOL
 
 if TYPE_CHECKING:
     from contour_gym.paths import Path
@@ -196,14 +198,10 @@ def junction_speed(t_in: Array, t_out: Array, accel: float, tolerance: float) ->
 
 
 def _corner(t_in: Array, t_out: Array) -> bool:
-    from contour_gym.paths._geom import CORNER_TOL
-
     return float(np.linalg.norm(np.asarray(t_in) - np.asarray(t_out))) > CORNER_TOL
 
 
 def _segment_ends(path: Path) -> tuple[Array, Array, Array]:
-    from contour_gym.paths._batch import segment_ends
-
     t = path.table
     ends = segment_ends(t.kind, t.s0, t.data)
     return ends[:, 0, 3:], ends[:, 1, 3:], np.diff(t.s0)

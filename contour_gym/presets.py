@@ -26,7 +26,7 @@ from typing import Any
 
 from contour_gym._registry import Registry
 from contour_gym._validate import choice, positive
-from contour_gym.ccc import INJECTIONS, CCCGains
+from contour_gym.ccc import INJECTIONS, CCCGains, set_machine_lookup
 from contour_gym.plant import (
     AxisParams,
     Contour,
@@ -442,6 +442,9 @@ def resolve_preset(plant: str | Preset | Mapping[str, Any]) -> Preset:
             raise ValueError("a plant dict needs 'preset': the name of the preset it overrides")
         return override(get_preset(base), changes)
     raise ValueError(f"plant must be a preset name, a Preset or a dict, got {plant!r}")
+
+
+set_machine_lookup(resolve_preset)  # the machines the CCC laws' units are read on
 
 
 def override(obj: Any, changes: Any, where: str = "plant") -> Any:

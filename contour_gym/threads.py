@@ -23,12 +23,8 @@ T = TypeVar("T")
 Part = tuple[int, int, int]  # (lo, hi, part): members lo:hi on scratch ``part``
 
 # members per thread below which a batch runs on one thread by default; from twice this, the
-# default's threads are tried against one thread and the faster kept (ThreadChoice). Two
-# threads against one on a 2-core machine (benchmarks/scaling.py --only-envs, 2026-11-28):
-# CCC-v1 (000's machine, 10 ticks a step) 0.72x at 32 members, 0.82x at 48, 0.99x at 64,
-# 1.22x at 128; CCC-LuGre-BSpline-v1 (002's) 1.04x at 32, 1.22x at 48, 1.36x at 64. The
-# default ran within the machine's noise of the better (32 members per thread, the fixed rule
-# before, lost up to 9 % on CCC-v1 at 64 members and left 002's 48 on one thread)
+# default's threads are tried against one thread and the faster kept (ThreadChoice): where
+# two threads start to pay differs by machine (docs/measurements.md, "Threads per batch")
 MIN_MEMBERS_PER_THREAD = 16
 
 THREADS_VARIABLE = "CONTOUR_GYM_THREADS"

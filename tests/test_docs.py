@@ -1,11 +1,18 @@
 """The documentation site: an API page for every public module, the env table, the nav.
 
 ``mkdocs build --strict`` (CI, after the tests) renders the pages; these checks need no mkdocs.
+The docs say what is: a guide is at most 300 lines, no docstring or comment of ``contour_gym``
+and ``agents`` carries a date or a commit (dated histories live in ``docs/measurements.md``),
+and no page cites a path outside the repository (the papers are cited by title in
+``docs/references.md``).
 """
 
+import ast
 import importlib.util
+import io
 import pathlib
 import re
+import tokenize
 
 import pytest
 import yaml
@@ -100,3 +107,63 @@ def test_the_env_table_has_no_stale_row():
     ids = {row["id"].split("/")[1] for row in scenario_table()}
     listed = set(re.findall(r"^\| `([\w-]+-v\d+)` \|", ENV_PAGE, flags=re.M))
     assert listed == ids
+
+
+HISTORY_PAGES = {"measurements.md"}  # dated measurement histories: no line limit
+GUIDE_LINES = 300
+DATE = re.compile(r"\b20\d\d-\d\d-\d\d\b")
+# a commit named as one: "at 0717f9e", "commit c608166" (7-40 hex digits, a digit and a letter)
+COMMIT = re.compile(r"\b(?:at|commit)\s+`?(?=[0-9a-f]*[0-9])(?=[0-9a-f]*[a-f])[0-9a-f]{7,40}\b")
+OUTSIDE = re.compile(r"\.\./shared|(?<![\w.])shared/seeds|(?<![\w.])/work/")
+
+
+GUIDES = sorted(p.name for p in DOCS.glob("*.md") if p.name not in HISTORY_PAGES)
+
+
+@pytest.mark.parametrize("page", GUIDES)
+def test_a_guide_is_at_most_300_lines(page):
+    lines = len((DOCS / page).read_text().splitlines())
+    assert lines <= GUIDE_LINES, f"docs/{page}: {lines} lines (histories go to measurements.md)"
+
+
+def _notes(path):
+    """``(line, text)`` of every docstring line and comment of a Python file."""
+    source = path.read_text()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            doc = ast.get_docstring(node, clean=False)
+            if doc is not None:
+                for i, text in enumerate(doc.splitlines()):
+                    yield node.body[0].lineno + i, text
+    for token in tokenize.generate_tokens(io.StringIO(source).readline):
+        if token.type == tokenize.COMMENT:
+            yield token.start[0], token.string
+
+
+def test_no_docstring_or_comment_carries_a_date_or_a_commit():
+    found = []
+    for package in ("contour_gym", "agents"):
+        for path in sorted((ROOT / package).rglob("*.py")):
+            for line, text in _notes(path):
+                if DATE.search(text) or COMMIT.search(text):
+                    found.append(f"{path.relative_to(ROOT)}:{line}: {text.strip()}")
+    message = "dated or commit-stamped notes (say what is; histories go to docs/measurements.md)"
+    assert not found, message + ":\n" + "\n".join(found)
+
+
+def test_the_docs_cite_no_path_outside_the_repository():
+    pages = [ROOT / "README.md", ROOT / "ARCHITECTURE.md",  # docs/architecture.md includes it
+             *(p for p in DOCS.rglob("*") if p.suffix in (".md", ".py"))]
+    found = []
+    for page in pages:
+        for i, line in enumerate(page.read_text().splitlines(), 1):
+            if OUTSIDE.search(line):
+                found.append(f"{page.relative_to(ROOT)}:{i}: {line.strip()}")
+    message = "paths outside the repository (cite the papers by title: docs/references.md)"
+    assert not found, message + ":\n" + "\n".join(found)
+
+
+def test_the_references_page_cites_every_paper():
+    text = (DOCS / "references.md").read_text()
+    for paper in ("000", "001", "002", "003", "004"):
+        assert f"**{paper}.**" in text, paper

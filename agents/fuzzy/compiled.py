@@ -18,11 +18,19 @@ from pathlib import Path
 
 import numba
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from agents._files import write_handle_atomically
-from agents.fuzzy.kernels import _mamdani_exact_batch, _product_batch, _surface_batch
-from agents.fuzzy.system import PRODUCT, Array, FuzzySystem, IntArray, Variable, check_inputs
+from agents.fuzzy.kernels import Surface, _mamdani_exact_batch, _product_batch, _surface_batch
+from agents.fuzzy.system import (
+    PRODUCT,
+    Array,
+    FuzzySystem,
+    IntArray,
+    Variable,
+    check_inputs,
+    register_compiler,
+)
 from contour_gym.params import as_finite_array, choice
 
 
@@ -59,26 +67,6 @@ class SampledVariables:
             n = int(var.n_points)
             meta[k] = var.low, var.high, (var.high - var.low) / (n - 1), n, len(var.sets)
         return cls(mf, meta, support)
-
-
-@dataclass(frozen=True, eq=False)
-class Surface:
-    """A two-input Mamdani system tabulated for :func:`surface_eval` (arrays only).
-
-    Attributes:
-        tables: (n_out, 2, G0, G1) moment and area of each output's aggregate at the nodes,
-            from the exact compiled inference; the output is their ratio.
-        flips: (n_out, 2, G0 - 1, G1 - 1) uint8: 0 splits a square along its
-            (i, k)-(i+1, k+1) diagonal, 1 along the other: whichever interpolates the exact
-            value at the square's centre better (so the split follows a min/max kink).
-        grid: (4,) first node and node spacing of input 0, then of input 1.
-        empty: (n_out,) output where the aggregate is empty (the middle of its universe).
-    """
-
-    tables: Array
-    flips: NDArray[np.uint8]
-    grid: Array
-    empty: Array
 
 
 @dataclass(frozen=True, eq=False)
@@ -248,6 +236,9 @@ def compile_system(system: FuzzySystem) -> CompiledMamdani | CompiledProduct:
     return compiled.with_surface() if len(system.inputs) == 2 else compiled
 
 
+register_compiler(compile_system)  # FuzzySystem.compiled
+
+
 
 def evaluate(
     system: FuzzySystem, inputs: ArrayLike, *, method: str = "auto", theta: ArrayLike | None = None
@@ -270,7 +261,7 @@ def evaluate(
         ValueError: on misshaped or non-finite ``inputs`` or ``theta``, or an option that
             does not apply to the system's kind.
     """
-    compiled = system.compiled
+    compiled: CompiledMamdani | CompiledProduct = system.compiled
     x = check_inputs(system, inputs)
     if isinstance(compiled, CompiledProduct):
         if method != "auto":
@@ -294,7 +285,7 @@ def basis(system: FuzzySystem, inputs: ArrayLike) -> Array:
     Returns:
         (B, L) basis functions ``xi``; each row sums to 1 (all zeros if no rule fires).
     """
-    compiled = system.compiled
+    compiled: CompiledMamdani | CompiledProduct = system.compiled
     x = check_inputs(system, inputs)
     if not isinstance(compiled, CompiledProduct):
         raise ValueError(f"basis needs a {PRODUCT} system, got kind {system.kind!r}")
@@ -303,7 +294,7 @@ def basis(system: FuzzySystem, inputs: ArrayLike) -> Array:
 
 def initial_theta(system: FuzzySystem) -> Array:
     """(n_out, L) initial consequent centres of a product / centre-average system."""
-    compiled = system.compiled
+    compiled: CompiledMamdani | CompiledProduct = system.compiled
     if not isinstance(compiled, CompiledProduct):
         raise ValueError(f"initial_theta needs a {PRODUCT} system, got kind {system.kind!r}")
     return compiled.theta0.copy()

@@ -6,7 +6,7 @@ there, its piecewise-linear centroid) and matches ``ControlSystemSimulation`` to
 the output range, but costs a few microseconds per member (601-sample output universes).
 
 **Surface.** The default for two-input systems is therefore a precomputed surface
-(:class:`~agents.fuzzy.compiled.Surface`, :func:`surface_eval`), tabulated by the exact kernel
+(:class:`Surface`, :func:`surface_eval`), tabulated by the exact kernel
 at build time. Plain bilinear interpolation of the output does not work: the min/max kinks and
 the steep centroid near the universe edges (a half set of small area against a weakly firing
 one) converge only linearly in the node count. What works: tabulate the aggregate's moment
@@ -46,15 +46,13 @@ and for 001, with workspaces ``mu`` (n_in, S) and ``xi`` (L,)::
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 import numba
 import numpy as np
+from numpy.typing import NDArray
 
 from agents.fuzzy.system import Array
-
-if TYPE_CHECKING:
-    from agents.fuzzy.compiled import Surface
 
 EPS = 2.220446049250313e-16  # np.finfo(float).eps, as skfuzzy's centroid floors the area
 # columns of a variables' ``meta`` table (see SampledVariables)
@@ -368,6 +366,26 @@ def surface_eval_into(tables, flips, grid, empty, x0, x1, out):
 def _surface_batch(tables, flips, grid, empty, x, out):
     for b in range(x.shape[0]):
         surface_eval_into(tables, flips, grid, empty, x[b, 0], x[b, 1], out[b])
+
+
+@dataclass(frozen=True, eq=False)
+class Surface:
+    """A two-input Mamdani system tabulated for :func:`surface_eval` (arrays only).
+
+    Attributes:
+        tables: (n_out, 2, G0, G1) moment and area of each output's aggregate at the nodes,
+            from the exact compiled inference; the output is their ratio.
+        flips: (n_out, 2, G0 - 1, G1 - 1) uint8: 0 splits a square along its
+            (i, k)-(i+1, k+1) diagonal, 1 along the other: whichever interpolates the exact
+            value at the square's centre better (so the split follows a min/max kink).
+        grid: (4,) first node and node spacing of input 0, then of input 1.
+        empty: (n_out,) output where the aggregate is empty (the middle of its universe).
+    """
+
+    tables: Array
+    flips: NDArray[np.uint8]
+    grid: Array
+    empty: Array
 
 
 # a surface as one float64 vector: header (n_out, G0, G1, grid[4]), empty (n_out,), tables

@@ -11,17 +11,15 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 import skfuzzy as fuzz
 from numpy.typing import ArrayLike, NDArray
 
 from contour_gym.params import as_finite_array, choice, finite
-
-if TYPE_CHECKING:
-    from agents.fuzzy.compiled import CompiledMamdani, CompiledProduct
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -209,11 +207,16 @@ class FuzzySystem:
         self.consequent_indices()
 
     @functools.cached_property
-    def compiled(self) -> CompiledMamdani | CompiledProduct:
-        """The kernel arrays (:func:`~agents.fuzzy.compiled.compile_system`), kept here."""
-        from agents.fuzzy.compiled import compile_system
+    def compiled(self) -> Any:
+        """The kernel arrays, compiled on first use and kept here.
 
-        return compile_system(self)
+        A :class:`~agents.fuzzy.compiled.CompiledMamdani` or
+        :class:`~agents.fuzzy.compiled.CompiledProduct`, from the registered compiler
+        (:func:`~agents.fuzzy.compiled.compile_system`, see :func:`register_compiler`).
+        """
+        if not _COMPILER:
+            raise RuntimeError("no fuzzy system compiler is registered (import agents.fuzzy)")
+        return _COMPILER[0](self)
 
     def antecedent_indices(self) -> IntArray:
         """(R, n_in) set index of every rule's antecedent per input."""
@@ -222,6 +225,16 @@ class FuzzySystem:
     def consequent_indices(self) -> IntArray:
         """(R, n_out) set index of every rule's consequent per output."""
         return _rule_indices(self.rules, self.outputs, "then")
+
+
+# What FuzzySystem.compiled calls: agents.fuzzy.compiled registers its compile_system when
+# imported (agents.fuzzy imports it), so that a definition does not import what compiles it.
+_COMPILER: list[Callable[[FuzzySystem], Any]] = []
+
+
+def register_compiler(compile_system: Callable[[FuzzySystem], Any]) -> None:
+    """Make ``compile_system`` what :attr:`FuzzySystem.compiled` calls (once per system)."""
+    _COMPILER[:] = [compile_system]
 
 
 def _rule_indices(rules: tuple[Rule, ...], variables: tuple[Variable, ...], part: str) -> IntArray:

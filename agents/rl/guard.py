@@ -1,43 +1,25 @@
 """A CCC agent guarded through sharp corners and near-cusps: the PID CCC's gains there.
 
-On 000's machine (G64 blending, 000's ``two_circle`` estimator) the general CCC agent's
-largest losses to no CCC at all were at sharp line corners: the estimate the CCC acts on is
-poor through the turn, the agent raises its gains on it and the error overshoots after the
-corner, where the PID CCC's held gains do not (random path 7010 of the generalization suite:
-119 um against no CCC's 65 and the PID CCC's 54). :class:`CornerGuard` hands the gains to the
-PID CCC (:class:`~agents.ccc_policies.PIDCCC`, the env's own gains) from ``near`` before a
-corner turning more than ``angle`` until ``hold`` decisions after it, and leaves the agent
-acting everywhere else. It reads the v1 observation's ``corner`` (distance and turn of the
-next corner within the preview horizon).
+:class:`CornerGuard` (``corner_guard``) hands a CCC agent's gains to the PID CCC
+(:class:`~agents.ccc_policies.PIDCCC`, the env's own gains) from ``near`` before a corner
+turning more than ``angle`` until ``hold`` decisions after it, and while the path within
+``near`` curves tighter than ``curvature``; the agent acts everywhere else. It reads the v1
+observation's ``corner`` (distance and turn of the next corner within the preview horizon)
+and its curvatures. On 000's machine (G64 blending, 000's ``two_circle`` estimator) the
+estimate the CCC acts on is poor through a sharp turn: the general CCC agent raises its gains
+on it and the error overshoots after the corner, where the PID CCC's held gains do not. Past a
+near-cusp (a rose's tip) its gains swing the error by over 100 um within 30 ms while its
+estimate is good. The generalization suite runs ``ppo_000_ccc_general`` guarded; 002's and
+004's CNCs stop at sharp corners, and their agents run unguarded.
 
 Chosen, not published: the defaults (2 mm, 85 degrees, 20 decisions: 0.2 s at 000's 1 kHz servo
-rate). The first setting (2 mm, 30 degrees, 20 decisions) was tried on a validation set of 32
-random paths of 000's randomised machine (seeds 1000000-1000031: no training, tuning or test
-path; the training runs' evaluation draws other paths from seeds 1000000-1000015, on the
-nominal machine), where the agent lost to no CCC on 5 paths and the guarded agent on 3, at the
-same median (29.82 um); without the hold after the corner it lost on 5 (4 -> 2 and 4 before the
-interpolator braked for every junction in reach). On 002's and 004's validation sets (the same
-seeds, their machines; their CNCs stop at sharp corners) it moved 6 and 5 of the 32 peaks by up
-to 4.5 %, but neither median nor the paths lost to no CCC (1 and 6).
+rate; 5000 1/m: a radius under 0.2 mm), on 64 validation paths of 000's nominal machine
+(random seeds 1000000-1000063: no training, tuning or test path) and checked on 128 fresh
+paths (seeds 2000000-2000127); docs/measurements.md, "The corner and near-cusp guard", gives
+the runs.
 
-The angle became 85 degrees on 2026-12-02, after the suite's per-path results had been seen:
-there the agent (retrained under the CCC's release at stops) beat the PID CCC after corners
-turning 35-73 degrees (random paths 7003, 7004, 7007, 7008: 26-36 um against 47-59) and lost
-to it after 90-102 degree ones (three G-code parts' 90-degree corners, path 7010), so a 30-degree
-guard gave away the agent's best corners. On 000's 64 validation paths (nominal machine)
-30, 60 and 85 degrees lose the same 2 paths at the same median (16.30 um); on 128 fresh paths
-(seeds 2000000-2000127, used by nothing else; rule set before the run: 85 degrees if it loses
-no more and its median is no higher) both lose 8, the median is 23.61 um for both and the mean
-33.35 um against 36.03, 85 degrees lower on 25 of the 27 paths where they differ.
-
-It guards near-cusps too since 2026-12-02: where the path within ``near`` curves tighter than
-``curvature`` (5000 1/m: a radius under 0.2 mm), as past a rose's tip, the agent's gains swung
-the error from +31 to -160 um within 30 ms while its estimate was good (validation path
-1000055). By a rule set before measuring (of 2000 and 5000 1/m, the fewest paths lost on the 64
-validation paths, then the lower median; adopted only if losing fewer than the corner guard's 2
-at a median at most 2 % higher, and then fewer than its 8 on the 128 fresh paths at most 2 %
-higher): 5000 loses none at 16.30 um (2000: none at 16.74), and on the fresh paths 5 at 23.82
-um (the corner guard alone 8 at 23.61), the same 5 the PID CCC loses.
+:class:`CappedFeedrate` (``capped_feedrate``) passes a feedrate agent's action capped at
+``cap``.
 """
 
 from __future__ import annotations
@@ -48,7 +30,15 @@ from typing import Any
 import numpy as np
 
 from agents.ccc_policies import PIDCCC
-from agents.policies import Actions, Observation, Policy, batch_size, make_policy, register_policy
+from agents.policy_base import (
+    Actions,
+    Observation,
+    Policy,
+    batch_size,
+    make_policy,
+    register_policy,
+)
+from agents.rl import saved  # noqa: F401 (registers the trained agents a guard wraps)
 from contour_gym.envs import CURVATURE_SCALE
 from contour_gym.envs.core import CCC, FEEDRATE
 from contour_gym.params import finite, positive, positive_or_inf
@@ -147,12 +137,11 @@ class CappedFeedrate(Policy):
 
     The general feedrate agent acts ``a`` in [-1, 1] on the curvature feed limit ``L``, the
     override target ``L span^a`` (the env's ``limit_span``: 2 for the shipped agent); capped at
-    0 it only ever slows below the limit. Chosen,
-    not published, before its suite rows were seen: on 256 random paths of 004's nominal
-    machine (seeds 1000128-1000383, docs/training.md "Every candidate on 256 more paths")
-    the shipped agent capped at 0 kept 5 um on 228 at a median cycle of 6.43 s, the most of
-    every candidate (the limit alone 227 at 5.84 s, the agent 212 at 5.86 s, an oracle of
-    per-path constants 231 at 7.59 s); capped at 0.25, 221 at 6.07 s.
+    0 it only ever slows below the limit. Chosen, not published: on 256 random paths of 004's
+    nominal machine (seeds 1000128-1000383; docs/measurements.md, "Every candidate on 256 more
+    paths") the shipped agent capped at 0 keeps 5 um on 228 at a median cycle of 6.43 s, the
+    most of every candidate (the limit alone 227 at 5.84 s, the agent 212 at 5.86 s, an oracle
+    of per-path constants 231 at 7.59 s); capped at 0.25, 221 at 6.07 s.
 
     Args:
         agent: A registered feedrate policy's name (a trained agent:

@@ -31,19 +31,24 @@ import functools
 import pickle
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 import yaml
 
 from agents.parallel import limit_new_torch
-from agents.policies import POLICIES, Actions, Observation, Policy, batch_size, register_policy
+from agents.policy_base import (
+    POLICIES,
+    Actions,
+    Observation,
+    Policy,
+    batch_size,
+    register_policy,
+)
+from agents.rl.algorithms import Algorithm, algorithm
 from agents.rl.observation import flatten_obs
 from contour_gym.envs.config import EnvConfig
-
-if TYPE_CHECKING:
-    from agents.rl.algorithms import Algorithm
 
 TRAINED_DIR = Path(__file__).resolve().parent.parent / "trained"
 # env kwargs that vary the training, not the agent's interface (observation, action, machine)
@@ -255,11 +260,11 @@ def by_rows(
     """``model.predict`` on each of the ``n`` rows of ``batch`` alone: actions ``(n, ...)``.
 
     torch's matrix products round differently for different numbers of rows (float32), and a
-    member's episode then drifts from the one it runs alone (encoder counts flip): measured,
-    ``ppo_004_ccc_general`` (seed 0, shipped then) on random path 1000003 of 004's machine
-    peaked at 9.98 um alone and 8.47 um beside other paths. Row by row, a member acts as it
-    does alone, whatever the batch. A recurrent model's ``state`` (its LSTM's,
-    ``(layers, n, hidden)`` arrays) is split and joined along the members.
+    member's episode then drifts from the one it runs alone (encoder counts flip: an agent of
+    004's machine peaked at 9.98 um on a random path alone and at 8.47 um beside other paths).
+    Row by row, a member acts as it does alone, whatever the batch. A recurrent model's
+    ``state`` (its LSTM's, ``(layers, n, hidden)`` arrays) is split and joined along the
+    members.
 
     Args:
         model: A stable-baselines3 (or sb3-contrib) model.
@@ -376,8 +381,6 @@ class SavedAgent(SB3Policy):
     name = "saved_agent"
 
     def __init__(self, path: str | Path, deterministic: bool = True) -> None:
-        from agents.rl.algorithms import algorithm
-
         folder = Path(path)
         self.folder, self.meta = folder, read_meta(folder)
         model_path = folder / MODEL_FILE

@@ -24,7 +24,7 @@ from typing import Any
 
 import yaml
 
-from agents.parallel import RAY_RETRIES, RayRunner, runner
+from agents.parallel import RAY_RETRIES, RayRunner, _init_worker, runner
 
 
 @dataclass(frozen=True)
@@ -191,8 +191,6 @@ class _RayTrial:
 
     def __call__(self, config: dict[str, Any]) -> None:
         from ray import tune
-
-        from agents.parallel import _init_worker
 
         _init_worker()
         folder = run_trial(self.todo[int(config["trial"])])

@@ -55,8 +55,12 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 
 import contour_gym  # noqa: F401  (registers the ids)
 from agents._files import save_figure, write_atomically, write_handle_atomically
+from agents.evaluate import run_policy_batch
 from agents.rl.algorithms import algorithm
 from agents.rl.config import RunConfig, algo_class, dump_block, load_config
+from agents.rl.observation import FLATTEN_WRAPPER
+from agents.rl.saved import SB3Policy
+from agents.rl.vec_env import make_native_vec_env
 
 EVAL_SEED = 1_000_000  # eval member i is seeded EVAL_SEED + seed + i (apart from training's)
 EVAL_COLUMNS = ("timesteps", "max_contour_error_um", "mean_contour_error_um", "cycle_time_s",
@@ -224,8 +228,6 @@ def make_training_env(config: RunConfig, seed: int, venv_stats: Path | None = No
     """
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-    from agents.rl.vec_env import make_native_vec_env
-
     native = make_native_vec_env(config.env_id, config.n_envs, flatten=flattens(config),
                                  **config.env_kwargs)  # fmt: skip
     venv: Any = VecMonitor(native)
@@ -245,8 +247,6 @@ def flattens(config: RunConfig) -> bool:
     Raises:
         ValueError: for any other wrapper, naming the config file and the env id.
     """
-    from agents.rl.observation import FLATTEN_WRAPPER
-
     wrapper = config.block.get("env_wrapper")
     if wrapper is None or wrapper == FLATTEN_WRAPPER:
         return wrapper is not None
@@ -425,9 +425,6 @@ class EvalCurve(BaseCallback):
         return row
 
     def _row(self, model: Any) -> dict[str, float]:
-        from agents.evaluate import run_policy_batch
-        from agents.rl.saved import SB3Policy
-
         policy = SB3Policy(model, model.get_vec_normalize_env(), self.config.env_kwargs,
                            label=f"{self.config.algo} at {model.num_timesteps} steps")  # fmt: skip
         # the training env less its randomisation: random paths stay random, the reward its own

@@ -18,6 +18,7 @@ The package's modules, each re-exported here:
 - :mod:`agents.tune.objective`: :class:`PopulationObjective`, a whole population per call on
   threads, each candidate's result its own.
 - :mod:`agents.tune.runner`: :func:`tune`, :func:`compare` and the run folder.
+- :mod:`agents.tune.result`: :class:`TuneResult`, what a run gives.
 - :mod:`agents.tune.plots`: :func:`write_plots`.
 """
 

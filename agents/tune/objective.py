@@ -35,6 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 import agents.ccc_laws  # noqa: F401  (registers the fuzzy_pid law)
 import contour_gym  # noqa: F401  (registers the env ids)
 from agents._files import write_atomically
+from agents.parallel import RAY_RETRIES, RayRunner, _init_worker
 from agents.tune.fitness import (
     FITNESS_TERMS,
     FITNESSES,
@@ -330,9 +331,8 @@ class PopulationObjective:
         the scenario's mean): one that fails near tick 100 runs 25 times fewer ticks than
         one that gets in position. Each scenario's candidates are dealt to ``workers``
         slices, dearest first, each to the slice with the least work so far; the units run
-        longest first. Measured on protocol 003: 15.2-16.5 s with these slices, the
-        persistent pool and loops sized per batch, against 16.1-16.9 s before the three; the
-        threads still idle ~9 %, mostly in each generation's serial Python.
+        longest first. On protocol 003 the threads idle ~9 %, mostly in each generation's
+        serial Python.
         """
         n, k = x.shape[0], min(x.shape[0], self.workers)
         mean = np.maximum(self._ticks / max(self._n_recent, 1), 1.0)  # 1: equal counts
@@ -430,8 +430,6 @@ class RemoteSlices:
     """
 
     def __init__(self, protocol: Protocol, ideal: bool, address: str) -> None:
-        from agents.parallel import RAY_RETRIES, RayRunner
-
         self._cluster = RayRunner(address)
         ray = self._ray = self._cluster._ray
         actor = ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=RAY_RETRIES)(_Slices)
@@ -458,8 +456,6 @@ class RemoteSlices:
 class _Slices:
     # a Ray actor: a one-thread objective of the protocol, simulating the slices it is given
     def __init__(self, protocol: Protocol, ideal: bool) -> None:
-        from agents.parallel import _init_worker
-
         _init_worker()
         self.objective = PopulationObjective(protocol, ideal=ideal, workers=1)
 

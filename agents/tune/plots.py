@@ -8,12 +8,10 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from agents.tune.runner import TuneResult
+from agents.tune.result import TuneResult
 
 
 def write_plots(result: TuneResult, folder: str | os.PathLike[str]) -> list[Path]:

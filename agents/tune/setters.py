@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike
 
 from agents.tune.fitness import FloatArray
 from contour_gym.loop import ServoLoop
+from contour_gym.servo.two_dof_pid import params_of
 
 
 def _set_ccc_law(loop: ServoLoop, names: Sequence[str], x: FloatArray) -> None:
@@ -45,8 +46,6 @@ def acc2pid_rows(x: ArrayLike) -> tuple[FloatArray, FloatArray]:
     Raises:
         ValueError: for a shape other than ``(n, 19)`` or a value the 2PID rejects.
     """
-    from contour_gym.servo.two_dof_pid import params_of
-
     v = np.asarray(x, dtype=np.float64)
     if v.ndim != 2 or v.shape[1] != len(ACC2PID_NAMES):
         raise ValueError(f"ACC2PID parameters must have shape (n, 19), got {v.shape}")

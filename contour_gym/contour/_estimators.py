@@ -17,8 +17,9 @@ point ``j`` is the reference ``j`` ticks ago (:func:`~contour_gym.contour._histo
 The functions are not cached: they compile with the loop kernel that calls them, where LLVM
 inlines them (:mod:`contour_gym._compile`).
 
-The papers' equations were lost in text extraction; each docstring names the paper
-(``shared/seeds/NNN``), the equations and what was reconstructed.
+Some of the papers' equations were lost in text extraction; each docstring names the paper
+(``000`` .. ``004``, cited by title in docs/references.md), the equations and what was
+reconstructed.
 """
 
 from __future__ import annotations

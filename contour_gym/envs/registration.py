@@ -14,6 +14,8 @@ from typing import Any
 
 import gymnasium as gym
 
+from contour_gym.envs.config import EnvConfig
+
 # 003 case 2 runs its three-leaf with the y offsets +30/+90 mm (case 1's circle: +70/+210)
 GANTRY_LEAF = {
     "preset": "xyy_gantry",
@@ -75,8 +77,6 @@ def scenario_table() -> list[dict[str, Any]]:
     Machine, path, laps, feedrate, estimator, tolerance, axis controller and CCC injection, read
     from the scenario the env builds (the preset's paper settings where the id is silent).
     """
-    from contour_gym.envs.config import EnvConfig
-
     rows = []
     for name, (task, kwargs) in SCENARIOS.items():
         config = EnvConfig.from_kwargs(dict(kwargs))

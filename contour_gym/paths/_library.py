@@ -1,4 +1,4 @@
-"""Named test paths from the papers in ``shared/seeds`` (SI units; the papers use mm)."""
+"""Named test paths from the papers (docs/references.md; SI units; the papers use mm)."""
 
 from __future__ import annotations
 

@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from contour_gym import _compile
 from contour_gym._validate import as_finite_array
 from contour_gym.servo.base import CONTROLLER_FAMILY
+from contour_gym.servo.build import build_controller
 from contour_gym.servo.compensation import COMPENSATION_FAMILY
 from contour_gym.servo.compensation import STATE as COMP_STATE
 from contour_gym.servo.gains import PIDGains
@@ -51,8 +52,6 @@ class AxisControllers:
         batch_size: int = 1,
         **options: object,
     ) -> None:
-        from contour_gym.servo import build_controller
-
         if not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
             raise ValueError(f"batch_size must be a positive int, got {batch_size!r}")
         self.controller, self.params, self.compensation = build_controller(

@@ -16,7 +16,16 @@ join the env's kernel like a user's reward: one compile of their own.
 from __future__ import annotations
 
 from contour_gym._envstate import EC, put
-from contour_gym.tasks.base import TASK_FAMILY, TASKS, Task, register_task, task_named
+from contour_gym.tasks import ccc, feedrate  # noqa: F401 (registration)
+from contour_gym.tasks.base import (
+    TASK_FAMILY,
+    TASKS,
+    Task,
+    TaskConfig,
+    TaskEnv,
+    register_task,
+    task_named,
+)
 
 put_observation = put  # a task's observe writes its columns with it (clipped like the others)
 ENV_COLUMNS = EC  # the env constants' columns, by name: ``ec[ENV_COLUMNS.dovr]``
@@ -26,6 +35,8 @@ __all__ = [
     "TASKS",
     "TASK_FAMILY",
     "Task",
+    "TaskConfig",
+    "TaskEnv",
     "put_observation",
     "register_task",
     "task_named",

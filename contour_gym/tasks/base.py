@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import importlib
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from operator import attrgetter
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -16,9 +15,60 @@ from contour_gym._compile import Family
 from contour_gym._registry import Registry
 
 if TYPE_CHECKING:
-    from contour_gym.envs.config import EnvConfig
-    from contour_gym.envs.core import ContourTask
+    from contour_gym.api import Scenario
+    from contour_gym.loop import ServoLoop
     from contour_gym.presets import Preset
+
+
+class TaskEnv(Protocol):
+    """What a task reads and sets of the env core (:class:`contour_gym.envs.core.ContourTask`).
+
+    The env core imports the tasks, not the other way round: a task sees the env through
+    this.
+    """
+
+    @property
+    def loop(self) -> ServoLoop:
+        """The members' servo loop."""
+
+    @property
+    def scenario(self) -> Scenario:
+        """The env's scenario (its ``feed_override``)."""
+
+    @property
+    def arrays(self) -> dict[str, NDArray[np.float64]]:
+        """The env's arrays by name (``"action"``: the last actions, one row per member)."""
+
+    @property
+    def n_contours(self) -> int:
+        """Contours of the stage."""
+
+    @property
+    def g0(self) -> NDArray[np.float64]:
+        """The CCC gains (kp, ki, kd) the action map is centred on."""
+
+    @property
+    def ovr_bounds(self) -> NDArray[np.float64]:
+        """The feed override range (``EnvConfig.feedrate_range``)."""
+
+    def gains_to_action(self, gains: NDArray[np.float64]) -> NDArray[np.float64]:
+        """CCC gains (..., C, 3) as the actions that map to them."""
+
+
+class TaskConfig(Protocol):
+    """What a task reads of the env's arguments (:class:`contour_gym.envs.config.EnvConfig`)."""
+
+    @property
+    def ccc_gains(self) -> tuple[float, float, float] | None:
+        """The gains the CCC action map is centred on (None: the preset's)."""
+
+    @property
+    def gain_range(self) -> float:
+        """Each CCC gain's largest value as a multiple of the preset's."""
+
+    @property
+    def kd_scale(self) -> float:
+        """The largest kd as a multiple of the preset's kp, s."""
 
 
 @dataclass(frozen=True)
@@ -58,14 +108,14 @@ class Task(ABC):
         """Number of columns of the observation's :attr:`tail`."""
 
     @abstractmethod
-    def override_range(self, env: ContourTask) -> tuple[float, float]:
+    def override_range(self, env: TaskEnv) -> tuple[float, float]:
         """The slowest and fastest feed override an episode may run at.
 
         The slowest sets the default step limit, the fastest the reward's progress bound.
         """
 
     @abstractmethod
-    def reset(self, env: ContourTask, members: NDArray[np.intp]) -> None:
+    def reset(self, env: TaskEnv, members: NDArray[np.intp]) -> None:
         """Set what the actions act on to its episode start for ``members``.
 
         Called after the loop's reset; may set the starting actions
@@ -91,17 +141,12 @@ class Task(ABC):
         """
         return {}
 
-    def fixed_ccc_gains(self, config: EnvConfig) -> Sequence[float] | None:
+    def fixed_ccc_gains(self, config: TaskConfig) -> Sequence[float] | None:
         """CCC gains the loop holds through the episode (None: the preset's, or the task's)."""
         return None
 
 
-def _load_builtins() -> None:
-    for module in ("ccc", "feedrate"):
-        importlib.import_module(f"contour_gym.tasks.{module}")
-
-
-TASKS: Registry[Task] = Registry("task", loader=_load_builtins)
+TASKS: Registry[Task] = Registry("task")  # the built-ins register on import (contour_gym.tasks)
 
 # the env kernel's slots of a task (contour_gym._slots)
 TASK_FAMILY = Family(

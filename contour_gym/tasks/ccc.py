@@ -9,18 +9,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from contour_gym._envstate import put
-from contour_gym.tasks.base import Task, register_task
-
-if TYPE_CHECKING:
-    from contour_gym.envs.config import EnvConfig
-    from contour_gym.envs.core import ContourTask
+from contour_gym.tasks.base import Task, TaskConfig, TaskEnv, register_task
 
 Array = NDArray[np.float64]
 
@@ -64,7 +60,7 @@ class GainMap:
     g_log: Array
 
     @classmethod
-    def for_env(cls, config: EnvConfig, preset: Any, g0: Array) -> GainMap:
+    def for_env(cls, config: TaskConfig, preset: Any, g0: Array) -> GainMap:
         """The map of an env with ``config`` on ``preset``, starting at gains ``g0``."""
         kp0 = g0[0] if g0[0] > 0 else preset.ccc_gains.kp
         ki0 = g0[1] if g0[1] > 0 else kp0 * 10.0
@@ -105,11 +101,11 @@ class CCCGains(Task):
         """The action in force."""
         return 3 * n_contours
 
-    def override_range(self, env: ContourTask) -> tuple[float, float]:
+    def override_range(self, env: TaskEnv) -> tuple[float, float]:
         """The scenario's feed override throughout (the slowest counted as 1)."""
         return 1.0, env.scenario.feed_override
 
-    def reset(self, env: ContourTask, members: NDArray[np.intp]) -> None:
+    def reset(self, env: TaskEnv, members: NDArray[np.intp]) -> None:
         """The env's starting gains ``env.g0``, and the action that maps to them."""
         env.loop.ccc_p[members, :, :3] = env.g0
         gains = np.broadcast_to(env.g0, (len(members), env.n_contours, 3))

@@ -20,11 +20,9 @@ from numpy.typing import NDArray
 
 from contour_gym._envstate import EC, put
 from contour_gym.motion import IP, IS
-from contour_gym.tasks.base import Task, register_task
+from contour_gym.tasks.base import Task, TaskConfig, TaskEnv, register_task
 
 if TYPE_CHECKING:
-    from contour_gym.envs.config import EnvConfig
-    from contour_gym.envs.core import ContourTask
     from contour_gym.presets import Preset
 
 FEED_RANGE = (0.3, 1.0)  # random paths' programmed feeds, times the machine's feed limit
@@ -77,12 +75,12 @@ class FeedrateOverride(Task):
         """The override, and the speed over the programmed feed."""
         return 2
 
-    def override_range(self, env: ContourTask) -> tuple[float, float]:
+    def override_range(self, env: TaskEnv) -> tuple[float, float]:
         """The env's ``feedrate_range``."""
         low, high = env.ovr_bounds
         return float(low), float(high)
 
-    def reset(self, env: ContourTask, members: NDArray[np.intp]) -> None:
+    def reset(self, env: TaskEnv, members: NDArray[np.intp]) -> None:
         """The scenario's feed override."""
         env.loop.ip_p[members, IP.ovr] = env.scenario.feed_override
 
@@ -106,7 +104,7 @@ class FeedrateOverride(Task):
         """
         return {"path_control": "G61.1"}
 
-    def fixed_ccc_gains(self, config: EnvConfig) -> Sequence[float] | None:
+    def fixed_ccc_gains(self, config: TaskConfig) -> Sequence[float] | None:
         """The env's ``ccc_gains`` if given (the loop then runs CCC), else none."""
         return config.ccc_gains
 

@@ -9,7 +9,7 @@ import numba
 from contour_gym._schema import Param, Schema
 from contour_gym._validate import non_negative
 from contour_gym.plant._kernel import ST, stiction_step
-from contour_gym.plant.friction import FrictionLaw, register_friction_law
+from contour_gym.plant.friction.base import FrictionLaw, register_friction_law
 
 
 @dataclass(frozen=True)

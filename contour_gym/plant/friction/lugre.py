@@ -26,7 +26,7 @@ import numpy as np
 from contour_gym._schema import Param, Schema
 from contour_gym._validate import non_negative, positive
 from contour_gym.plant._kernel import ST, linear_step
-from contour_gym.plant.friction import FrictionLaw, register_friction_law
+from contour_gym.plant.friction.base import FrictionLaw, register_friction_law
 
 
 @dataclass(frozen=True)

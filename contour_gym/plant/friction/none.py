@@ -6,7 +6,7 @@ import numba
 
 from contour_gym._schema import Schema
 from contour_gym.plant._kernel import linear_step
-from contour_gym.plant.friction import FrictionLaw, register_friction_law
+from contour_gym.plant.friction.base import FrictionLaw, register_friction_law
 
 
 @numba.njit(cache=True, inline="always")
