@@ -97,9 +97,17 @@ def settle(cache: str) -> None:
     """
     from contour_gym._tiers import _busy
 
-    for lock in Path(cache, "generated").glob("background_*.lock"):
+    for lock in Path(cache).rglob("background_*.lock"):
         while _busy(lock):
             time.sleep(0.5)
+
+
+def settle_everywhere() -> None:
+    """Wait for the background compiles of the user's own caches too: measure beside none."""
+    from contour_gym import _compile
+
+    settle(str(_compile.cache_root()))
+    settle(str(Path(tempfile.gettempdir()) / "contour_gym_generated"))
 
 
 def run(args: list[str], root: Path, cache: str, timeout: float = 3600.0) -> tuple[float, str]:
@@ -173,6 +181,7 @@ def main() -> None:
     parser.add_argument("--skip-bench", action="store_true", help="no bench cold row")
     parser.add_argument("--skip-warm", action="store_true", help="no warm rows")
     args = parser.parse_args()
+    settle_everywhere()
     print(f"# cold start, {os.cpu_count()} cores, fresh NUMBA_CACHE_DIR per row")
     print("| what | wall (s) |\n|---|---|")
     for name, wall in cold_rows(HERE, args.skip_bench):

@@ -32,19 +32,16 @@ which of the two a run uses.
 **What a kernel calls compiles with it.** A function a kernel calls (the exact search and
 ground truth, the estimators, the history ring) is a plain ``@numba.njit`` without ``cache``:
 it compiles in the process that compiles the kernel, where LLVM can inline it. One loaded
-from numba's cache is machine code LLVM cannot inline: a kernel compiled after the ground
-truth search was cached (by another process) ran 6-11 % slower than one compiled beside it
-(measured on 000's circle, B = 1 and 1024), so a kernel's speed depended on what ran before.
-The kernels themselves and the functions called from Python (:mod:`contour_gym.paths._batch`,
-the estimator API's kernel) are cached.
+from numba's cache is machine code LLVM cannot inline, and a kernel compiled beside it would
+run slower. The kernels themselves and the functions called from Python
+(:mod:`contour_gym.paths._batch`, the estimator API's kernel) are cached.
 
 **Inlined by whom.** ``inline="always"`` makes numba inline a function's IR at every call
 site, typing it again each time; ``forceinline=True`` types it once and has LLVM inline it
-(``alwaysinline``). The path evaluation (:func:`contour_gym.paths._geom.eval_segment`, three
-segment kinds, nine floats) is the second kind: with numba's inlining, ``contour-gym
-simulate``'s first run took 36-39 s, with LLVM's 25 s, and 004's machine ran as fast (B =
-1024, window and exact estimators); called (inlined by numba only in the exact search's
-distance), 29-30 s, and 004's machine ran 5-30 % slower (``docs/measurements.md``).
+(``alwaysinline``). The path's segment evaluation
+(:func:`contour_gym.paths._geom.eval_segment`, three segment kinds, nine floats) is the second
+kind; the per-tick helpers the first. ``tests/test_compile_budget.py`` counts what a first run
+compiles; docs/measurements.md has the timings behind each choice.
 
 **First run.** The built-ins' kernels compile in worker processes, several at a time, with a
 progress bar (:mod:`contour_gym._precompile`); a kernel for a user's component, or a run's own
@@ -561,3 +558,36 @@ def mark_compiled(module: ModuleType) -> None:
     if not marker.exists():
         with contextlib.suppress(OSError):
             marker.touch()
+
+
+@dataclass(frozen=True)
+class Census:
+    """What numba compiled in this process: a measure of a first run's compile work.
+
+    Attributes:
+        functions: Compiled signatures (a function compiled for two signatures counts twice).
+        statements: Statements of their typed IR, numba-inlined code included: a number that
+            does not depend on the machine or its load, and grows with the compile's time.
+    """
+
+    functions: int
+    statements: int
+
+
+def census() -> Census:
+    """Count what numba compiled in this process (not what it loaded from its cache)."""
+    import gc
+
+    from numba.core.dispatcher import Dispatcher
+
+    functions = statements = 0
+    for obj in gc.get_objects():
+        if not isinstance(obj, Dispatcher):
+            continue
+        for result in obj.overloads.values():
+            annotation = getattr(result, "type_annotation", None)
+            if annotation is None:  # loaded from the cache
+                continue
+            functions += 1
+            statements += sum(len(block.body) for block in annotation.blocks.values())
+    return Census(functions, statements)

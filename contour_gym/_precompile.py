@@ -31,6 +31,7 @@ import numba
 
 from contour_gym import _compile
 from contour_gym._registry import Registry
+from contour_gym._stack import on_reserved_stack
 
 IN_WORKER = "CONTOUR_GYM_COMPILE_WORKER"  # set in the workers: they compile in-process
 LAST_SECONDS: dict[str, float] = {}  # wall seconds of each warm-up this process ran
@@ -283,9 +284,8 @@ class _Bar:
 # --------------------------------------------------------------------------------------
 # the package's own warm-ups
 # --------------------------------------------------------------------------------------
-# seconds: measured on this project's 2-core machine, each group alone in a worker process
-# (the built-ins' kernels), one after another on one cache (007db08; all five on two workers:
-# 66-70 s, the loop then the env step being the longest chain). The
+# seconds: each group alone in a worker process on a 2-core machine (the built-ins' kernels),
+# for the progress bar's estimate; the loop then the env step is the longest chain. The
 # searches and estimators a kernel calls compile with it, whatever is cached (_compile), so
 # only the env step waits: it calls the loop's kernels
 register_warmup(Warmup("loop", "contour_gym._warmups:servo_loop", doc="servo loop",
@@ -303,4 +303,4 @@ register_warmup(Warmup("axes", "contour_gym._warmups:axes",
 def main(name: str, target: str) -> None:
     """A worker's entry point: load the plugins, run warm-up ``name`` (its ``target``)."""
     _compile.builtin_packages()  # the plugins' components
-    run_warmup(name, target)
+    on_reserved_stack(run_warmup, name, target)

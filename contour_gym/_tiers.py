@@ -27,11 +27,14 @@ next run asks again). Set ``CONTOUR_GYM_BACKGROUND=0`` to turn them off.
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import pickle
 import subprocess
 import sys
 import tempfile
+import threading
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import ModuleType
@@ -40,6 +43,7 @@ from typing import Protocol
 import numba
 
 from contour_gym import _compile, _precompile
+from contour_gym._stack import on_reserved_stack
 
 BACKGROUND = "CONTOUR_GYM_BACKGROUND"  # "0": no background compiles
 OWN_WORKER = "own"  # IN_WORKER's value in a process compiling a run's own kernel
@@ -94,7 +98,8 @@ def _enabled() -> bool:
 
 def _compile_builtins_later(warmup: str) -> None:
     if _enabled():
-        _detach("_builtins_main", warmup, f"builtins_{warmup}")
+        what = f"the built-in components' kernels ({_precompile.WARMUPS.get(warmup).doc})"
+        _detach("_builtins_main", warmup, f"builtins_{warmup}", what)
 
 
 def _compile_own_later(owner: CompilesOwn) -> None:
@@ -107,15 +112,20 @@ def _compile_own_later(owner: CompilesOwn) -> None:
     fd, path = tempfile.mkstemp(suffix=".pkl", dir=_compile.generated_dir())
     with os.fdopen(fd, "wb") as handle:
         handle.write(data)
-    if not _detach("_own_main", path, "own", env={_precompile.IN_WORKER: OWN_WORKER}):
+    env = {_precompile.IN_WORKER: OWN_WORKER}
+    if not _detach("_own_main", path, "own", "this combination's own, faster kernel", env):
         os.unlink(path)
 
 
-def _detach(func: str, arg: str, slot: str, env: dict[str, str] | None = None) -> bool:
+def _detach(
+    func: str, arg: str, slot: str, what: str, env: dict[str, str] | None = None
+) -> bool:
     """Start ``_tiers.func(arg, held)`` in a detached, niced interpreter unless ``slot`` is busy.
 
     ``held``: whether the process got the slot's lock (two requests may pass the probe at
-    once; the one without the lock only cleans up).
+    once; the one without the lock only cleans up). The process stops by itself once the
+    cache folder it compiles into is gone (:func:`_watch`); stderr says what runs and how to
+    stop it (``what``: what it compiles).
     """
     lock = _lock(slot)
     if _busy(lock):
@@ -126,13 +136,31 @@ def _detach(func: str, arg: str, slot: str, env: dict[str, str] | None = None) -
         full["NUMBA_CACHE_DIR"] = cache
     script = "\n".join([
         "import os", "os.nice(19)", "from contour_gym import _tiers",
+        f"_tiers._watch({str(_compile.generated_dir())!r})",
         f"with _tiers._holding({str(lock)!r}) as held:", f"    _tiers.{func}({arg!r}, held)",
     ])  # fmt: skip
-    subprocess.Popen(
+    process = subprocess.Popen(
         [sys.executable, "-c", script], env=full, stdin=subprocess.DEVNULL,
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
     )  # fmt: skip
+    print(f"contour-gym: compiling {what} in the background for the runs that follow "
+          f"(pid {process.pid}, low priority; it ends by itself; `kill {process.pid}` stops "
+          f"it, {BACKGROUND}=0 turns this off)", file=sys.stderr, flush=True)  # fmt: skip
     return True
+
+
+WATCH_SECONDS = 1.0  # how often a background process checks that its cache folder exists
+
+
+def _watch(folder: str) -> None:
+    """In a background process: end it once ``folder`` (its compiled code's) is gone."""
+
+    def watch() -> None:
+        while os.path.isdir(folder):
+            time.sleep(WATCH_SECONDS)
+        os._exit(0)
+
+    threading.Thread(target=watch, name="contour-gym cache watch", daemon=True).start()
 
 
 def _lock(slot: str) -> Path:
@@ -171,7 +199,7 @@ def _holding(lock: str) -> Iterator[bool]:
 def _builtins_main(warmup: str, held: bool = True) -> None:
     """A background process: compile the built-ins' kernels of ``warmup`` (no progress bar)."""
     if held:
-        _precompile.compile_builtins([warmup], progress=False)
+        on_reserved_stack(functools.partial(_precompile.compile_builtins, progress=False), [warmup])
 
 
 def _own_main(path: str, held: bool = True) -> None:
@@ -186,4 +214,4 @@ def _own_main(path: str, held: bool = True) -> None:
             owner = pickle.load(handle)
     finally:
         os.unlink(path)
-    owner.compile_own()
+    on_reserved_stack(owner.compile_own)

@@ -1,6 +1,9 @@
 """The run's own kernel and the built-ins' kernel (contour_gym._tiers)."""
 
 import pickle
+import re
+import subprocess
+import sys
 import time
 import types
 from pathlib import Path
@@ -44,19 +47,40 @@ def test_a_workers_own_kernel_is_chosen_next_and_agrees_with_the_builtins_kernel
         np.testing.assert_array_equal(a, b)
 
 
-def test_a_detached_worker_takes_a_request(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_detached_worker_takes_a_request(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
     # the own kernel of the default loop is compiled by the test above or here, in-process
     scenario = make_scenario("xy_dc_servo", estimator="tangent")
     loop = scenario.loop(batch_size=1)
     loop.compile_own()
     monkeypatch.setenv(_tiers.BACKGROUND, "1")
     request = _pickled(loop, _compile.generated_dir())
-    assert _tiers._detach("_own_main", str(request), "own_test",
+    assert _tiers._detach("_own_main", str(request), "own_test", "a test's kernel",
                           env={_precompile.IN_WORKER: _tiers.OWN_WORKER})  # fmt: skip
     deadline = time.monotonic() + 120.0
     while request.exists() and time.monotonic() < deadline:
         time.sleep(0.2)
     assert not request.exists()  # the worker unpickled it and ran it
+    # the terminal was told what runs and how to stop it
+    notice = capsys.readouterr().err
+    pid = int(re.search(r"pid (\d+)", notice).group(1))  # type: ignore[union-attr]
+    assert "a test's kernel in the background" in notice and f"kill {pid}" in notice
+
+
+def test_a_background_process_ends_when_its_cache_folder_is_gone(tmp_path: Path) -> None:
+    folder = tmp_path / "generated"
+    folder.mkdir()
+    code = (f"from contour_gym import _tiers; _tiers._watch({str(folder)!r}); "
+            "import time; time.sleep(120)")  # fmt: skip
+    process = subprocess.Popen([sys.executable, "-c", code])
+    try:
+        time.sleep(3.0)  # imported and watching
+        assert process.poll() is None
+        folder.rmdir()
+        assert process.wait(timeout=30.0) == 0
+    finally:
+        process.kill()
 
 
 def _module(folder: Path, name: str, compiled: bool) -> types.ModuleType:

@@ -25,6 +25,7 @@ from contour_gym._blob import Blob
 from contour_gym._compile import Family
 from contour_gym._envstate import EC, ENV_CONFIG, ENV_FLOATS, OBS_LIMIT, OBSERVATIONS
 from contour_gym._loopstate import LS, REASON_HARD_LIMIT, STATUS_ARRIVED
+from contour_gym._stack import on_reserved_stack
 from contour_gym._validate import seed_value
 from contour_gym.api import Scenario
 from contour_gym.envs._paths import reset_draws
@@ -364,8 +365,12 @@ class ContourTask:
                      "comp", "peak"):  # fmt: skip
             v[name][members] = 0.0
         self.task_kind.reset(self, members)
-        with self._compiling():
-            self.kernel.observe(*self._kernel_blobs(), np.asarray(members, dtype=np.int64))
+        args = (*self._kernel_blobs(), np.asarray(members, dtype=np.int64))
+        if self._stepped:
+            self.kernel.observe(*args)
+            return
+        with self._compiling():  # the first call may compile: below a reserved stack
+            on_reserved_stack(self.kernel.observe, *args)
 
     def _kernel_blobs(self) -> tuple[Any, ...]:
         loop = self.loop

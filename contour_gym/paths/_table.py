@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from contour_gym._stack import on_reserved_stack
 from contour_gym.paths import _batch
 from contour_gym.paths._branch import B_CLEAR, B_CLOSED, N_CELLS, NB, build_rows, fill_clearances
 from contour_gym.paths._geom import HELIX, LINE, NCOL, POLY5
@@ -72,7 +73,8 @@ class PathTable:
             raise ValueError("inconsistent PathTable shapes")
         bound = np.asarray(self.bound, dtype=np.float64)
         if bound.shape == (n, 4):
-            bound = build_bound(self.kind, self.s0, self.data, np.ascontiguousarray(bound))
+            spheres = np.ascontiguousarray(bound)
+            bound = on_reserved_stack(build_bound, self.kind, self.s0, self.data, spheres)
         object.__setattr__(self, "bound", _frozen(bound, np.float64))
         if self.bound.shape != (3 * n - 1, NB) or self.dim not in (2, 3):
             raise ValueError("inconsistent PathTable bound shape or dim")
