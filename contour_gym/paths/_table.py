@@ -73,8 +73,10 @@ class PathTable:
             raise ValueError("inconsistent PathTable shapes")
         bound = np.asarray(self.bound, dtype=np.float64)
         if bound.shape == (n, 4):
-            spheres = np.ascontiguousarray(bound)
-            bound = on_reserved_stack(build_bound, self.kind, self.s0, self.data, spheres)
+            args = (self.kind, self.s0, self.data, np.ascontiguousarray(bound))
+            compiled = build_rows.signatures and fill_clearances.signatures
+            # until its builders are compiled in this process, below a reserved stack
+            bound = build_bound(*args) if compiled else on_reserved_stack(build_bound, *args)
         object.__setattr__(self, "bound", _frozen(bound, np.float64))
         if self.bound.shape != (3 * n - 1, NB) or self.dim not in (2, 3):
             raise ValueError("inconsistent PathTable bound shape or dim")
