@@ -48,7 +48,7 @@ from concurrent.futures import (
 from typing import Any, TypeVar
 
 from agents import MKL_MODE
-from contour_gym.threads import THREADS_VARIABLE, available_cpus
+from contour_gym.loop.threads import THREADS_VARIABLE, available_cpus
 
 T = TypeVar("T")
 R = TypeVar("R")

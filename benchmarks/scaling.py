@@ -10,7 +10,7 @@ Prints, for 1, 2, ... workers (up to the CPUs this process may use):
 * **vector env**: ``contour_gym/CCC-v1`` (``decision_ticks`` 10; 000's machine, the cheapest
   per member) and ``contour_gym/CCC-LuGre-BSpline-v1`` (002's) at several ``num_envs``, on 1
   thread, on every thread and on the default (its threads timed against one over the first
-  steps, the faster kept: :class:`contour_gym.threads.ThreadChoice`): env-ticks/s;
+  steps, the faster kept: :class:`contour_gym.loop.threads.ThreadChoice`): env-ticks/s;
   ``--only-envs`` prints these tables alone;
 * **bench**: the command ``contour-gym bench --suite S --workers N`` in a fresh process, as
   a user runs it (each suite of ``--suites``, default ``default`` and ``generalization``), into
@@ -48,7 +48,7 @@ import gymnasium as gym
 import numpy as np
 
 from contour_gym.api import make_scenario
-from contour_gym.threads import available_cpus
+from contour_gym.loop.threads import available_cpus
 
 LOOP_BATCH, LOOP_TICKS = 1024, 1000
 PROCESS_BATCH = 256
@@ -108,7 +108,7 @@ def env_rates(env_id: str, threads: int, repeats: int) -> dict[tuple[int, int | 
     """env-ticks/s of a vector env at each size: on 1 thread, on ``threads``, on the default.
 
     The default (``num_threads=None``) times its threads against one over its first steps
-    and keeps the faster (:class:`contour_gym.threads.ThreadChoice`): the first, untimed round
+    and keeps the faster (:class:`contour_gym.loop.threads.ThreadChoice`): the first, untimed round
     covers those trials.
     """
     out: dict[tuple[int, int | None], float] = {}

@@ -8,7 +8,7 @@ a docstring or comment, or any module without compiled code, recompiles nothing.
 ``NUMBA_CACHE_DIR`` to choose the folder yourself (then this does nothing).
 
 **Kernels and their slots.** The servo loop and the env step are written once, as templates
-(``contour_gym._loopkernel``, ``contour_gym.envs._kernel``), whose *slots* (the axis
+(``contour_gym.loop.kernel``, ``contour_gym.envs._kernel``), whose *slots* (the axis
 controller, the estimator, the friction law, the compensation, the CCC law, the reward) are
 module globals. :func:`specialise` writes the template's source into a generated module named
 by a digest of its text and of the components' sources, imports it and binds the slots.

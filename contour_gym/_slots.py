@@ -1,6 +1,6 @@
 """The slots of the kernel templates, as stubs: what each component must look like.
 
-The templates (:mod:`contour_gym._loopkernel`, :mod:`contour_gym.envs._kernel`,
+The templates (:mod:`contour_gym.loop.kernel`, :mod:`contour_gym.envs._kernel`,
 :mod:`contour_gym.servo._bank`, :mod:`contour_gym.contour._many`) import these names from here
 so that they read, lint and type-check as ordinary modules; :func:`contour_gym._compile.specialise`
 drops that import statement and binds each name instead. The stubs are never compiled.
@@ -28,8 +28,8 @@ DISPATCHED: dict[str, tuple[str, bool]] = {
     "CCC_COMMIT": ("p, s, data, q, row, e, ts, out, saturated", False),
     "CCC_RELEASE": ("p, s, data, q, row, ts", False),
     "REWARD": ("comp, w", True),
-    "TASK_APPLY": ("loop, env, ec, b", False),
-    "TASK_OBSERVE": ("loop, path, env, ec, b, col", True),
+    "TASK_APPLY": ("m, env, ec, b", False),
+    "TASK_OBSERVE": ("m, path, env, ec, b, col", True),
 }
 
 
@@ -95,7 +95,7 @@ def CCC_RELEASE(code, p, s, data, q, row, ts):
 
 
 @numba.njit(cache=True)
-def RUN_MEMBERS(n, k0, cfg, loop, bank, noise, rec, lo, hi):
+def RUN_MEMBERS(n, k0, config_row, loop, bank, noise, rec, lo, hi):
     """The loop's run on its views, bound to the loop's own ``run_members``."""
 
 
@@ -106,11 +106,11 @@ def REWARD(code, comp, w):
 
 
 @numba.njit(cache=True, inline="always")
-def TASK_APPLY(code, loop, env, ec, b):
+def TASK_APPLY(code, m, env, ec, b):
     """Task: member ``b``'s clipped action sets what it acts on (:mod:`contour_gym.tasks`)."""
 
 
 @numba.njit(cache=True, inline="always")
-def TASK_OBSERVE(code, loop, path, env, ec, b, col):
+def TASK_OBSERVE(code, m, path, env, ec, b, col):
     """Task: member ``b``'s own observation columns from ``col``; the column after them."""
     return col

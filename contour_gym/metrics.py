@@ -31,7 +31,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from contour_gym._loopstate import AA, AC, ACC_A, ACC_C
+from contour_gym._schema import state_schema
+
+# the columns of the sums (the loop's kernel fills them: contour_gym.loop.kernel)
+ACC_C = state_schema("contour sums", "abs", "sq", "max", "n", "s_abs", "s_n")
+AC = ACC_C.col
+ACC_A = state_schema("axis sums", "abs", "sq", "max", "tv", "s_abs")
+AA = ACC_A.col
 
 Array = NDArray[np.float64]
 
@@ -42,9 +48,9 @@ class ErrorSums:
 
     Attributes:
         contour: (B, C, 6): sum |eps|, sum eps^2, max |eps|, ticks, and the sampled sum |eps|
-            and sample count (:data:`contour_gym._loopstate.ACC_C`).
+            and sample count (:data:`ACC_C`).
         axis: (B, A, 5): sum |e|, sum e^2, max |e|, total variation of u, sampled sum |e|
-            (:data:`contour_gym._loopstate.ACC_A`).
+            (:data:`ACC_A`).
     """
 
     contour: Array

@@ -14,17 +14,15 @@ from contour_gym.tasks.ccc import action_to_gain
 
 
 @numba.njit(cache=True, inline="always")
-def apply_kp(loop, env, ec, b):
-    n_c = loop.c_axes.shape[0]
-    for c in range(n_c):
-        q = b * n_c + c
-        loop.ccc_p[q, 0] = action_to_gain(env.action[b, c], env.g_max[0], env.g_log[0])
-        loop.ccc_p[q, 1] = 0.0
-        loop.ccc_p[q, 2] = 0.0
+def apply_kp(m, env, ec, b):
+    for c in range(m.ccc_gains.shape[1]):
+        m.ccc_gains[b, c, 0] = action_to_gain(env.action[b, c], env.g_max[0], env.g_log[0])
+        m.ccc_gains[b, c, 1] = 0.0
+        m.ccc_gains[b, c, 2] = 0.0
 
 
 @numba.njit(cache=True, inline="always")
-def observe_kp(loop, path, env, ec, b, col):
+def observe_kp(m, path, env, ec, b, col):
     for j in range(env.action.shape[1]):
         col = put_observation(env.obs, b, col, env.action[b, j])
     return col
@@ -42,7 +40,7 @@ class KpOnly(Task):
         return 1.0, env.scenario.feed_override
 
     def reset(self, env: Any, members: Any) -> None:
-        env.loop.ccc_p[members, :, :3] = 0.0
+        env.loop.set_ccc_gains(0.0, members)
         env.arrays["action"][members] = -1.0  # kp = 0
 
 

@@ -19,10 +19,10 @@ from agents import fuzzy as F  # noqa: N812
 from agents.evaluate import run_policy, run_policy_batch
 from agents.policies import POLICIES, make_policy
 from contour_gym import _compile
-from contour_gym._loopstate import WORK_ROW
 from contour_gym.api import make_scenario
 from contour_gym.ccc import CCC_LAWS
 from contour_gym.loop import ServoLoop
+from contour_gym.loop.state import WORK_ROW
 from contour_gym.paths import parametric
 
 HELIX = "contour_gym/CCC-PMLSM-Helix-v0"

@@ -17,10 +17,10 @@ from agents import ccc_laws
 from agents import fuzzy as F  # noqa: N812
 from agents.fuzzy import kernels as fuzzy_kernels
 from contour_gym import _compile
-from contour_gym._loopstate import WORK_ROW
 from contour_gym.api import make_scenario
 from contour_gym.ccc import CCC_LAWS
 from contour_gym.loop import ServoLoop
+from contour_gym.loop.state import WORK_ROW
 
 TICKS = 300
 PRESET = make_scenario("xy_dc_servo").preset

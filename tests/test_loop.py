@@ -223,7 +223,7 @@ def test_plant_scaling_changes_only_the_scaled_member():
 
 
 def test_a_trace_window_before_the_rows_kept_raises() -> None:
-    from contour_gym._looprecord import Trace
+    from contour_gym.loop.record import Trace
 
     empty = np.zeros((1, 4, 1))
     trace = Trace(np.arange(4.0), *(empty for _ in range(len(dataclasses.fields(Trace)) - 1)))

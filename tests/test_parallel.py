@@ -26,7 +26,7 @@ from agents.rl.sweep import parse_grid, run_trials, trials
 from agents.suites import load_suite
 from agents.tune import tune
 from contour_gym.api import make_scenario
-from contour_gym.threads import (
+from contour_gym.loop.threads import (
     MIN_MEMBERS_PER_THREAD,
     RECHECK,
     TRIALS,

@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from contour_gym._loopstate import REASON_DIVERGED, REASON_NOT_IN_POSITION
 from contour_gym.api import make_scenario
 from contour_gym.loop import ServoLoop
+from contour_gym.loop.state import REASON_DIVERGED, REASON_NOT_IN_POSITION
 from contour_gym.motion import Interpolator
 from contour_gym.paths import circle
 from contour_gym.plant import Disturbance, LuGreFriction

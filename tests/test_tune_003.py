@@ -180,7 +180,7 @@ def test_work_units_cover_every_candidate_once_with_balanced_predicted_work() ->
 
 def test_run_stops_a_member_past_the_limit_on_that_tick() -> None:
     """stop_above: the member fails (reason 3) on the first tick its max error passes it."""
-    from contour_gym._loopstate import MEM_COL, REASON_OVER_LIMIT
+    from contour_gym.loop.state import MEM_COL, REASON_OVER_LIMIT
 
     objective = PopulationObjective(CIRCLE_003, workers=1)
     loop = objective._loops_for(2)[0]

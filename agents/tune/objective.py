@@ -49,8 +49,8 @@ from contour_gym.api import Scenario
 from contour_gym.envs.config import EnvConfig
 from contour_gym.envs.core import member_rngs
 from contour_gym.loop import ServoLoop
+from contour_gym.loop.threads import available_cpus
 from contour_gym.tasks import TASKS
-from contour_gym.threads import available_cpus
 
 
 @dataclass(frozen=True)

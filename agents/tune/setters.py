@@ -64,7 +64,8 @@ def set_acc2pid(loop: ServoLoop, names: Sequence[str], x: FloatArray) -> None:
     """
     if tuple(names) != ACC2PID_NAMES:
         raise ValueError(f"the acc2pid setter needs the parameters {ACC2PID_NAMES}")
-    if loop.controller.name != "two_dof_pid" or loop.ccc_w.shape[1:] != (2, 3):
+    shape = (loop.stage.n_axes, len(loop.stage.contours))
+    if loop.controller.name != "two_dof_pid" or shape != (3, 2):
         raise ValueError("the acc2pid setter needs 003's two_dof_pid gantry (3 axes, 2 contours)")
     rows, weights = acc2pid_rows(x)
     loop.set_controller_params(rows)

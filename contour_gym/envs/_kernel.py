@@ -16,23 +16,17 @@ import numba
 
 from contour_gym._blob import borrow
 from contour_gym._envstate import CURVATURE_SCALE, EC, OBSERVATION_V0, env_arrays, put
-from contour_gym._loopstate import (
-    AA,
-    AC,
-    FT,
-    LS,
-    STATUS_ARRIVED,
-    STATUS_FAILED,
-    config,
-    loop_arrays,
+from contour_gym._slots import REWARD, RUN_MEMBERS, TASK_APPLY, TASK_OBSERVE
+from contour_gym.loop.member import (
+    ARRIVED,
+    FAILED,
+    loop_and_members,
     member_path,
+    members,
     next_path,
     path_bank,
 )
-from contour_gym._slots import REWARD, RUN_MEMBERS, TASK_APPLY, TASK_OBSERVE
-from contour_gym.motion import IP, IS
 from contour_gym.paths._geom import eval_path, eval_segment, find_segment
-from contour_gym.plant._kernel import AX, ST
 from contour_gym.rewards import RC
 
 TRACKING_SCALE = 1e-3  # m: v0 observes tracking errors in mm (v1: in tolerances)
@@ -41,45 +35,44 @@ WINDOW_STEP = 1.25e-4  # m: curvature windows (v1's curvature_peak) are sampled 
 
 
 @numba.njit(cache=True, inline="always")
-def _apply(loop, env, ec, lo, hi):
-    # clip each live member's action to [-1, 1]; the task sets what it acts on
-    n_c = loop.c_axes.shape[0]
+def _apply(m, env, ec, lo, hi):
+    # clip each live member's action to [-1, 1]; the task sets what it acts on (m: the loop's
+    # Members record, contour_gym.loop.member)
+    n_c = m.contour_axes.shape[0]
     for b in range(lo, hi):
         if env.skip[b] != 0.0:
             continue
-        env.s_before[b] = loop.ip_s[b, IS.s]
+        env.s_before[b] = m.s[b]
         for c in range(n_c):
-            env.eps_prev[b, c] = loop.last[b * n_c + c, LS.est]
+            env.eps_prev[b, c] = m.estimate[b, c]
         for j in range(env.action.shape[1]):
             env.action[b, j] = min(max(env.action[b, j], -1.0), 1.0)
-        TASK_APPLY(int(ec[EC.task]), loop, env, ec, b)
+        TASK_APPLY(int(ec[EC.task]), m, env, ec, b)
 
 
 @numba.njit(cache=True, inline="always")
-def _components(loop, env, ec, b):
+def _components(m, env, ec, b):
     # the decision's reward components (contour_gym.rewards); True when the member failed
-    n_c, n_a = loop.c_axes.shape[0], loop.work.shape[1]
+    n_c, n_a = m.contour_axes.shape[0], m.position.shape[1]
     tol = ec[EC.tol]
     total, count, worst = 0.0, 0.0, 0.0
     for c in range(n_c):
-        q = b * n_c + c
-        total += loop.acc_c[q, AC.abs]
-        count += loop.acc_c[q, AC.n]
-        worst = max(worst, loop.acc_c[q, AC.max])
-    ticks = loop.acc_c[b * n_c, AC.n]
+        total += m.error_sum[b, c]
+        count += m.ticks[b, c]
+        worst = max(worst, m.error_peak[b, c])
+    ticks = m.ticks[b, 0]
     chatter = 0.0
     for a in range(n_a):
-        i = b * n_a + a
-        chatter += loop.acc_a[i, AA.tv] / (max(ticks, 1.0) * loop.ax_p[i, AX.u_max])
+        chatter += m.effort_travel[b, a] / (max(ticks, 1.0) * m.effort_max[b, a])
     comp = env.comp
     comp[b, RC.contour] = total / max(count, 1.0) / tol
     comp[b, RC.peak] = worst / tol
     comp[b, RC.chatter] = chatter / n_a
-    comp[b, RC.progress] = (loop.ip_s[b, IS.s] - env.s_before[b]) / env.nominal[b]
+    comp[b, RC.progress] = (m.s[b] - env.s_before[b]) / env.nominal[b]
     comp[b, RC.excess] = max(worst / tol - 1.0, 0.0)
     comp[b, RC.record] = max(worst - env.peak[b], 0.0) / tol
     env.peak[b] = max(env.peak[b], worst)
-    return loop.status[b] == STATUS_FAILED or worst > ec[EC.hard]
+    return m.status[b] == FAILED or worst > ec[EC.hard]
 
 
 @numba.njit(cache=True)
@@ -91,13 +84,13 @@ def apply_rewards(env_floats, env_layout, floats, float_layout, ints, int_layout
     earns at least ``r_lo <= 0``).
     """
     # borrowed (contour_gym._blob.borrow): the caller keeps the blobs alive
-    loop = loop_arrays(borrow(floats), float_layout, borrow(ints), int_layout, 0)
+    m = members(borrow(floats), float_layout, borrow(ints), int_layout)
     env = env_arrays(borrow(env_floats), env_layout)
-    _rewards(loop, env, ec, 0, env.reward.shape[0])
+    _rewards(m, env, ec, 0, env.reward.shape[0])
 
 
 @numba.njit(cache=True, inline="always")
-def _rewards(loop, env, ec, lo, hi):
+def _rewards(m, env, ec, lo, hi):
     # apply_rewards on the views of members lo:hi
     r_lo, r_hi = ec[EC.r_lo], ec[EC.r_hi]
     for b in range(lo, hi):
@@ -110,7 +103,7 @@ def _rewards(loop, env, ec, lo, hi):
         env.reward[b] = r
         env.ret[b] += r
         env.steps[b] += 1.0
-        ended = env.failure[b] != 0.0 or loop.status[b] == STATUS_ARRIVED
+        ended = env.failure[b] != 0.0 or m.status[b] == ARRIVED
         env.terminated[b] = 1.0 if ended else 0.0
         env.truncated[b] = 1.0 if (not ended and env.steps[b] >= env.n_max[b]) else 0.0
 
@@ -164,16 +157,16 @@ def _next_corner(path, s, horizon, dim):
 
 
 @numba.njit(cache=True, inline="always")
-def _observe_general(loop, path, env, ec, b, col, s, length, dim):
+def _observe_general(m, path, env, ec, b, col, s, length, dim):
     # the v1 observation after the contour errors (the env docstrings' table): nothing that
     # names the path or the place on it, only what lies ahead
-    n_a, tol, obs = loop.work.shape[1], ec[EC.tol], env.obs
+    n_a, tol, obs = m.measured.shape[1], ec[EC.tol], env.obs
     for a in range(n_a):
-        col = put(obs, b, col, (env.ref[b, a] - loop.y_last[b, a]) / tol)
-    v = loop.ip_s[b, IS.v]
-    col = put(obs, b, col, v / path.feed[int(loop.ip_s[b, IS.seg])])
+        col = put(obs, b, col, (env.ref[b, a] - m.measured[b, a]) / tol)
+    v = m.v[b]
+    col = put(obs, b, col, v / path.feed[int(m.block[b])])
     col = put(obs, b, col, v / ec[EC.f_max])
-    col = put(obs, b, col, loop.ip_p[b, IP.ovr])
+    col = put(obs, b, col, m.override[b])
     _, _, _, ax, ay, az, _, _, _ = _point(path.kind, path.s0, path.data, s)
     col = put(obs, b, col, _curvature(path, s, dim) * CURVATURE_SCALE)
     for i in range(env.lookahead.shape[0]):
@@ -190,8 +183,7 @@ def _observe_general(loop, path, env, ec, b, col, s, length, dim):
     col = put(obs, b, col, min(length - s, horizon) / horizon)
     col = _observe_windows(path, env, b, col, s, length, dim)
     if ec[EC.progress_obs] != 0.0:
-        n_c = loop.c_axes.shape[0]
-        col = put(obs, b, col, min(loop.foot[b * n_c, FT.progress], length) / length)
+        col = put(obs, b, col, min(m.progress[b, 0], length) / length)
     return col
 
 
@@ -232,56 +224,56 @@ def _curvature_limit(path, ec, s, length, dim, feed):
 
 
 @numba.njit(cache=True, inline="always")
-def _observe_v0(loop, path, env, ec, b, col, s, length, dim):
+def _observe_v0(m, path, env, ec, b, col, s, length, dim):
     # the v0 observation after the contour errors (the v0 ids' table)
-    n_c, n_a, obs = loop.c_axes.shape[0], loop.work.shape[1], env.obs
+    n_a, obs = m.measured.shape[1], env.obs
     for a in range(n_a):
-        col = put(obs, b, col, (env.ref[b, a] - loop.y_last[b, a]) / TRACKING_SCALE)
+        col = put(obs, b, col, (env.ref[b, a] - m.measured[b, a]) / TRACKING_SCALE)
     for a in range(n_a):
         col = put(obs, b, col, env.vel[b, a] / env.f_nom[b])
     col = put(obs, b, col, _curvature(path, s, dim) * CURVATURE_SCALE)
     for i in range(env.lookahead.shape[0]):
         ahead = min(s + env.lookahead[i], length)
         col = put(obs, b, col, _curvature(path, ahead, dim) * CURVATURE_SCALE)
-    return put(obs, b, col, min(loop.foot[b * n_c, FT.progress], length) / length)
+    return put(obs, b, col, min(m.progress[b, 0], length) / length)
 
 
 @numba.njit(cache=True, inline="always")
-def _references(loop, path, env, b, dim):
-    s, v = loop.ip_s[b, IS.s], loop.ip_s[b, IS.v]
+def _references(m, path, env, b, dim):
+    s, v = m.s[b], m.v[b]
     px, py, pz, tx, ty, tz, _, _, _ = _point(path.kind, path.s0, path.data, s)
-    for c in range(loop.c_axes.shape[0]):
+    for c in range(m.contour_axes.shape[0]):
         for j in range(dim):
-            a = loop.c_axes[c, j]
-            env.ref[b, a] = (px if j == 0 else (py if j == 1 else pz)) + loop.c_off[c, j]
+            a = m.contour_axes[c, j]
+            env.ref[b, a] = (px if j == 0 else (py if j == 1 else pz)) + m.contour_offset[c, j]
             env.vel[b, a] = (tx if j == 0 else (ty if j == 1 else tz)) * v
 
 
 @numba.njit(cache=True, inline="always")
-def _observe(loop, path, env, ec, b):
+def _observe(m, path, env, ec, b):
     # member b's observation row (the env docstrings' table, in key order) on its own path
     # ``path``; the info's tracking errors and feedrate
     dim, length = int(ec[EC.dim]), path.length
-    _references(loop, path, env, b, dim)
-    n_c, n_a = loop.c_axes.shape[0], loop.work.shape[1]
+    _references(m, path, env, b, dim)
+    n_c, n_a = m.contour_axes.shape[0], m.position.shape[1]
     for a in range(n_a):
-        env.track[b, a] = env.ref[b, a] - loop.ax_s[b * n_a + a, ST.x]
-    env.feedrate[b] = loop.ip_p[b, IP.ovr] * path.feed[int(loop.ip_s[b, IS.seg])]
+        env.track[b, a] = env.ref[b, a] - m.position[b, a]
+    env.feedrate[b] = m.override[b] * path.feed[int(m.block[b])]
     tol, obs = ec[EC.tol], env.obs
-    s = loop.ip_s[b, IS.s]
+    s = m.s[b]
     col = 0
     for c in range(n_c):
-        col = put(obs, b, col, loop.last[b * n_c + c, LS.est] / tol)
+        col = put(obs, b, col, m.estimate[b, c] / tol)
     for c in range(n_c):
-        col = put(obs, b, col, (loop.last[b * n_c + c, LS.est] - env.eps_prev[b, c]) / tol)
+        col = put(obs, b, col, (m.estimate[b, c] - env.eps_prev[b, c]) / tol)
     if ec[EC.observation] == OBSERVATION_V0:
-        col = _observe_v0(loop, path, env, ec, b, col, s, length, dim)
+        col = _observe_v0(m, path, env, ec, b, col, s, length, dim)
     else:
-        col = _observe_general(loop, path, env, ec, b, col, s, length, dim)
+        col = _observe_general(m, path, env, ec, b, col, s, length, dim)
     if ec[EC.lim_a] != 0.0:
-        feed = path.feed[int(loop.ip_s[b, IS.seg])]
+        feed = path.feed[int(m.block[b])]
         env.prior[b] = _curvature_limit(path, ec, s, length, dim, feed)
-    TASK_OBSERVE(int(ec[EC.task]), loop, path, env, ec, b, col)
+    TASK_OBSERVE(int(ec[EC.task]), m, path, env, ec, b, col)
 
 
 @numba.njit(cache=True, inline="always")
@@ -289,43 +281,43 @@ def _views(
     env_floats, env_layout, floats, float_layout, ints, int_layout, path_kinds, path_floats,
     path_layout, part,
 ):  # fmt: skip
-    # the loop's (with part's scratch), the path bank's and the env's arrays, borrowed (the
-    # caller keeps the blobs alive: views of a borrowed blob count no references,
-    # contour_gym._blob.borrow)
-    loop = loop_arrays(borrow(floats), float_layout, borrow(ints), int_layout, part)
+    # the loop's views (with part's scratch) and its Members record, the path bank's and the
+    # env's arrays, borrowed (the caller keeps the blobs alive: views of a borrowed blob count
+    # no references, contour_gym._blob.borrow)
+    loop, m = loop_and_members(borrow(floats), float_layout, borrow(ints), int_layout, part)
     bank = path_bank(borrow(path_kinds), borrow(path_floats), path_layout)
-    return loop, bank, env_arrays(borrow(env_floats), env_layout)
+    return loop, m, bank, env_arrays(borrow(env_floats), env_layout)
 
 
 @numba.njit(cache=True)
 def observe(
     env_floats, env_layout, floats, float_layout, ints, int_layout, path_kinds, path_floats,
-    path_layout, ec, members,
+    path_layout, ec, which,
 ):  # fmt: skip
-    """Write the observation rows of ``members`` (after a reset and after every step)."""
-    loop, bank, env = _views(env_floats, env_layout, floats, float_layout, ints, int_layout,
+    """Write the observation rows of the members ``which`` (after a reset and every step)."""
+    _, m, bank, env = _views(env_floats, env_layout, floats, float_layout, ints, int_layout,
                              path_kinds, path_floats, path_layout, 0)  # fmt: skip
-    path, carved = member_path(bank, loop.p_at, 0), 0
-    for b in members:
-        path, carved = next_path(bank, loop.p_at, path, carved, b)
-        _observe(loop, path, env, ec, b)
+    path, carved = member_path(bank, m.path_at, 0), 0
+    for b in which:
+        path, carved = next_path(bank, m.path_at, path, carved, b)
+        _observe(m, path, env, ec, b)
 
 
 @numba.njit(cache=True, inline="always")
-def _finish(loop, bank, env, ec, lo, hi):
+def _finish(m, bank, env, ec, lo, hi):
     # members lo:hi's components, failure flags and (compiled reward) raw rewards; their
-    # observations (each member on its own path: contour_gym._loopstate.next_path)
-    path, carved = member_path(bank, loop.p_at, lo), lo
+    # observations (each member on its own path: contour_gym.loop.member.next_path)
+    path, carved = member_path(bank, m.path_at, lo), lo
     for b in range(lo, hi):
         if env.skip[b] == 0.0:
-            failed = _components(loop, env, ec, b)
+            failed = _components(m, env, ec, b)
             env.failure[b] = 1.0 if failed else 0.0
             if ec[EC.python_reward] == 0.0:
                 env.raw[b] = REWARD(int(ec[EC.reward]), env.comp[b], env.weights)
         else:
             env.failure[b] = 0.0
-        path, carved = next_path(bank, loop.p_at, path, carved, b)
-        _observe(loop, path, env, ec, b)
+        path, carved = next_path(bank, m.path_at, path, carved, b)
+        _observe(m, path, env, ec, b)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -341,17 +333,17 @@ def env_step(
     NaN or infinite, so every part of a decision run on threads agrees.
     """
     # the views, made once for the whole decision
-    loop, bank, env = _views(env_floats, env_layout, floats, float_layout, ints, int_layout,
-                             path_kinds, path_floats, path_layout, part)  # fmt: skip
+    loop, m, bank, env = _views(env_floats, env_layout, floats, float_layout, ints, int_layout,
+                                path_kinds, path_floats, path_layout, part)  # fmt: skip
     for b in range(env.action.shape[0]):
         for j in range(env.action.shape[1]):
             if not math.isfinite(env.action[b, j]):
                 return False
-    _apply(loop, env, ec, lo, hi)
-    RUN_MEMBERS(n, k0, config(config_row), loop, bank, borrow(noise), borrow(rec), lo, hi)
-    _finish(loop, bank, env, ec, lo, hi)
+    _apply(m, env, ec, lo, hi)
+    RUN_MEMBERS(n, k0, config_row, loop, bank, borrow(noise), borrow(rec), lo, hi)
+    _finish(m, bank, env, ec, lo, hi)
     if ec[EC.python_reward] == 0.0:
-        _rewards(loop, env, ec, lo, hi)
+        _rewards(m, env, ec, lo, hi)
     return True
 
 

@@ -204,8 +204,8 @@ class ContourVectorEnv(GainsMap, VectorEnv):
     ``num_threads`` (a constructor argument beside ``num_envs``): the threads the members step
     on, each over a contiguous part of the batch (the kernel holds no GIL). None (default):
     every CPU this process may use, one thread per 16 members at most
-    (:func:`contour_gym.threads.default_threads`), timed against one thread over the first
-    steps and the faster kept (:class:`contour_gym.threads.ThreadChoice`); 1: the calling
+    (:func:`contour_gym.loop.threads.default_threads`), timed against one thread over the first
+    steps and the faster kept (:class:`contour_gym.loop.threads.ThreadChoice`); 1: the calling
     thread only. The numbers do not depend on it, bit for bit.
     """
 

@@ -24,14 +24,13 @@ from contour_gym import _compile, _precompile, _tiers
 from contour_gym._blob import Blob
 from contour_gym._compile import Family
 from contour_gym._envstate import EC, ENV_CONFIG, ENV_FLOATS, OBS_LIMIT, OBSERVATIONS
-from contour_gym._loopstate import LS, REASON_HARD_LIMIT, STATUS_ARRIVED
 from contour_gym._stack import on_reserved_stack
 from contour_gym._validate import seed_value
 from contour_gym.api import Scenario
 from contour_gym.envs._paths import reset_draws
 from contour_gym.envs.config import EnvConfig
+from contour_gym.loop import REASON_HARD_LIMIT
 from contour_gym.metrics import member_metrics
-from contour_gym.motion import IS
 from contour_gym.paths import Path
 from contour_gym.presets import resolve_preset
 from contour_gym.rewards import (
@@ -478,13 +477,13 @@ class ContourTask:
     def _member_info(self, b: int) -> dict[str, Any]:
         """Member ``b``'s per-step info: its arrays, Python floats and bools (as batched)."""
         views = self._info_views.get(b) or self._member_views(b)
-        true, est, track, ip_s, v, comp, _ = views
+        true, est, track, s, v, comp, _ = views
         return {
             "contour_error": true.copy(),
             "contour_error_estimate": est.copy(),
             "tracking_error": track.copy(),
             "feedrate": float(v["feedrate"][b]),
-            "s": float(ip_s[IS.s]),
+            "s": float(s[b]),
             "failure": bool(v["failure"][b] != 0.0),
             # one schema's names and columns (zip's strict keyword alone cost 2 % of a step)
             "reward_components": dict(zip(COMPONENTS.names, comp.tolist())),  # noqa: B905
@@ -498,7 +497,7 @@ class ContourTask:
         assert ENV_FLOATS[start : start + len(OUTCOME)] == OUTCOME
         first, n = self._blob.layout[self._blob.index["reward"], 0], self.batch
         outcome = self._blob.buffer[first + b : first + 4 * n : n]
-        views = (loop.last[b][:, LS.true], loop.last[b][:, LS.est], v["track"][b], loop.ip_s[b], v,
+        views = (loop.contour_error[b], loop.contour_error_estimate[b], v["track"][b], loop.s, v,
                  v["comp"][b], outcome)  # fmt: skip
         self._info_views[b] = views
         return views
@@ -507,7 +506,7 @@ class ContourTask:
         loop = self.loop
         m = loop.metrics()
         out: dict[str, Any] = {k: m[k].copy() for k in member_metrics(m, 0)}
-        out["finished"] = loop.status == STATUS_ARRIVED
+        out["finished"] = loop.done
         # why an episode failed: the loop's reason, else the env's hard limit
         hard = (self._v["failure"] != 0.0) & ~loop.failed
         out["failure_reason"] = np.where(hard, REASON_HARD_LIMIT, loop.failure_reason)

@@ -83,12 +83,13 @@ class Task(ABC):
         name: Registry name: the env classes' ``kind`` and the suites' ``task``.
         default_reward: The registered reward used unless the env is given one.
         tail: The key of the task's own observation columns, last in the observation.
-        apply: Compiled ``apply(loop, env, ec, b)``: member ``b``'s action row
+        apply: Compiled ``apply(m, env, ec, b)``: member ``b``'s action row
             ``env.action[b]``, already clipped to [-1, 1], sets what it acts on in the loop's
-            arrays ``loop`` (``contour_gym._loopstate.loop_arrays``). ``env`` is the env's arrays
+            record ``m`` (:data:`contour_gym.loop.member.Members`: ``m.ccc_gains``,
+            ``m.override``; the rest is read-only). ``env`` is the env's arrays
             (``contour_gym._envstate.EnvArrays``) and ``ec`` the env's constants (columns
             :data:`contour_gym.tasks.ENV_COLUMNS`). Bound into the env kernel's ``TASK_APPLY`` slot.
-        observe: Compiled ``observe(loop, path, env, ec, b, col) -> col``: writes member
+        observe: Compiled ``observe(m, path, env, ec, b, col) -> col``: writes member
             ``b``'s tail columns from ``col`` on with :data:`contour_gym.tasks.put_observation`
             and returns the column after them; ``path`` is the path's arrays. Slot ``TASK_OBSERVE``.
     """

@@ -29,17 +29,16 @@ def action_to_gain(a, g_max, g_log):
 
 
 @numba.njit(cache=True, inline="always")
-def apply_gains(loop, env, ec, b):
+def apply_gains(m, env, ec, b):
     """Member ``b``'s CCC gains from its action (:class:`contour_gym.tasks.Task` ``apply``)."""
-    n_c = loop.c_axes.shape[0]
-    for c in range(n_c):
+    for c in range(m.ccc_gains.shape[1]):
         for g in range(3):  # every CCC law starts its parameters with kp, ki, kd
             a = env.action[b, 3 * c + g]
-            loop.ccc_p[b * n_c + c, g] = action_to_gain(a, env.g_max[g], env.g_log[g])
+            m.ccc_gains[b, c, g] = action_to_gain(a, env.g_max[g], env.g_log[g])
 
 
 @numba.njit(cache=True, inline="always")
-def observe_gains(loop, path, env, ec, b, col):
+def observe_gains(m, path, env, ec, b, col):
     """The ``gains`` columns: the action in force."""
     for j in range(env.action.shape[1]):
         col = put(env.obs, b, col, env.action[b, j])
@@ -107,7 +106,7 @@ class CCCGains(Task):
 
     def reset(self, env: TaskEnv, members: NDArray[np.intp]) -> None:
         """The env's starting gains ``env.g0``, and the action that maps to them."""
-        env.loop.ccc_p[members, :, :3] = env.g0
+        env.loop.set_ccc_gains(env.g0, members)
         gains = np.broadcast_to(env.g0, (len(members), env.n_contours, 3))
         env.arrays["action"][members] = np.clip(env.gains_to_action(gains), -1.0, 1.0)
 

@@ -19,7 +19,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from contour_gym._envstate import EC, put
-from contour_gym.motion import IP, IS
 from contour_gym.tasks.base import Task, TaskConfig, TaskEnv, register_task
 
 if TYPE_CHECKING:
@@ -29,7 +28,7 @@ FEED_RANGE = (0.3, 1.0)  # random paths' programmed feeds, times the machine's f
 
 
 @numba.njit(cache=True, inline="always")
-def apply_override(loop, env, ec, b):
+def apply_override(m, env, ec, b):
     """Member ``b``'s feed override moved by its action, within the env's range.
 
     The action is the change (in ``max_feedrate_change``), or with ``feedrate_target`` a
@@ -37,7 +36,7 @@ def apply_override(loop, env, ec, b):
     (taken at once on the episode's first decision: the axes are at rest, and a tight curve
     near the start must not be entered at the scenario's override while the target is far).
     """
-    now, change = loop.ip_p[b, IP.ovr], env.action[b, 0]
+    now, change = m.override[b], env.action[b, 0]
     if ec[EC.target] != 0.0:
         a = min(max(change, -1.0), 1.0)
         mid = env.prior[b] if ec[EC.lim_a] != 0.0 else ec[EC.t_mid]
@@ -48,19 +47,19 @@ def apply_override(loop, env, ec, b):
         else:
             goal = mid * (ec[EC.t_lo] / mid) ** -a
         if env.steps[b] == 0.0:  # the episode's first decision: the axes are still at rest
-            loop.ip_p[b, IP.ovr] = min(max(goal, ec[EC.ovr_lo]), ec[EC.ovr_hi])
+            m.override[b] = min(max(goal, ec[EC.ovr_lo]), ec[EC.ovr_hi])
             return
         change = min(max((goal - now) / ec[EC.dovr], -1.0), 1.0)
     ovr = now + change * ec[EC.dovr]
-    loop.ip_p[b, IP.ovr] = min(max(ovr, ec[EC.ovr_lo]), ec[EC.ovr_hi])
+    m.override[b] = min(max(ovr, ec[EC.ovr_lo]), ec[EC.ovr_hi])
 
 
 @numba.njit(cache=True, inline="always")
-def observe_feedrate(loop, path, env, ec, b, col):
+def observe_feedrate(m, path, env, ec, b, col):
     """The ``feedrate`` columns: override, and speed over the block's programmed feed."""
-    f_block = path.feed[int(loop.ip_s[b, IS.seg])]
-    col = put(env.obs, b, col, loop.ip_p[b, IP.ovr])
-    return put(env.obs, b, col, loop.ip_s[b, IS.v] / f_block)
+    f_block = path.feed[int(m.block[b])]
+    col = put(env.obs, b, col, m.override[b])
+    return put(env.obs, b, col, m.v[b] / f_block)
 
 
 @dataclass(frozen=True)
@@ -82,7 +81,7 @@ class FeedrateOverride(Task):
 
     def reset(self, env: TaskEnv, members: NDArray[np.intp]) -> None:
         """The scenario's feed override."""
-        env.loop.ip_p[members, IP.ovr] = env.scenario.feed_override
+        env.loop.set_feed_override(env.scenario.feed_override, members)
 
     def path_defaults(self, preset: Preset) -> dict[str, Any]:
         """Random paths carry programmed feeds: ``feed_range`` 0.3 to 1 times the feed limit.

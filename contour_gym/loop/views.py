@@ -1,7 +1,7 @@
 """The servo loop's arrays as attributes, and the read-outs of its per-member state.
 
 Every array the compiled loop touches lives in one of two blobs (:mod:`contour_gym._blob`,
-layouts in :mod:`contour_gym._loopstate`). :class:`LoopViews` declares each of them once, as a
+layouts in :mod:`contour_gym.loop.state`). :class:`LoopViews` declares each of them once, as a
 :class:`BlobView`: ``loop.ax_s`` is the numpy view of ``ax_s`` in the float blob, written in
 place. The first read of a view stores it in the instance's ``__dict__``, so every later read
 (``advance`` reads some per env step) is a plain instance attribute lookup. The declared names
@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from contour_gym._blob import Blob
-from contour_gym._loopstate import (
+from contour_gym.loop.state import (
     FLOAT_NAMES,
     FT,
     INT_NAMES,
@@ -83,7 +83,7 @@ def _int() -> BlobView[Ints]:
 
 
 class LoopViews:
-    """The blobs' arrays by name (:data:`contour_gym._loopstate.FLOATS`, ``INTS``) and read-outs.
+    """The blobs' arrays by name (:data:`contour_gym.loop.state.FLOATS`, ``INTS``) and read-outs.
 
     A base of :class:`contour_gym.loop.ServoLoop`; its subclasses set the attributes declared
     below.
@@ -219,7 +219,7 @@ def _check_declared() -> None:
     if floats != set(FLOAT_NAMES) or ints != set(INT_NAMES):
         raise RuntimeError(
             f"LoopViews declares {sorted(floats)} / {sorted(ints)}; the blobs hold "
-            f"{sorted(FLOAT_NAMES)} / {sorted(INT_NAMES)} (contour_gym._loopstate)"
+            f"{sorted(FLOAT_NAMES)} / {sorted(INT_NAMES)} (contour_gym.loop.state)"
         )
 
 

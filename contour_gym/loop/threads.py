@@ -1,7 +1,7 @@
 """A batch's members on threads: contiguous parts of the batch, one compiled call each.
 
 The servo loop's and the env's kernels run members ``lo:hi`` on the scratch of one part and
-hold no GIL (:func:`contour_gym._loopkernel.run_ticks`), so the parts of a batch run at once on
+hold no GIL (:func:`contour_gym.loop.kernel.run_ticks`), so the parts of a batch run at once on
 threads. A member's results do not depend on its part: the same seed gives the same numbers,
 bit for bit, for any number of threads. The threads come from one pool shared by every loop
 (grown when a loop asks for more); the calling thread runs the first part itself.

@@ -1,18 +1,18 @@
 """The servo loop's searched parameters: CCC gains and weights, feed, controller, plant scaling.
 
 :class:`LoopParameters` is a base of :class:`contour_gym.loop.ServoLoop`: its setters write
-checked values in place into the loop's parameter arrays (:mod:`contour_gym._loopviews`), per
+checked values in place into the loop's parameter arrays (:mod:`contour_gym.loop.views`), per
 batch member where optimisers, agents and domain randomisation need them to differ.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
-from contour_gym._loopviews import Array, LoopViews
 from contour_gym._validate import as_finite_array
 from contour_gym.ccc import CCCLaw, ccc_params
+from contour_gym.loop.views import Array, LoopViews
 from contour_gym.motion import IP, Interpolator
 from contour_gym.plant._kernel import AX, DISTURBANCE
 from contour_gym.plant.friction import law_for
@@ -26,10 +26,21 @@ class LoopParameters(LoopViews):
     interpolator: Interpolator
     _nominal: tuple[Array, Array, Array]  # the stage's ax_p, fr_p, dist before any scaling
 
-    def set_ccc_gains(self, gains: ArrayLike | None) -> None:
-        """Set the CCC gains (kp, ki, kd), broadcastable to (B, C, 3); None switches it off."""
-        rows = ccc_params(gains, self.batch_size, len(self.stage.contours))
-        self.ccc_p[..., :3] = rows[..., :3]
+    def set_ccc_gains(self, gains: ArrayLike | None, members: ArrayLike | None = None) -> None:
+        """Set the CCC gains (kp, ki, kd); None switches the CCC off.
+
+        Args:
+            gains: Broadcastable to (n, C, 3) for the n members set.
+            members: Indices or mask of the members to set (default: all).
+        """
+        idx = self._members(members)
+        rows = ccc_params(gains, len(idx), len(self.stage.contours))
+        self.ccc_p[idx, :, :3] = rows[..., :3]
+
+    def _members(self, members: ArrayLike | None) -> NDArray[np.intp]:
+        # the indices of ``members`` (indices or a mask; None: every member)
+        every = np.arange(self.batch_size)
+        return every if members is None else every[np.asarray(members)].reshape(-1)
 
     def set_ccc_params(self, **params: ArrayLike) -> None:
         """Set the CCC law's named parameters, each broadcastable to (B, C)."""
@@ -65,12 +76,18 @@ class LoopParameters(LoopViews):
             raise ValueError(f"feedrate must be >= 0, got {f.min()}")
         self.set_feed_override(f / self.nominal_feedrate)
 
-    def set_feed_override(self, override: ArrayLike) -> None:
-        """Set the feed override (fraction of the programmed feeds), scalar or (B,)."""
+    def set_feed_override(self, override: ArrayLike, members: ArrayLike | None = None) -> None:
+        """Set the feed override (fraction of the programmed feeds).
+
+        Args:
+            override: Scalar, or one per member set.
+            members: Indices or mask of the members to set (default: all).
+        """
         o = as_finite_array(override, "feed override")
         if np.any(o < 0):
             raise ValueError(f"feed override must be >= 0, got {o.min()}")
-        self.ip_p[:, IP.ovr] = np.broadcast_to(o, (self.batch_size,))
+        idx = self._members(members)
+        self.ip_p[idx, IP.ovr] = np.broadcast_to(o, (len(idx),))
 
     @property
     def feedrate(self) -> Array:
@@ -101,7 +118,7 @@ class LoopParameters(LoopViews):
         n_axes) and must be finite and > 0 (friction/disturbance >= 0); friction scales the
         parameters each law names in its ``scale``.
         """
-        idx = np.arange(self.batch_size)[np.asarray(members)].reshape(-1)
+        idx = self._members(members)
         f = _scale_factors((len(idx), self.stage.n_axes), mass=mass, damping=damping,
                            force_constant=force_constant, friction=friction,
                            disturbance=disturbance)  # fmt: skip

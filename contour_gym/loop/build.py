@@ -1,7 +1,7 @@
 """How a servo loop's arrays are sized and first filled: axis rows, state shapes, path, config.
 
 The functions here turn a stage, a path and its program into the arrays of
-:class:`contour_gym.loop.ServoLoop`'s blobs (:mod:`contour_gym._loopstate` names them): the
+:class:`contour_gym.loop.ServoLoop`'s blobs (:mod:`contour_gym.loop.state` names them): the
 per-axis plant rows repeated per member, the shapes of the states and accumulators, the int
 arrays, the path's float blob, and the run's scalar settings row.
 """
@@ -17,9 +17,8 @@ from numpy.typing import NDArray
 
 from contour_gym import motion
 from contour_gym._blob import Blob
-from contour_gym._loopstate import (
-    ACC_A,
-    ACC_C,
+from contour_gym.contour._history import HIST_WIDTH
+from contour_gym.loop.state import (
     CONFIG,
     FOOT,
     LAST,
@@ -28,7 +27,7 @@ from contour_gym._loopstate import (
     PATH_FLOATS,
     WORK,
 )
-from contour_gym.contour._history import HIST_WIDTH
+from contour_gym.metrics import ACC_A, ACC_C
 from contour_gym.paths import Path
 from contour_gym.plant._kernel import STATE
 from contour_gym.plant.friction import law_for
@@ -43,7 +42,7 @@ from contour_gym.plant.stage import (
 from contour_gym.servo.compensation import STATE as COMP_STATE
 
 if TYPE_CHECKING:
-    from contour_gym._loopoptions import LoopOptions
+    from contour_gym.loop.options import LoopOptions
 
 Array = NDArray[np.float64]
 Shape = tuple[int, ...]
@@ -147,10 +146,10 @@ def path_bank(
         slots: Member ``b`` runs ``paths[slots[b]]``.
 
     Returns:
-        The float blob (:data:`contour_gym._loopstate.PATH_FLOATS`: the tables and programs one
+        The float blob (:data:`contour_gym.loop.state.PATH_FLOATS`: the tables and programs one
         after the other, the time law of ``paths[0]``, every member's path scalars), the
         segment kinds, and ``p_at`` (B, 3): each member's first segment, its number of
-        segments and its first ``s0`` entry (:data:`contour_gym._loopstate.P_AT`).
+        segments and its first ``s0`` entry (:data:`contour_gym.loop.state.P_AT`).
     """
     tables = [p.table for p in paths]
     count = np.array([t.n_segments for t in tables], dtype=np.int64)
@@ -174,7 +173,7 @@ def path_bank(
 
 def config_row(stage: Stage, path: Path, opts: LoopOptions, record: bool, search: bool,
                codes: Mapping[str, float]) -> Array:
-    """The run's scalar settings row (:data:`contour_gym._loopstate.CONFIG`).
+    """The run's scalar settings row (:data:`contour_gym.loop.state.CONFIG`).
 
     Args:
         stage: The machine.

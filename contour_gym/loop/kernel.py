@@ -35,9 +35,20 @@ from typing import Any
 import numba
 
 from contour_gym._blob import borrow
-from contour_gym._loopstate import (
-    AA,
-    AC,
+from contour_gym._slots import (
+    CCC_COMMIT,
+    CCC_OUTPUT,
+    CCC_RELEASE,
+    COMP_COMMIT,
+    COMP_OUTPUT,
+    CTRL_COMMIT,
+    CTRL_CONTROL,
+    EST_FOOT,
+    FRICTION,
+)
+from contour_gym.contour._history import eval_path_memo
+from contour_gym.contour._kernel import ground_truth_from, history_push, resolve
+from contour_gym.loop.state import (
     FT,
     LS,
     MEM_COL,
@@ -55,19 +66,7 @@ from contour_gym._loopstate import (
     next_path,
     path_bank,
 )
-from contour_gym._slots import (
-    CCC_COMMIT,
-    CCC_OUTPUT,
-    CCC_RELEASE,
-    COMP_COMMIT,
-    COMP_OUTPUT,
-    CTRL_COMMIT,
-    CTRL_CONTROL,
-    EST_FOOT,
-    FRICTION,
-)
-from contour_gym.contour._history import eval_path_memo
-from contour_gym.contour._kernel import ground_truth_from, history_push, resolve
+from contour_gym.metrics import AA, AC
 from contour_gym.motion import CUTTING, IS, interp_tick
 from contour_gym.paths._geom import eval_path, find_segment
 from contour_gym.plant._kernel import AX, ST, disturbance_force, measure, ripple_force
@@ -416,7 +415,7 @@ _NO_REFCOUNT: dict[str, Any] = {"cache": True, "_nrt": False}
 def member_run(b, n, k0, cfg, loop, path, noise, rec):
     """Run ``n`` servo ticks of member ``b`` from its local tick ``k0``; returns its status.
 
-    ``path`` is the member's own path (:func:`contour_gym._loopstate.member_path`).
+    ``path`` is the member's own path (:func:`contour_gym.loop.state.member_path`).
     """
     n_axes = loop.work.shape[1]
     has_noise = noise.shape[1] > 0
@@ -462,21 +461,21 @@ def run_ticks(
 ):  # fmt: skip
     """Run ``n`` ticks for members ``lo:hi`` whose status is OK; ends are flagged in ``status``.
 
-    ``config_row`` is the run's :data:`~contour_gym._loopstate.CONFIG` row; ``floats`` and
+    ``config_row`` is the run's :data:`~contour_gym.loop.state.CONFIG` row; ``floats`` and
     ``ints`` the loop's float and int blobs with their layouts; ``path_kinds``, ``path_floats``
     and ``path_layout`` the path bank's segment kinds and float blob (every member's path:
-    :mod:`contour_gym._loopstate`). The blobs' views are made here and handed to
+    :mod:`contour_gym.loop.state`). The blobs' views are made here and handed to
     :func:`run_members`. ``part`` names the scratch the call uses: calls on disjoint
     member ranges and other parts may run at once (on threads: the kernel holds no GIL).
     """
     # borrowed: the views made here and in the callees carry no owner to count
     bank = path_bank(borrow(path_kinds), borrow(path_floats), path_layout)
     loop = loop_arrays(borrow(floats), float_layout, borrow(ints), int_layout, part)
-    run_members(n, k0, config(config_row), loop, bank, borrow(noise), borrow(rec), lo, hi)
+    run_members(n, k0, config_row, loop, bank, borrow(noise), borrow(rec), lo, hi)
 
 
 @numba.njit(cache=True, nogil=True)
-def run_members(n, k0, cfg, loop, bank, noise, rec, lo, hi):
+def run_members(n, k0, config_row, loop, bank, noise, rec, lo, hi):
     """:func:`run_ticks` on the blobs' views (the env kernel calls this with its own).
 
     Members ``lo:hi`` run; ``acc_*`` receive the sums of just these ticks (their rows),
@@ -484,8 +483,9 @@ def run_members(n, k0, cfg, loop, bank, noise, rec, lo, hi):
     episode is cut into calls). ``k0`` is the loop's tick; member ``b`` lives in local time
     ``k0 - k_start[b]`` (vector env members restart at different ticks). ``noise`` holds each
     member's normals; member ``b`` reads its rows from ``noise_at[b]`` on and advances it by
-    ``n`` (:class:`contour_gym._loopnoise.NoiseSource` refills the buffer).
+    ``n`` (:class:`contour_gym.loop.noise.NoiseSource` refills the buffer).
     """
+    cfg = config(config_row)
     n_c, n_a = loop.c_axes.shape[0], loop.work.shape[1]
     loop.acc_c[lo * n_c : hi * n_c] = 0.0  # the window sums start at zero
     loop.acc_a[lo * n_a : hi * n_a] = 0.0

@@ -2,7 +2,7 @@
 
 It packs a stage, a path, the axis controllers, the estimator, the CCC and the interpolator
 into arrays with a leading batch dimension ``B`` and runs the compiled kernel of
-:mod:`contour_gym._loopkernel`, specialised to the components the loop uses
+:mod:`contour_gym.loop.kernel`, specialised to the components the loop uses
 (:mod:`contour_gym._compile`). Parameters that optimisers and agents search (CCC gains, axis
 gains, feed override) may differ per batch member. Random numbers come only from one
 ``numpy.random.Generator`` per member, spawned from the seed given to :meth:`ServoLoop.reset`,
@@ -14,9 +14,9 @@ all three (the papers' pure simulations).
 
 This module holds the loop's core (construction, kernel choice, reset, stepping, runs and their
 metrics); its parts live next to it: the arrays by name and their read-outs
-(:mod:`contour_gym._loopviews`), the parameter setters (:mod:`contour_gym._loopparams`), the
-arrays' construction (:mod:`contour_gym._loopbuild`), the random numbers
-(:mod:`contour_gym._loopnoise`) and the per-tick record (:mod:`contour_gym._looprecord`).
+(:mod:`contour_gym.loop.views`), the parameter setters (:mod:`contour_gym.loop.parameters`), the
+arrays' construction (:mod:`contour_gym.loop.build`), the random numbers
+(:mod:`contour_gym.loop.noise`) and the per-tick record (:mod:`contour_gym.loop.record`).
 """
 
 from __future__ import annotations
@@ -33,7 +33,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from contour_gym import _compile, _precompile, _tiers, motion
-from contour_gym._loopbuild import (
+from contour_gym._stack import on_reserved_stack
+from contour_gym._validate import as_finite_array, choice, non_negative, positive
+from contour_gym.ccc import CCC_FAMILY, CCC_LAWS, INJECTIONS, ccc_params
+from contour_gym.contour import ESTIMATORS, Estimator, get_estimator
+from contour_gym.contour.base import ESTIMATOR_FAMILY
+from contour_gym.loop.bank import LoopPaths
+from contour_gym.loop.build import (
     axis_arrays,
     config_row,
     contour_axes,
@@ -41,14 +47,13 @@ from contour_gym._loopbuild import (
     filled_blob,
     state_shapes,
 )
-from contour_gym._loopnoise import NOISE_CHUNK as NOISE_CHUNK  # re-exported
-from contour_gym._loopnoise import NoiseSource, draws_noise, member_generators
-from contour_gym._loopoptions import DEFAULT_SETTLE as DEFAULT_SETTLE  # re-exported
-from contour_gym._loopoptions import LoopOptions as LoopOptions  # re-exported
-from contour_gym._loopparams import LoopParameters
-from contour_gym._looppaths import LoopPaths
-from contour_gym._looprecord import MAX_RECORD_BYTES, Recorder, Trace
-from contour_gym._loopstate import (
+from contour_gym.loop.noise import NOISE_CHUNK as NOISE_CHUNK  # re-exported
+from contour_gym.loop.noise import NoiseSource, draws_noise, member_generators
+from contour_gym.loop.options import DEFAULT_SETTLE as DEFAULT_SETTLE  # re-exported
+from contour_gym.loop.options import LoopOptions as LoopOptions  # re-exported
+from contour_gym.loop.parameters import LoopParameters
+from contour_gym.loop.record import MAX_RECORD_BYTES, Recorder, Trace
+from contour_gym.loop.state import (
     CF,
     FLOAT_NAMES,
     FT,
@@ -61,11 +66,7 @@ from contour_gym._loopstate import (
     STATUS_OK,
     STATUS_PAUSED,
 )
-from contour_gym._stack import on_reserved_stack
-from contour_gym._validate import as_finite_array, choice, non_negative, positive
-from contour_gym.ccc import CCC_FAMILY, CCC_LAWS, INJECTIONS, ccc_params
-from contour_gym.contour import ESTIMATORS, Estimator, get_estimator
-from contour_gym.contour.base import ESTIMATOR_FAMILY
+from contour_gym.loop.threads import ThreadChoice, check_threads, run_parts, split
 from contour_gym.metrics import ErrorSums, metrics_from_sums
 from contour_gym.paths import Path
 from contour_gym.plant._kernel import ST, STATE
@@ -84,25 +85,24 @@ from contour_gym.servo import CONTROLLERS, PIDGains, build_controller, compensat
 from contour_gym.servo.base import CONTROLLER_FAMILY
 from contour_gym.servo.compensation import COMPENSATION_FAMILY
 from contour_gym.servo.gains import as_pid_gains
-from contour_gym.threads import ThreadChoice, check_threads, run_parts, split
 
 Array = NDArray[np.float64]
 # config columns holding the code of the loop's one component of each family
 _CODED = {"ctrl": CONTROLLER_FAMILY, "est": ESTIMATOR_FAMILY, "ccc": CCC_FAMILY,
           "comp": COMPENSATION_FAMILY}  # fmt: skip
 MAX_RUN_TICKS = 200_000_000  # ticks one run() may take (55 h of machine time at 1 kHz)
-LOOP_TEMPLATE = "contour_gym._loopkernel"  # the servo loop's kernel template (_compile)
+LOOP_TEMPLATE = "contour_gym.loop.kernel"  # the servo loop's kernel template (_compile)
 
 
 class ServoLoop(LoopPaths, LoopParameters):
     """Batched closed loop over one stage; its members on one path, or each on its own.
 
     The arrays of its blobs are attributes (``loop.ax_s``, ``loop.status``, ...: views written
-    in place, declared in :class:`contour_gym._loopviews.LoopViews` with the state read-outs
+    in place, declared in :class:`contour_gym.loop.views.LoopViews` with the state read-outs
     ``done``, ``failed``, ``cycle_time`` ...); the parameter setters (``set_ccc_gains``,
     ``set_feedrate``, ``set_plant_scaling`` ...) are those of
-    :class:`contour_gym._loopparams.LoopParameters`; members get paths of their own with
-    ``set_paths`` (:class:`contour_gym._looppaths.LoopPaths`: ``path``, ``paths``,
+    :class:`contour_gym.loop.parameters.LoopParameters`; members get paths of their own with
+    ``set_paths`` (:class:`contour_gym.loop.bank.LoopPaths`: ``path``, ``paths``,
     ``programs``, ``planned_time`` ...).
 
     Args:
@@ -116,9 +116,9 @@ class ServoLoop(LoopPaths, LoopParameters):
         ccc_weights: Per-coordinate weights of the CCC output, broadcastable to (B, C, 3).
         record: Keep a per-tick :class:`Trace`.
         threads: Threads the members run on, each over a contiguous part of the batch (None:
-            :func:`contour_gym.threads.default_threads`, every CPU when the batch is large
+            :func:`contour_gym.loop.threads.default_threads`, every CPU when the batch is large
             enough, timed against one thread over the first calls and the faster kept,
-            :class:`~contour_gym.threads.ThreadChoice`; at most one per member). Results do
+            :class:`~contour_gym.loop.threads.ThreadChoice`; at most one per member). Results do
             not depend on it.
         **options: The fields of :class:`LoopOptions` (axis controller, estimator, CCC law and
             injection, ``ideal``, path control, settle time, sample period). A path carrying a
@@ -313,9 +313,7 @@ class ServoLoop(LoopPaths, LoopParameters):
         """
         if members is None:
             self._restart_clock()
-            idx = np.arange(self.batch_size)
-        else:
-            idx = np.arange(self.batch_size)[np.asarray(members)].reshape(-1)
+        idx = self._members(members)
         start = self._starts[self._slot[idx]]  # each member at its own path's start
         for arr in (self.ctrl_s, self.comp_s, self.ccc_s, self.hist, self.last, self.u_cmd,
                     self.mem, self.ax_s, self.foot):  # fmt: skip
@@ -367,7 +365,7 @@ class ServoLoop(LoopPaths, LoopParameters):
                 part)`` that makes the views of these blobs and calls the kernel's
                 ``run_members`` on members ``lo:hi`` (the env kernel: actions, the ticks and
                 rewards in one call), once per part of the batch (on threads when the loop has
-                several, :mod:`contour_gym.threads`). If it returns False it ran nothing: the
+                several, :mod:`contour_gym.loop.threads`). If it returns False it ran nothing: the
                 clock stays where it was.
             leading: ``via``'s own arguments.
 

@@ -3,10 +3,10 @@
 :class:`LoopPaths` is a base of :class:`contour_gym.loop.ServoLoop`. A loop starts with every
 member on the path it was built with; :meth:`LoopPaths.set_paths` gives members paths of their
 own (a vector env's members draw one at each reset). The distinct paths are stored once each,
-one after the other, in the path bank (:func:`contour_gym._loopbuild.path_bank`); the int
+one after the other, in the path bank (:func:`contour_gym.loop.build.path_bank`); the int
 blob's ``p_at`` says where each member's segments lie, and the bank's ``member`` rows hold each
 member's path scalars (length, closed). The kernels carve a member's views of its own part once
-per call (:func:`contour_gym._loopstate.member_path`): new paths change the arrays' sizes, never
+per call (:func:`contour_gym.loop.state.member_path`): new paths change the arrays' sizes, never
 their types, so changing paths compiles nothing.
 
 A path with a time law (:attr:`Path.time_law`) is run on it for every member: such a path may
@@ -22,9 +22,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from contour_gym import motion
-from contour_gym._loopbuild import path_bank
-from contour_gym._loopstate import CF, MP
-from contour_gym._loopviews import Array, LoopViews
+from contour_gym.loop.build import path_bank
+from contour_gym.loop.state import CF, MP
+from contour_gym.loop.views import Array, LoopViews
 from contour_gym.motion import IP, build_program
 from contour_gym.paths import Path
 

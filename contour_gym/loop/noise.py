@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from contour_gym._loopstate import STATUS_OK
 from contour_gym._validate import seed_value
+from contour_gym.loop.state import STATUS_OK
 from contour_gym.plant.stage import Stage
 
 Array = NDArray[np.float64]
