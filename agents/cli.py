@@ -334,7 +334,7 @@ def _headline(scenario: Scenario, part: str | None) -> str:
 def _compile_up_front(args: argparse.Namespace, *groups: str) -> None:
     # the built-ins' kernels a command of many combinations needs, compiled in parallel
     # before it runs (first run). A command of one combination (simulate, tune, train) runs
-    # on its own kernel instead, compiled in half the time (contour_gym._tiers)
+    # on its own kernel instead, compiled in half the time (contour_gym.jit.tiers)
     precompile(groups, progress=not getattr(args, "quiet", False))
 
 

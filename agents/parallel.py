@@ -224,7 +224,7 @@ def die_with_parent(parent: int) -> None:
 
 def _init_worker(*modules: str, filters: list[Any] | None = None, parent: int = 0) -> None:
     # a worker process: one thread for torch and BLAS (the cores are the workers'), no
-    # background compiles (contour_gym._tiers: the parent compiled up front); ``modules``
+    # background compiles (contour_gym.jit.tiers: the parent compiled up front); ``modules``
     # imported at once; the parent's warning filters (a command's own, e.g. the CLI's); it
     # ends with its parent
     if parent:

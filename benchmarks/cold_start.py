@@ -93,9 +93,9 @@ def settle(cache: str) -> None:
     """Wait until the background compiles a run started on ``cache`` are done.
 
     A run of built-in components may leave a detached, niced process compiling (its own kernel,
-    or the built-ins' one: ``contour_gym._tiers``); the next row must not share the cores.
+    or the built-ins' one: ``contour_gym.jit.tiers``); the next row must not share the cores.
     """
-    from contour_gym._tiers import _busy
+    from contour_gym.jit.tiers import _busy
 
     for lock in Path(cache).rglob("background_*.lock"):
         while _busy(lock):
@@ -104,9 +104,9 @@ def settle(cache: str) -> None:
 
 def settle_everywhere() -> None:
     """Wait for the background compiles of the user's own caches too: measure beside none."""
-    from contour_gym import _compile
+    from contour_gym import jit
 
-    settle(str(_compile.cache_root()))
+    settle(str(jit.cache_root()))
     settle(str(Path(tempfile.gettempdir()) / "contour_gym_generated"))
 
 

@@ -6,13 +6,13 @@ imports torch.
 
 from __future__ import annotations
 
-from contour_gym import _compile
+from contour_gym import jit
 
-_compile.configure()  # before any kernel module is imported
+jit.configure()  # before any kernel module is imported
 
-from contour_gym._precompile import compile_builtins as precompile  # noqa: E402
 from contour_gym.api import make_scenario, simulate  # noqa: E402
 from contour_gym.envs import ENV_IDS, register_envs  # noqa: E402
+from contour_gym.jit.precompile import compile_builtins as precompile  # noqa: E402
 
 __version__ = "0.1.0"
 

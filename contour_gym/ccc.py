@@ -60,10 +60,10 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from contour_gym._compile import Family
 from contour_gym._registry import Registry
 from contour_gym._schema import Param, Schema
 from contour_gym._validate import as_finite_array, non_negative
+from contour_gym.jit import Family
 from contour_gym.servo.pid import STATE as PID_STATE
 from contour_gym.servo.pid import pid_terms
 
@@ -255,7 +255,7 @@ def _machine_named(machine: Any) -> Any:
     return _MACHINE_LOOKUP[0](machine)
 
 
-# the kernels' slots of a CCC law (contour_gym._slots)
+# the kernels' slots of a CCC law (contour_gym.jit.slots)
 CCC_FAMILY = Family(
     "ccc law",
     {

@@ -45,10 +45,10 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from contour_gym._compile import Family
 from contour_gym._registry import Registry
 from contour_gym._schema import Param, Schema, state_schema
 from contour_gym._validate import non_negative, positive
+from contour_gym.jit import Family
 
 COMPONENTS = state_schema(
     "reward components", "contour", "peak", "chatter", "progress", "excess", "record"
@@ -85,7 +85,7 @@ class CompiledReward:
 REWARDS: Registry[CompiledReward] = Registry("reward")
 
 
-# the kernels' slot of a compiled reward (contour_gym._slots)
+# the kernels' slot of a compiled reward (contour_gym.jit.slots)
 REWARD_FAMILY = Family("reward", {"REWARD": attrgetter("fn")}, REWARDS.components)
 
 

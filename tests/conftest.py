@@ -4,7 +4,7 @@ import os
 
 import pytest
 
-# detached compiles of each combination's own kernel (contour_gym._tiers) would compete with
+# detached compiles of each combination's own kernel (contour_gym.jit.tiers) would compete with
 # the tests for the cores and outlive the session; tests/test_tiers.py runs them explicitly
 os.environ.setdefault("CONTOUR_GYM_BACKGROUND", "0")
 

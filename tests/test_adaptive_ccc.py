@@ -18,7 +18,7 @@ from agents import ccc_laws as L  # noqa: N812
 from agents import fuzzy as F  # noqa: N812
 from agents.evaluate import run_policy, run_policy_batch
 from agents.policies import POLICIES, make_policy
-from contour_gym import _compile
+from contour_gym import jit
 from contour_gym.api import make_scenario
 from contour_gym.ccc import CCC_LAWS
 from contour_gym.loop import ServoLoop
@@ -193,7 +193,7 @@ def test_bad_parameters_raise_naming_the_value(name: str, value: float) -> None:
 
 
 def test_the_kernel_cache_key_follows_the_fuzzy_module_the_law_calls() -> None:
-    key = _compile.identity(L.ADAPTIVE_FUZZY_PID.output)
+    key = jit.identity(L.ADAPTIVE_FUZZY_PID.output)
     assert key.startswith("agents.ccc_laws.adaptive_fuzzy_pid_output @ ")
     assert " + agents.fuzzy.kernels @ " in key
 

@@ -16,7 +16,7 @@ from _law_checks import (
 from agents import ccc_laws
 from agents import fuzzy as F  # noqa: N812
 from agents.fuzzy import kernels as fuzzy_kernels
-from contour_gym import _compile
+from contour_gym import jit
 from contour_gym.api import make_scenario
 from contour_gym.ccc import CCC_LAWS
 from contour_gym.loop import ServoLoop
@@ -119,10 +119,10 @@ def test_bad_parameters_raise_naming_the_value(name: str, value: float) -> None:
 
 def test_the_kernel_cache_key_follows_the_fuzzy_module_the_law_calls() -> None:
     # the law's surface code lives in agents/fuzzy/kernels.py: editing it must recompile the loop
-    key = _compile.identity(ccc_laws.FUZZY_PID.output)
+    key = jit.identity(ccc_laws.FUZZY_PID.output)
     assert key.startswith("agents.ccc_laws.fuzzy_pid_output @ ")
     assert " + agents.fuzzy.kernels @ " in key
-    assert " + " not in _compile.identity(CCC_LAWS.get("pid").output)
+    assert " + " not in jit.identity(CCC_LAWS.get("pid").output)
 
 
 def law_row(plant: str | dict[str, Any], **options: object) -> dict[str, float]:

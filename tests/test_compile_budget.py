@@ -2,7 +2,7 @@
 
 ``contour-gym simulate`` on a fresh numba cache compiles the path table's builders and one
 servo loop kernel; its wall time follows what numba types and LLVM optimises. Time is a poor
-test on a shared machine, so this counts the work instead (:func:`contour_gym._compile.census`):
+test on a shared machine, so this counts the work instead (:func:`contour_gym.jit.census`):
 the statements of the typed IR numba compiled, inlined code included, which do not depend on
 the machine or its load. A kernel change that grows them past the budget fails here; measure
 ``benchmarks/cold_start.py`` before and after such a change and raise the budget only with the
@@ -27,8 +27,8 @@ SIMULATE = """
 import json, sys
 from agents.cli import main
 code = main(["simulate", "--out", sys.argv[1]])
-from contour_gym import _compile
-census = _compile.census()
+from contour_gym import jit
+census = jit.census()
 print(json.dumps({"code": code, "functions": census.functions, "statements": census.statements}))
 """
 

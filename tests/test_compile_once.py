@@ -23,9 +23,9 @@ from numba.core import event
 
 import agents.ccc_laws  # noqa: F401 (registers the fuzzy CCC laws)
 import contour_gym
-from contour_gym import _precompile
 from contour_gym.contour import ContourEstimator, register_estimator
 from contour_gym.contour.base import ESTIMATORS
+from contour_gym.jit import precompile
 from contour_gym.params import Schema
 
 KEYS = ("max_contour_error", "mean_contour_error", "rms_contour_error", "cycle_time")
@@ -117,28 +117,28 @@ def warmups():  # type: ignore[no-untyped-def]
     added: list[str] = []
 
     def add(name: str, target: str, **kw: Any) -> None:
-        _precompile.register_warmup(_precompile.Warmup(name, target, **kw))
+        precompile.register_warmup(precompile.Warmup(name, target, **kw))
         added.append(name)
 
     yield add
     for name in added:
-        _precompile.WARMUPS.unregister(name)
+        precompile.WARMUPS.unregister(name)
 
 
 def test_a_warmup_runs_in_a_worker_once_and_a_failure_names_its_error(warmups) -> None:  # type: ignore[no-untyped-def]
     salt = f"{os.getpid()}_{time.time_ns()}"  # a marker no earlier run left
     warmups(f"test_noop_{salt}", "tests.test_compile_once:_noop")
-    assert _precompile.compile_builtins([f"test_noop_{salt}"], progress=False) == [
+    assert precompile.compile_builtins([f"test_noop_{salt}"], progress=False) == [
         f"test_noop_{salt}"]
-    assert _precompile.compile_builtins([f"test_noop_{salt}"], progress=False) == []
+    assert precompile.compile_builtins([f"test_noop_{salt}"], progress=False) == []
     warmups(f"test_boom_{salt}", "tests.test_compile_once:_boom")
     with pytest.raises(RuntimeError, match="boom: a warm-up that fails"):
-        _precompile.compile_builtins([f"test_boom_{salt}"], progress=False)
+        precompile.compile_builtins([f"test_boom_{salt}"], progress=False)
 
 
 def test_the_first_run_estimate_follows_the_dependencies(warmups) -> None:  # type: ignore[no-untyped-def]
     warmups("test_a", "x:y", seconds=10.0)
     warmups("test_b", "x:y", seconds=20.0)
     warmups("test_c", "x:y", after=("test_a", "test_b"), seconds=5.0)
-    assert _precompile.expected_seconds(["test_a", "test_b", "test_c"], 2) == 25.0
-    assert _precompile.expected_seconds(["test_a", "test_b", "test_c"], 1) == 35.0
+    assert precompile.expected_seconds(["test_a", "test_b", "test_c"], 2) == 25.0
+    assert precompile.expected_seconds(["test_a", "test_b", "test_c"], 1) == 35.0

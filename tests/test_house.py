@@ -12,7 +12,7 @@ from gymnasium.utils.env_checker import data_equivalence
 from gymnasium.vector import VectorEnv
 
 import contour_gym
-from contour_gym import _compile
+from contour_gym import jit
 from contour_gym._schema import Param, Schema
 from contour_gym._validate import finite, positive
 from contour_gym.api import make_scenario, simulate
@@ -170,27 +170,27 @@ def test_the_packages_import_in_one_direction_only():
 
 def test_the_cache_key_ignores_docstrings_and_comments_and_non_kernel_modules():
     code = 'def f(x):\n    """Doc."""\n    return x + 1  # why\n'
-    assert _compile.code_digest(code) == _compile.code_digest(
+    assert jit.code_digest(code) == jit.code_digest(
         'def f(x):\n    """Another doc."""\n    # a comment\n    return x + 1\n')
-    assert _compile.code_digest(code) != _compile.code_digest("def f(x):\n    return x + 2\n")
-    kernels = {p.relative_to(PACKAGE).as_posix() for p in _compile.kernel_sources()}
+    assert jit.code_digest(code) != jit.code_digest("def f(x):\n    return x + 2\n")
+    kernels = {p.relative_to(PACKAGE).as_posix() for p in jit.kernel_sources()}
     assert "loop/kernel.py" in kernels and "plant/friction/lugre.py" in kernels
     assert "api.py" not in kernels and "envs/ccc.py" not in kernels
 
 
 def test_the_package_digest_is_remembered_and_a_bad_memo_is_recomputed(tmp_path, monkeypatch):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
-    first = _compile.package_digest()  # parsed, then remembered
+    first = jit.package_digest()  # parsed, then remembered
     memos = list((tmp_path / "contour_gym" / "digests").iterdir())
-    assert len(memos) == 1 and memos[0].read_text() == first == _compile._package_digest_once()
-    assert _compile.package_digest() == first
+    assert len(memos) == 1 and memos[0].read_text() == first == jit.current_digest()
+    assert jit.package_digest() == first
     memos[0].unlink()
     memos[0].write_text("not a digest")
-    assert _compile.package_digest() == first
+    assert jit.package_digest() == first
     assert memos[0].read_text() == first  # written afresh
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "a file" / "below"))
     (tmp_path / "a file").write_text("")  # no memo can be written: computed all the same
-    assert _compile.package_digest() == first
+    assert jit.package_digest() == first
 
 
 def test_a_function_of_a_generated_kernel_is_named_by_its_module_whose_name_is_a_digest():
@@ -198,8 +198,8 @@ def test_a_function_of_a_generated_kernel_is_named_by_its_module_whose_name_is_a
     def run_members():
         return 0
 
-    run_members.__module__ = f"{_compile.GENERATED_PACKAGE}.k_0123456789abcdef0123"
-    assert _compile.identity(run_members) == f"{run_members.__module__}.{run_members.__qualname__}"
+    run_members.__module__ = f"{jit.GENERATED_PACKAGE}.k_0123456789abcdef0123"
+    assert jit.identity(run_members) == f"{run_members.__module__}.{run_members.__qualname__}"
 
 
 # -------------------------------------------------------------------- swappable rewards

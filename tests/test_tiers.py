@@ -1,4 +1,4 @@
-"""The run's own kernel and the built-ins' kernel (contour_gym._tiers)."""
+"""The run's own kernel and the built-ins' kernel (contour_gym.jit.tiers)."""
 
 import pickle
 import re
@@ -11,8 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from contour_gym import _compile, _precompile, _tiers
+from contour_gym import jit
 from contour_gym.api import make_scenario
+from contour_gym.jit import precompile, tiers
 
 
 def _run(loop, kernel):  # type: ignore[no-untyped-def]
@@ -37,10 +38,10 @@ def test_a_workers_own_kernel_is_chosen_next_and_agrees_with_the_builtins_kernel
     assert builtins is not None and builtins() is not own
     # what a background worker does with a request: unpickle, run once on the own kernel
     request = _pickled(loop, tmp_path)
-    monkeypatch.setenv(_precompile.IN_WORKER, _tiers.OWN_WORKER)
-    _tiers._own_main(str(request))
-    monkeypatch.delenv(_precompile.IN_WORKER)
-    assert not request.exists() and not _compile.needs_compile(own)
+    monkeypatch.setenv(precompile.IN_WORKER, tiers.OWN_WORKER)
+    tiers._own_main(str(request))
+    monkeypatch.delenv(precompile.IN_WORKER)
+    assert not request.exists() and not jit.needs_compile(own)
     fresh = scenario.loop(batch_size=2, ccc_gains=scenario.preset.ccc_gains.as_tuple())
     assert fresh.kernel is own  # compiled: chosen from now on
     for a, b in zip(_run(fresh, own), _run(fresh, builtins()), strict=True):
@@ -54,10 +55,10 @@ def test_a_detached_worker_takes_a_request(
     scenario = make_scenario("xy_dc_servo", estimator="tangent")
     loop = scenario.loop(batch_size=1)
     loop.compile_own()
-    monkeypatch.setenv(_tiers.BACKGROUND, "1")
-    request = _pickled(loop, _compile.generated_dir())
-    assert _tiers._detach("_own_main", str(request), "own_test", "a test's kernel",
-                          env={_precompile.IN_WORKER: _tiers.OWN_WORKER})  # fmt: skip
+    monkeypatch.setenv(tiers.BACKGROUND, "1")
+    request = _pickled(loop, jit.generated_dir())
+    assert tiers._detach("_own_main", str(request), "own_test", "a test's kernel",
+                          env={precompile.IN_WORKER: tiers.OWN_WORKER})  # fmt: skip
     deadline = time.monotonic() + 120.0
     while request.exists() and time.monotonic() < deadline:
         time.sleep(0.2)
@@ -71,7 +72,7 @@ def test_a_detached_worker_takes_a_request(
 def test_a_background_process_ends_when_its_cache_folder_is_gone(tmp_path: Path) -> None:
     folder = tmp_path / "generated"
     folder.mkdir()
-    code = (f"from contour_gym import _tiers; _tiers._watch({str(folder)!r}); "
+    code = (f"from contour_gym.jit import tiers; tiers._watch({str(folder)!r}); "
             "import time; time.sleep(120)")  # fmt: skip
     process = subprocess.Popen([sys.executable, "-c", code])
     try:
@@ -97,7 +98,7 @@ def _module(folder: Path, name: str, compiled: bool) -> types.ModuleType:
         (True, False, None, "own", []),
         (False, True, None, "builtins", ["own"]),
         (False, False, None, "own", ["builtins loop"]),
-        (False, True, _tiers.OWN_WORKER, "own", []),
+        (False, True, tiers.OWN_WORKER, "own", []),
         (False, False, "1", "builtins", []),
     ],
 )
@@ -105,15 +106,15 @@ def test_choose_policy(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, own_comp
                        builtins_done: bool, worker: str | None, picked: str,
                        later: list[str]) -> None:  # fmt: skip
     asked: list[str] = []
-    monkeypatch.setattr(_tiers, "_compile_own_later", lambda owner: asked.append("own"))
-    monkeypatch.setattr(_tiers, "_compile_builtins_later", lambda w: asked.append(f"builtins {w}"))
-    monkeypatch.setattr(_precompile, "is_done", lambda name: builtins_done)
+    monkeypatch.setattr(tiers, "_compile_own_later", lambda owner: asked.append("own"))
+    monkeypatch.setattr(tiers, "_compile_builtins_later", lambda w: asked.append(f"builtins {w}"))
+    monkeypatch.setattr(precompile, "is_done", lambda name: builtins_done)
     if worker is None:
-        monkeypatch.delenv(_precompile.IN_WORKER, raising=False)
+        monkeypatch.delenv(precompile.IN_WORKER, raising=False)
     else:
-        monkeypatch.setenv(_precompile.IN_WORKER, worker)
+        monkeypatch.setenv(precompile.IN_WORKER, worker)
     own, builtins = _module(tmp_path, "own", own_compiled), _module(tmp_path, "builtins", True)
-    chosen = _tiers.choose(own, lambda: builtins, "loop", object())  # type: ignore[arg-type]
+    chosen = tiers.choose(own, lambda: builtins, "loop", object())  # type: ignore[arg-type]
     assert chosen is {"own": own, "builtins": builtins}[picked]
-    _tiers.start_pending()  # what a first call does once it compiled
+    tiers.start_pending()  # what a first call does once it compiled
     assert asked == later

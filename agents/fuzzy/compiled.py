@@ -179,7 +179,7 @@ def stored_surface(compiled: CompiledMamdani, tabulate: Callable[[], Surface]) -
     surface is computed from: the kernel arrays, the node count and the source of
     :mod:`agents.fuzzy.kernels` and of this module, so a change to any of them tabulates
     anew. The folder is numba's cache folder
-    (``numba.config.CACHE_DIR``: ``NUMBA_CACHE_DIR``, or the one :mod:`contour_gym._compile`
+    (``numba.config.CACHE_DIR``: ``NUMBA_CACHE_DIR``, or the one :mod:`contour_gym.jit`
     chooses); without one, or where it cannot be read or written, the surface is tabulated.
     """
     folder = str(getattr(numba.config, "CACHE_DIR", "") or "")

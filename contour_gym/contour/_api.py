@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from contour_gym import _compile
+from contour_gym import jit
 from contour_gym.contour import _estimators  # noqa: F401 (registers the built-ins)
 from contour_gym.contour.base import ESTIMATOR_FAMILY, ESTIMATORS, ContourEstimator
 from contour_gym.paths import Path
@@ -88,8 +88,8 @@ class Estimator:
 
     def _kernel(self) -> tuple[Any, int]:
         # the batch kernel with this estimator among the family's, and its code
-        slots, codes = _compile.bind({ESTIMATOR_FAMILY: [self.kind]})
-        kernel = _compile.specialise("contour_gym.contour._many", slots)
+        slots, codes = jit.bind({ESTIMATOR_FAMILY: [self.kind]})
+        kernel = jit.specialise("contour_gym.contour._many", slots)
         return kernel, codes[ESTIMATOR_FAMILY.name][0]
 
     def __call__(self, path: Path, s_ref: ArrayLike, positions: ArrayLike, *,

@@ -15,7 +15,7 @@ Inputs are what a real controller has at tick k: the path table, the tool positi
 point ``j`` is the reference ``j`` ticks ago (:func:`~contour_gym.contour._history.ref_arc`).
 
 The functions are not cached: they compile with the loop kernel that calls them, where LLVM
-inlines them (:mod:`contour_gym._compile`).
+inlines them (:mod:`contour_gym.jit`).
 
 Some of the papers' equations were lost in text extraction; each docstring names the paper
 (``000`` .. ``004``, cited by title in docs/references.md), the equations and what was

@@ -106,7 +106,7 @@ def ground_truth_from(kind, s0, data, bound, dim, p0, p1, p2, s_from, qx, qy, qz
 
     Called, never ``inline="always"`` (numba's inlining made a kernel's compile 3x longer: the
     documentation's "Measurements and design notes"); not cached, so it compiles with the
-    kernel that calls it and LLVM inlines it there (:mod:`contour_gym._compile`).
+    kernel that calls it and LLVM inlines it there (:mod:`contour_gym.jit`).
     """
     sf, _ = branch_nearest_from(kind, s0, data, bound, p0, p1, p2, s_from, s_to, qx, qy, qz)
     fx, fy, fz, tx, ty, _, _, _, _ = eval_path(kind, s0, data, sf)

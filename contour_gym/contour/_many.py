@@ -7,9 +7,9 @@ import math
 import numba
 import numpy as np
 
-from contour_gym._slots import EST_FOOT
 from contour_gym.contour._history import HIST_WIDTH
 from contour_gym.contour._kernel import _fill_history, _row_finite, ground_truth, resolve
+from contour_gym.jit.slots import EST_FOOT
 
 
 @numba.njit(cache=True)

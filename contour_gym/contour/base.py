@@ -20,11 +20,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from contour_gym._compile import Family
 from contour_gym._registry import Registry
 from contour_gym._schema import Schema
-from contour_gym._slots import no_foot
 from contour_gym._validate import choice
+from contour_gym.jit import Family
+from contour_gym.jit.slots import no_foot
 
 if TYPE_CHECKING:
     from contour_gym.paths import Path
@@ -56,7 +56,7 @@ class ContourEstimator:
 ESTIMATORS: Registry[ContourEstimator] = Registry("estimator")
 
 
-# the kernels' slot of an estimator (contour_gym._slots); the exact search has no foot function
+# the kernels' slot of an estimator (contour_gym.jit.slots); the exact search has no foot function
 ESTIMATOR_FAMILY = Family(
     "estimator",
     {"EST_FOOT": lambda est: no_foot if est.foot is None else est.foot},

@@ -16,7 +16,7 @@ import numba
 
 from contour_gym._blob import borrow
 from contour_gym._envstate import CURVATURE_SCALE, EC, OBSERVATION_V0, env_arrays, put
-from contour_gym._slots import REWARD, RUN_MEMBERS, TASK_APPLY, TASK_OBSERVE
+from contour_gym.jit.slots import REWARD, RUN_MEMBERS, TASK_APPLY, TASK_OBSERVE
 from contour_gym.loop.member import (
     ARRIVED,
     FAILED,

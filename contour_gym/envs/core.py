@@ -20,15 +20,15 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from numpy.typing import NDArray
 
-from contour_gym import _compile, _precompile, _tiers
+from contour_gym import jit
 from contour_gym._blob import Blob
-from contour_gym._compile import Family
 from contour_gym._envstate import EC, ENV_CONFIG, ENV_FLOATS, OBS_LIMIT, OBSERVATIONS
-from contour_gym._stack import on_reserved_stack
 from contour_gym._validate import seed_value
 from contour_gym.api import Scenario
 from contour_gym.envs._paths import reset_draws
 from contour_gym.envs.config import EnvConfig
+from contour_gym.jit import Family, precompile, tiers
+from contour_gym.jit.stack import on_reserved_stack
 from contour_gym.loop import REASON_HARD_LIMIT
 from contour_gym.metrics import member_metrics
 from contour_gym.paths import Path
@@ -141,35 +141,35 @@ class ContourTask:
 
     def _compiling(self) -> contextlib.AbstractContextManager[None]:
         # a progress line while the env kernel compiles in this process (a user's component)
-        show = not self._stepped and _compile.needs_compile(self.kernel)
-        return _compile.compiling(f"the env step for {self.loop.describe()}", show)
+        show = not self._stepped and jit.needs_compile(self.kernel)
+        return jit.compiling(f"the env step for {self.loop.describe()}", show)
 
     def _specialise(self) -> None:
         # the env kernel on the loop's run, with this task's reward among the family's; the
-        # loop's kernel and this one are chosen together (contour_gym._tiers)
+        # loop's kernel and this one are chosen together (contour_gym.jit.tiers)
         uses: dict[Family, list[Any]] = {
             REWARD_FAMILY: [self._compiled_reward()], TASK_FAMILY: [self.task_kind]
         }
-        slots, codes = _compile.bind(uses)
+        slots, codes = jit.bind(uses)
         self._econfig[EC.reward] = codes[REWARD_FAMILY.name][0]
         self._econfig[EC.task] = codes[TASK_FAMILY.name][0]
         own_loop, builtins_loop = self.loop.kernels()
-        if builtins_loop is None or not _compile.is_generic(slots):
+        if builtins_loop is None or not jit.is_generic(slots):
             self.kernel = _env_kernel(self.loop.kernel, slots)  # a user's component
         else:
-            own = _env_kernel(own_loop, _compile.bind(uses, own=True)[0])
+            own = _env_kernel(own_loop, jit.bind(uses, own=True)[0])
 
             def builtins() -> ModuleType:
                 kernel = _env_kernel(builtins_loop(), slots)
-                _precompile.ensure("env")  # once per installation, in worker processes
+                precompile.ensure("env")  # once per installation, in worker processes
                 return kernel
 
-            self.kernel = _tiers.choose(own, builtins, "env", self)
+            self.kernel = tiers.choose(own, builtins, "env", self)
             self.loop.use_kernel(own_loop if self.kernel is own else builtins_loop())
         self._stepped = False
 
     def compile_own(self) -> None:
-        """Step once on this task's own kernels (a background worker: :mod:`contour_gym._tiers`)."""
+        """Step once on this task's own kernels (a background worker: ``jit.tiers``)."""
         self.reset_members(np.array([0]), [np.random.default_rng(0)])
         self.step(np.zeros((self.batch, self.n_actions)))
 
@@ -415,9 +415,9 @@ class ContourTask:
         if not ran:
             raise ValueError(f"actions must be finite, got {actions}")  # nothing was run
         if not self._stepped:  # the env kernel is in numba's cache now
-            _compile.mark_compiled(self.kernel)
+            jit.mark_compiled(self.kernel)
             self._stepped = True
-            _tiers.start_pending()
+            tiers.start_pending()
         if not isinstance(self._reward, CompiledReward):
             self._python_rewards()
 
@@ -555,7 +555,7 @@ def _masked(values: dict[str, Any], mask: NDArray[np.bool_]) -> dict[str, Any]:
 
 def _env_kernel(loop_kernel: ModuleType, slots: dict[str, Any]) -> ModuleType:
     """The env kernel module on ``loop_kernel``'s run with the reward ``slots``."""
-    return _compile.specialise(
+    return jit.specialise(
         "contour_gym.envs._kernel", {"RUN_MEMBERS": loop_kernel.run_members, **slots}
     )
 

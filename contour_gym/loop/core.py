@@ -3,7 +3,7 @@
 It packs a stage, a path, the axis controllers, the estimator, the CCC and the interpolator
 into arrays with a leading batch dimension ``B`` and runs the compiled kernel of
 :mod:`contour_gym.loop.kernel`, specialised to the components the loop uses
-(:mod:`contour_gym._compile`). Parameters that optimisers and agents search (CCC gains, axis
+(:mod:`contour_gym.jit`). Parameters that optimisers and agents search (CCC gains, axis
 gains, feed override) may differ per batch member. Random numbers come only from one
 ``numpy.random.Generator`` per member, spawned from the seed given to :meth:`ServoLoop.reset`,
 so a member's result depends only on its own seed and parameters, never on ``B``.
@@ -32,12 +32,13 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from contour_gym import _compile, _precompile, _tiers, motion
-from contour_gym._stack import on_reserved_stack
+from contour_gym import jit, motion
 from contour_gym._validate import as_finite_array, choice, non_negative, positive
 from contour_gym.ccc import CCC_FAMILY, CCC_LAWS, INJECTIONS, ccc_params
 from contour_gym.contour import ESTIMATORS, Estimator, get_estimator
 from contour_gym.contour.base import ESTIMATOR_FAMILY
+from contour_gym.jit import precompile, tiers
+from contour_gym.jit.stack import on_reserved_stack
 from contour_gym.loop.bank import LoopPaths
 from contour_gym.loop.build import (
     axis_arrays,
@@ -91,7 +92,7 @@ Array = NDArray[np.float64]
 _CODED = {"ctrl": CONTROLLER_FAMILY, "est": ESTIMATOR_FAMILY, "ccc": CCC_FAMILY,
           "comp": COMPENSATION_FAMILY}  # fmt: skip
 MAX_RUN_TICKS = 200_000_000  # ticks one run() may take (55 h of machine time at 1 kHz)
-LOOP_TEMPLATE = "contour_gym.loop.kernel"  # the servo loop's kernel template (_compile)
+LOOP_TEMPLATE = "contour_gym.loop.kernel"  # the servo loop's kernel template (contour_gym.jit)
 
 
 class ServoLoop(LoopPaths, LoopParameters):
@@ -208,16 +209,16 @@ class ServoLoop(LoopPaths, LoopParameters):
         return config_row(self.stage, self.path, self.opts, self.record, search, codes)
 
     def _bind(self, compensates: bool) -> None:
-        # the kernel's slots and this loop's component codes (contour_gym._compile.bind)
+        # the kernel's slots and this loop's component codes (contour_gym.jit.bind)
         self._compensates = compensates
-        uses: dict[_compile.Family, list[Any]] = {
+        uses: dict[jit.Family, list[Any]] = {
             CONTROLLER_FAMILY: [self.controller], ESTIMATOR_FAMILY: [self.estimator.kind],
             CCC_FAMILY: [self.ccc_law], COMPENSATION_FAMILY: [compensates],
             FRICTION_FAMILY: [FRICTION_LAWS.get(n) for n in self.law_names],
         }  # fmt: skip
-        self._slots, self.codes = _compile.bind(uses)
-        generic = _compile.is_generic(self._slots)
-        self._own_slots = _compile.bind(uses, own=True)[0] if generic else self._slots
+        self._slots, self.codes = jit.bind(uses)
+        generic = jit.is_generic(self._slots)
+        self._own_slots = jit.bind(uses, own=True)[0] if generic else self._slots
 
     # ---------------------------------------------------------------- kernel
     def describe(self) -> str:
@@ -232,23 +233,23 @@ class ServoLoop(LoopPaths, LoopParameters):
         """The compiled kernel module this loop runs on (chosen on first use: :meth:`kernels`)."""
         if self._kernel is None:
             own, builtins = self.kernels()
-            self._kernel = own if builtins is None else _tiers.choose(own, builtins, "loop", self)
+            self._kernel = own if builtins is None else tiers.choose(own, builtins, "loop", self)
         return self._kernel
 
     def kernels(self) -> tuple[ModuleType, Callable[[], ModuleType] | None]:
         """This loop's own kernel module, and a maker of the built-ins' kernel module.
 
         The maker is None when the loop uses a component of the user's (its own kernel is
-        then the only one). :mod:`contour_gym._tiers` says which one runs.
+        then the only one). :mod:`contour_gym.jit.tiers` says which one runs.
         """
-        own = _compile.specialise(LOOP_TEMPLATE, self._own_slots)
+        own = jit.specialise(LOOP_TEMPLATE, self._own_slots)
         if self._own_slots is self._slots:
             return own, None
         return own, self._builtins_kernel
 
     def _builtins_kernel(self) -> ModuleType:
-        _precompile.ensure("loop")  # once per installation, in worker processes
-        return _compile.specialise(LOOP_TEMPLATE, self._slots)
+        precompile.ensure("loop")  # once per installation, in worker processes
+        return jit.specialise(LOOP_TEMPLATE, self._slots)
 
     def use_kernel(self, kernel: ModuleType) -> None:
         """Run on ``kernel``, one of :meth:`kernels` (an env task chooses with its own kernel)."""
@@ -348,8 +349,8 @@ class ServoLoop(LoopPaths, LoopParameters):
 
     def compiling(self) -> contextlib.AbstractContextManager[None]:
         """A progress line around the first call if this loop's kernel compiles in-process."""
-        show = not self._marked and _compile.needs_compile(self.kernel)
-        return _compile.compiling(f"the servo loop for {self.describe()}", show)
+        show = not self._marked and jit.needs_compile(self.kernel)
+        return jit.compiling(f"the servo loop for {self.describe()}", show)
 
     def advance(
         self, n_ticks: int, skip: ArrayLike | None = None,
@@ -396,9 +397,9 @@ class ServoLoop(LoopPaths, LoopParameters):
         if paused is not None:
             self._resume(paused, n_ticks)
         if not self._marked:  # once per loop: the marker is a file (a stat per call cost 7 us)
-            _compile.mark_compiled(self.kernel)
+            jit.mark_compiled(self.kernel)
             self._marked = True
-            _tiers.start_pending()
+            tiers.start_pending()
         return result
 
     def _run_parts(self, call: Callable[..., Any], head: tuple[Any, ...], n_ticks: int) -> Any:
@@ -593,12 +594,12 @@ def simulate_axis(
     w = np.zeros(n) if noise is None else np.ascontiguousarray(
         as_finite_array(noise, "noise", shape=(n,)))  # fmt: skip
     law = law_for(axis.friction)
-    slots, codes = _compile.bind({FRICTION_FAMILY: [law]})
+    slots, codes = jit.bind({FRICTION_FAMILY: [law]})
     ax = axis_row(axis, codes[FRICTION_FAMILY.name][0], ideal=True)[None]
     ad, bd = zoh_matrices(ax, positive(ts, "ts") / substeps)
     st = np.zeros((1, STATE.size))
     st[0, ST.x], st[0, ST.v] = x0, v0
-    kernel = _compile.specialise(LOOP_TEMPLATE, slots)
+    kernel = jit.specialise(LOOP_TEMPLATE, slots)
     xs, vs = np.zeros(n), np.zeros(n)
     kernel.drive_axis(ax, friction_row(axis)[None], ripple_rows(axis)[None],
                       disturbance_row(axis, ts)[None], ad, bd, st, u, 0.0, ts, substeps, w, xs,

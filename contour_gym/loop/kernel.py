@@ -18,7 +18,7 @@ One tick of member b (local tick k)::
          and slow) -> ARRIVED; diverged, or not in position ``settle_ticks`` after the
          reference ended -> FAILED
 
-This module is a template (:mod:`contour_gym._compile`): its slots (the axis controller, the
+This module is a template (:mod:`contour_gym.jit`): its slots (the axis controller, the
 estimator, the friction laws, the friction compensation, the CCC law) are bound per run to the
 registered components, so numba compiles and inlines exactly what the run uses. The exact
 nearest-point search and the estimators' foot functions are called, not inlined: compiled
@@ -35,7 +35,9 @@ from typing import Any
 import numba
 
 from contour_gym._blob import borrow
-from contour_gym._slots import (
+from contour_gym.contour._history import eval_path_memo
+from contour_gym.contour._kernel import ground_truth_from, history_push, resolve
+from contour_gym.jit.slots import (
     CCC_COMMIT,
     CCC_OUTPUT,
     CCC_RELEASE,
@@ -46,8 +48,6 @@ from contour_gym._slots import (
     EST_FOOT,
     FRICTION,
 )
-from contour_gym.contour._history import eval_path_memo
-from contour_gym.contour._kernel import ground_truth_from, history_push, resolve
 from contour_gym.loop.state import (
     FT,
     LS,

@@ -61,7 +61,7 @@ class BlobView(Generic[V]):
     def __repr__(self) -> str:
         return f"BlobView({self.name!r} of {self.blob})"
 
-    # typing.overload spelt out: the bare decorator marks kernel modules (_compile._KERNEL_MARKS)
+    # typing.overload spelt out: the bare decorator marks kernel modules (jit.cache._KERNEL_MARKS)
     @typing.overload
     def __get__(self, obj: None, owner: type | None = None) -> BlobView[V]: ...
     @typing.overload

@@ -1,4 +1,4 @@
-"""The path engine's batch functions, called from Python (cached; :mod:`contour_gym._compile`).
+"""The path engine's batch functions, called from Python (cached; :mod:`contour_gym.jit`).
 
 Each runs one of :mod:`contour_gym.paths._geom`'s functions over many points, or builds a
 table's per-segment data (bounding spheres, segment ends).

@@ -95,7 +95,7 @@ def eval_segment(kind, data, i, t):
     """Point, dP/ds and d2P/ds2 of segment ``i`` at local arc length ``t`` (9 floats).
 
     Typed once and inlined by LLVM at every call site (``forceinline``), not by numba
-    (:mod:`contour_gym._compile`).
+    (:mod:`contour_gym.jit`).
     """
     k = kind[i]
     if k == LINE:

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from contour_gym._stack import on_reserved_stack
+from contour_gym.jit.stack import on_reserved_stack
 from contour_gym.paths import _batch
 from contour_gym.paths._branch import B_CLEAR, B_CLOSED, N_CELLS, NB, build_rows, fill_clearances
 from contour_gym.paths._geom import HELIX, LINE, NCOL, POLY5

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numba
 
-from contour_gym._slots import COMP_COMMIT, COMP_OUTPUT, CTRL_COMMIT, CTRL_CONTROL
+from contour_gym.jit.slots import COMP_COMMIT, COMP_OUTPUT, CTRL_COMMIT, CTRL_CONTROL
 
 
 @numba.njit(cache=True)

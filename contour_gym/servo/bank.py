@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from contour_gym import _compile
+from contour_gym import jit
 from contour_gym._validate import as_finite_array
 from contour_gym.servo.base import CONTROLLER_FAMILY
 from contour_gym.servo.build import build_controller
@@ -62,11 +62,11 @@ class AxisControllers:
         b, a = self.params.shape[:2]
         self.state = np.zeros((b, a, self.controller.state.size))
         self.comp_state = np.zeros((b, a, COMP_STATE.size))
-        slots, codes = _compile.bind(
+        slots, codes = jit.bind(
             {CONTROLLER_FAMILY: [self.controller], COMPENSATION_FAMILY: [True]}
         )
         self._codes = (codes[CONTROLLER_FAMILY.name][0], codes[COMPENSATION_FAMILY.name][0])
-        self._kernel = _compile.specialise("contour_gym.servo._bank", slots)
+        self._kernel = jit.specialise("contour_gym.servo._bank", slots)
 
     def reset(self) -> None:
         """Zero every member's state (integrators, observer, bristle state, history)."""

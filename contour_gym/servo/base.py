@@ -27,10 +27,10 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from contour_gym._compile import Family
 from contour_gym._registry import Registry
 from contour_gym._schema import Schema
 from contour_gym._validate import as_finite_array
+from contour_gym.jit import Family
 
 if TYPE_CHECKING:
     from contour_gym.plant.stage import Stage
@@ -69,7 +69,7 @@ class AxisController:
 
 
 CONTROLLERS: Registry[AxisController] = Registry("axis_controller")
-# the kernels' slots of an axis controller (contour_gym._slots)
+# the kernels' slots of an axis controller (contour_gym.jit.slots)
 CONTROLLER_FAMILY = Family(
     "axis controller",
     {"CTRL_CONTROL": attrgetter("control"), "CTRL_COMMIT": attrgetter("commit")},

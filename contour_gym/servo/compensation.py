@@ -25,10 +25,10 @@ from typing import TYPE_CHECKING
 import numba
 import numpy as np
 
-from contour_gym._compile import Family
 from contour_gym._schema import Schema, state_schema
-from contour_gym._slots import no_compensation
 from contour_gym._validate import choice
+from contour_gym.jit import Family
+from contour_gym.jit.slots import no_compensation
 from contour_gym.plant.friction.lugre import (
     LuGreFriction,
     lugre_advance,
@@ -91,7 +91,7 @@ def commit(p, s, i, r_dot, y, ts):
     s[i, S.n] += 1.0
 
 
-# the kernels' slots of the compensation (contour_gym._slots): off (code 0) or on (code 1)
+# the kernels' slots of the compensation (contour_gym.jit.slots): off (code 0) or on (code 1)
 COMPENSATION_FAMILY = Family(
     "compensation",
     {

@@ -11,8 +11,8 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from contour_gym._compile import Family
 from contour_gym._registry import Registry
+from contour_gym.jit import Family
 
 if TYPE_CHECKING:
     from contour_gym.api import Scenario
@@ -149,7 +149,7 @@ class Task(ABC):
 
 TASKS: Registry[Task] = Registry("task")  # the built-ins register on import (contour_gym.tasks)
 
-# the env kernel's slots of a task (contour_gym._slots)
+# the env kernel's slots of a task (contour_gym.jit.slots)
 TASK_FAMILY = Family(
     "task", {"TASK_APPLY": attrgetter("apply"), "TASK_OBSERVE": attrgetter("observe")},
     TASKS.components,

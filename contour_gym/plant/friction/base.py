@@ -11,9 +11,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from contour_gym._compile import Family
 from contour_gym._registry import Registry
 from contour_gym._schema import Schema
+from contour_gym.jit import Family
 from contour_gym.plant._kernel import N_FR
 
 
@@ -60,7 +60,7 @@ class FrictionLaw:
 FRICTION_LAWS: Registry[FrictionLaw] = Registry("friction law")
 
 
-# the kernels' slot of a friction law (contour_gym._slots)
+# the kernels' slot of a friction law (contour_gym.jit.slots)
 FRICTION_FAMILY = Family("friction law", {"FRICTION": attrgetter("substep")},
                          FRICTION_LAWS.components)
 

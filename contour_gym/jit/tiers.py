@@ -1,9 +1,9 @@
 """Which compiled kernel a run of built-in components uses: its own, or the built-ins' one.
 
-Two kernels can run any combination of built-in components (:func:`contour_gym._compile.bind`):
+Two kernels can run any combination of built-in components (:func:`contour_gym.jit.bind`):
 
 * the **built-ins' kernel** dispatches every built-in component by a code. It compiles once
-  per installation (:mod:`contour_gym._precompile`, ~70 s on 2 cores) and then runs every new
+  per installation (:mod:`contour_gym.jit.precompile`, ~70 s on 2 cores) and then runs every new
   combination at once;
 * the run's **own kernel** is bound to just the components the run uses. It runs ~10 % faster
   (the built-ins' kernel carries every component's code inline: twice the machine code of the
@@ -42,8 +42,9 @@ from typing import Protocol
 
 import numba
 
-from contour_gym import _compile, _precompile
-from contour_gym._stack import on_reserved_stack
+from contour_gym import jit
+from contour_gym.jit import precompile
+from contour_gym.jit.stack import on_reserved_stack
 
 BACKGROUND = "CONTOUR_GYM_BACKGROUND"  # "0": no background compiles
 OWN_WORKER = "own"  # IN_WORKER's value in a process compiling a run's own kernel
@@ -62,18 +63,18 @@ def choose(
     """The kernel module a run uses (module docstring).
 
     Args:
-        own: The run's own kernel module (:func:`_compile.specialise` of its components).
+        own: The run's own kernel module (:func:`jit.specialise` of its components).
         builtins: Makes the built-ins' kernel module (called only if that one is chosen).
-        warmup: The warm-up that compiles the built-ins' kernel (:mod:`_precompile`).
+        warmup: The warm-up that compiles the built-ins' kernel (:mod:`~contour_gym.jit.precompile`).
         owner: What to compile in the background when the run's own kernel is not compiled:
             pickled and run once by a worker (:meth:`CompilesOwn.compile_own`).
     """
-    worker = os.environ.get(_precompile.IN_WORKER)
-    if worker == OWN_WORKER or not _compile.needs_compile(own):
+    worker = os.environ.get(precompile.IN_WORKER)
+    if worker == OWN_WORKER or not jit.needs_compile(own):
         return own
     if worker:  # a warm-up worker: it compiles the built-ins' kernel
         return builtins()
-    if _precompile.is_done(warmup):
+    if precompile.is_done(warmup):
         _compile_own_later(owner)
         return builtins()
     _PENDING.add(warmup)  # started once this run's own kernel has compiled (start_pending)
@@ -98,7 +99,7 @@ def _enabled() -> bool:
 
 def _compile_builtins_later(warmup: str) -> None:
     if _enabled():
-        what = f"the built-in components' kernels ({_precompile.WARMUPS.get(warmup).doc})"
+        what = f"the built-in components' kernels ({precompile.WARMUPS.get(warmup).doc})"
         _detach("_builtins_main", warmup, f"builtins_{warmup}", what)
 
 
@@ -109,10 +110,10 @@ def _compile_own_later(owner: CompilesOwn) -> None:
         data = pickle.dumps(owner)
     except Exception:  # noqa: BLE001 - e.g. a Python reward defined in a script: no own kernel
         return
-    fd, path = tempfile.mkstemp(suffix=".pkl", dir=_compile.generated_dir())
+    fd, path = tempfile.mkstemp(suffix=".pkl", dir=jit.generated_dir())
     with os.fdopen(fd, "wb") as handle:
         handle.write(data)
-    env = {_precompile.IN_WORKER: OWN_WORKER}
+    env = {precompile.IN_WORKER: OWN_WORKER}
     if not _detach("_own_main", path, "own", "this combination's own, faster kernel", env):
         os.unlink(path)
 
@@ -120,7 +121,7 @@ def _compile_own_later(owner: CompilesOwn) -> None:
 def _detach(
     func: str, arg: str, slot: str, what: str, env: dict[str, str] | None = None
 ) -> bool:
-    """Start ``_tiers.func(arg, held)`` in a detached, niced interpreter unless ``slot`` is busy.
+    """Start ``tiers.func(arg, held)`` in a detached, niced interpreter unless ``slot`` is busy.
 
     ``held``: whether the process got the slot's lock (two requests may pass the probe at
     once; the one without the lock only cleans up). The process stops by itself once the
@@ -135,9 +136,9 @@ def _detach(
     if cache:
         full["NUMBA_CACHE_DIR"] = cache
     script = "\n".join([
-        "import os", "os.nice(19)", "from contour_gym import _tiers",
-        f"_tiers._watch({str(_compile.generated_dir())!r})",
-        f"with _tiers._holding({str(lock)!r}) as held:", f"    _tiers.{func}({arg!r}, held)",
+        "import os", "os.nice(19)", "from contour_gym.jit import tiers",
+        f"tiers._watch({str(jit.generated_dir())!r})",
+        f"with tiers._holding({str(lock)!r}) as held:", f"    tiers.{func}({arg!r}, held)",
     ])  # fmt: skip
     process = subprocess.Popen(
         [sys.executable, "-c", script], env=full, stdin=subprocess.DEVNULL,
@@ -164,7 +165,7 @@ def _watch(folder: str) -> None:
 
 
 def _lock(slot: str) -> Path:
-    return _compile.generated_dir() / f"background_{slot}.lock"
+    return jit.generated_dir() / f"background_{slot}.lock"
 
 
 def _busy(lock: Path) -> bool:
@@ -199,7 +200,7 @@ def _holding(lock: str) -> Iterator[bool]:
 def _builtins_main(warmup: str, held: bool = True) -> None:
     """A background process: compile the built-ins' kernels of ``warmup`` (no progress bar)."""
     if held:
-        on_reserved_stack(functools.partial(_precompile.compile_builtins, progress=False), [warmup])
+        on_reserved_stack(functools.partial(precompile.compile_builtins, progress=False), [warmup])
 
 
 def _own_main(path: str, held: bool = True) -> None:

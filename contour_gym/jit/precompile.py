@@ -29,9 +29,9 @@ from typing import IO
 
 import numba
 
-from contour_gym import _compile
+from contour_gym import jit
 from contour_gym._registry import Registry
-from contour_gym._stack import on_reserved_stack
+from contour_gym.jit.stack import on_reserved_stack
 
 IN_WORKER = "CONTOUR_GYM_COMPILE_WORKER"  # set in the workers: they compile in-process
 LAST_SECONDS: dict[str, float] = {}  # wall seconds of each warm-up this process ran
@@ -70,9 +70,9 @@ def register_warmup(warmup: Warmup, *, replace: bool = False) -> Warmup:
 
 def _marker(name: str) -> Path:
     key = hashlib.sha1(
-        "|".join((_compile._package_digest_once(), *_compile.builtin_packages(), name)).encode()
+        "|".join((jit.current_digest(), *jit.builtin_packages(), name)).encode()
     ).hexdigest()[:16]
-    return _compile.generated_dir() / f"warm_{name}_{key}.done"
+    return jit.generated_dir() / f"warm_{name}_{key}.done"
 
 
 def is_done(name: str) -> bool:
@@ -82,7 +82,7 @@ def is_done(name: str) -> bool:
 
 def pending(names: Sequence[str] | None = None) -> list[str]:
     """The warm-ups among ``names`` (default: all) and their prerequisites not yet done."""
-    _compile.builtin_packages()  # plugins register their warm-ups on import
+    jit.builtin_packages()  # plugins register their warm-ups on import
     todo: list[str] = []
 
     def visit(name: str) -> None:
@@ -114,7 +114,7 @@ def _spawn(name: str, errors: IO[str]) -> subprocess.Popen[str]:
     cache = str(getattr(numba.config, "CACHE_DIR", "") or "")
     if cache:
         env["NUMBA_CACHE_DIR"] = cache
-    code = "import sys; from contour_gym._precompile import main; main(*sys.argv[1:])"
+    code = "import sys; from contour_gym.jit.precompile import main; main(*sys.argv[1:])"
     return subprocess.Popen(
         [sys.executable, "-c", code, name, WARMUPS.get(name).target], env=env,
         stdout=subprocess.DEVNULL, stderr=errors, text=True,
@@ -141,7 +141,7 @@ def compile_builtins(
         return []  # a worker compiles in its own process, by running its warm-up
     if not pending(names):
         return []
-    with _locked(_compile.generated_dir() / "compile.lock"):
+    with _locked(jit.generated_dir() / "compile.lock"):
         todo = pending(names)  # another process may have compiled them meanwhile
         if todo:
             _run_all(todo, max(1, workers or os.cpu_count() or 1), progress)
@@ -286,21 +286,21 @@ class _Bar:
 # --------------------------------------------------------------------------------------
 # seconds: each group alone in a worker process on a 2-core machine (the built-ins' kernels),
 # for the progress bar's estimate; the loop then the env step is the longest chain. The
-# searches and estimators a kernel calls compile with it, whatever is cached (_compile), so
+# searches and estimators a kernel calls compile with it, whatever is cached (contour_gym.jit), so
 # only the env step waits: it calls the loop's kernels
-register_warmup(Warmup("loop", "contour_gym._warmups:servo_loop", doc="servo loop",
+register_warmup(Warmup("loop", "contour_gym.jit.warmups:servo_loop", doc="servo loop",
                        seconds=41.0))  # fmt: skip
-register_warmup(Warmup("path_api", "contour_gym._warmups:path_api",
+register_warmup(Warmup("path_api", "contour_gym.jit.warmups:path_api",
                        doc="path searches for plots", seconds=8.0))  # fmt: skip
-register_warmup(Warmup("env", "contour_gym._warmups:env_step", after=("loop",),
+register_warmup(Warmup("env", "contour_gym.jit.warmups:env_step", after=("loop",),
                        doc="env step", seconds=20.0))  # fmt: skip
-register_warmup(Warmup("estimators", "contour_gym._warmups:estimators",
+register_warmup(Warmup("estimators", "contour_gym.jit.warmups:estimators",
                        doc="estimator API", seconds=13.0))  # fmt: skip
-register_warmup(Warmup("axes", "contour_gym._warmups:axes",
+register_warmup(Warmup("axes", "contour_gym.jit.warmups:axes",
                        doc="axis controllers and single-axis plant", seconds=5.0))  # fmt: skip
 
 
 def main(name: str, target: str) -> None:
     """A worker's entry point: load the plugins, run warm-up ``name`` (its ``target``)."""
-    _compile.builtin_packages()  # the plugins' components
+    jit.builtin_packages()  # the plugins' components
     on_reserved_stack(run_warmup, name, target)

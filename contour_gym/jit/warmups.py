@@ -1,4 +1,4 @@
-"""The package's warm-ups (:mod:`contour_gym._precompile`): tiny runs that compile its kernels.
+"""The package's warm-ups (:mod:`contour_gym.jit.precompile`): tiny runs that compile its kernels.
 
 Each kernel of the built-in components is one for every combination of them, so one run of
 any combination compiles it for all.

@@ -1,0 +1,106 @@
+"""What a first run shows and counts while numba compiles: a progress line, and a census.
+
+:func:`compiling` shows a progress line while a block compiles kernels in this process (a
+kernel specialised to a user's component; the built-ins' kernels compile in worker processes,
+:mod:`contour_gym.jit.precompile`). :func:`census` counts the typed IR numba compiled in this
+process: ``tests/test_compile_budget.py`` holds a first run's count to a budget.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import sys
+import threading
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+from numba.core import event
+
+OWN_KERNEL_SECONDS = 20.0
+"""About how long one kernel compiles in-process on a 2-core machine (20-22 s for 004's machine;
+``benchmarks/cold_start.py``: ``contour-gym simulate`` 27 s in all, the README's toy estimator
+19 s), for the progress line."""
+
+
+class _Progress(event.Listener):
+    """A progress line on stderr while numba compiles: what, how long to expect, the time so far."""
+
+    def __init__(self, label: str) -> None:
+        from tqdm.auto import tqdm
+
+        desc = (f"contour-gym: compiling {label} "
+                f"(first run only, about {OWN_KERNEL_SECONDS:.0f} s on 2 cores)")  # fmt: skip
+        self.bar = tqdm(total=None, file=sys.stderr, desc=desc,
+                        bar_format="{desc} [{elapsed}] {postfix}")  # fmt: skip
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self._tick, daemon=True)
+        self.thread.start()
+
+    def _tick(self) -> None:
+        while not self.stop.wait(0.5):
+            if sys.stderr.isatty():  # redrawn in place; a log file gets the start and end
+                self.bar.refresh()
+
+    def on_start(self, ev: event.Event) -> None:
+        func = getattr(ev.data.get("dispatcher"), "py_func", None)
+        self.bar.set_postfix_str(f"now: {getattr(func, '__qualname__', '?')}", refresh=False)
+
+    def on_end(self, ev: event.Event) -> None:
+        pass
+
+    def close(self) -> None:
+        self.stop.set()
+        self.thread.join()
+        self.bar.set_postfix_str("done", refresh=False)
+        self.bar.close()
+
+
+@contextlib.contextmanager
+def compiling(label: str, show: bool = True) -> Iterator[None]:
+    """Show a progress line while the block compiles kernels in this process (if ``show``).
+
+    Used for kernels specialised to a user's component (the built-ins' kernels compile in
+    worker processes: :mod:`contour_gym.jit.precompile`).
+    """
+    if not show:
+        yield
+        return
+    progress = _Progress(label)
+    try:
+        with event.install_listener("numba:compile", progress):
+            yield
+    finally:
+        progress.close()
+
+
+@dataclass(frozen=True)
+class Census:
+    """What numba compiled in this process: a measure of a first run's compile work.
+
+    Attributes:
+        functions: Compiled signatures (a function compiled for two signatures counts twice).
+        statements: Statements of their typed IR, numba-inlined code included: a number that
+            does not depend on the machine or its load, and grows with the compile's time.
+    """
+
+    functions: int
+    statements: int
+
+
+def census() -> Census:
+    """Count what numba compiled in this process (not what it loaded from its cache)."""
+    import gc
+
+    from numba.core.dispatcher import Dispatcher
+
+    functions = statements = 0
+    for obj in gc.get_objects():
+        if not isinstance(obj, Dispatcher):
+            continue
+        for result in obj.overloads.values():
+            annotation = getattr(result, "type_annotation", None)
+            if annotation is None:  # loaded from the cache
+                continue
+            functions += 1
+            statements += sum(len(block.body) for block in annotation.blocks.values())
+    return Census(functions, statements)
