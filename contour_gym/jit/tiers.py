@@ -65,7 +65,7 @@ def choose(
     Args:
         own: The run's own kernel module (:func:`jit.specialise` of its components).
         builtins: Makes the built-ins' kernel module (called only if that one is chosen).
-        warmup: The warm-up that compiles the built-ins' kernel (:mod:`~contour_gym.jit.precompile`).
+        warmup: The warm-up that compiles the built-ins' kernel (``jit.precompile``).
         owner: What to compile in the background when the run's own kernel is not compiled:
             pickled and run once by a worker (:meth:`CompilesOwn.compile_own`).
     """

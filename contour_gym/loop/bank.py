@@ -1,9 +1,9 @@
 """The servo loop's paths: each member its own, in one path bank the kernels slice per member.
 
-:class:`LoopPaths` is a base of :class:`contour_gym.loop.ServoLoop`. A loop starts with every
-member on the path it was built with; :meth:`LoopPaths.set_paths` gives members paths of their
-own (a vector env's members draw one at each reset). The distinct paths are stored once each,
-one after the other, in the path bank (:func:`contour_gym.loop.build.path_bank`); the int
+:class:`PathBank` is held by :class:`contour_gym.loop.ServoLoop` (``loop.bank``). A loop starts
+with every member on the path it was built with; :meth:`PathBank.set_paths` gives members paths
+of their own (a vector env's members draw one at each reset). The distinct paths are stored once
+each, one after the other, in the path bank (:func:`contour_gym.loop.build.path_bank`); the int
 blob's ``p_at`` says where each member's segments lie, and the bank's ``member`` rows hold each
 member's path scalars (length, closed). The kernels carve a member's views of its own part once
 per call (:func:`contour_gym.loop.state.member_path`): new paths change the arrays' sizes, never
@@ -23,24 +23,36 @@ from numpy.typing import ArrayLike, NDArray
 
 from contour_gym import motion
 from contour_gym.loop.build import path_bank
-from contour_gym.loop.state import CF, MP
-from contour_gym.loop.views import Array, LoopViews
-from contour_gym.motion import IP, build_program
+from contour_gym.loop.options import LoopOptions
+from contour_gym.loop.state import MP
+from contour_gym.loop.views import member_indices
+from contour_gym.motion import build_program
 from contour_gym.paths import Path
+from contour_gym.plant.stage import Stage
+
+Array = NDArray[np.float64]
 
 
-class LoopPaths(LoopViews):
-    """Each member's path, its program and the path bank (a base of ServoLoop)."""
+class PathBank:
+    """Each member's path, its program, and the bank the kernels read them from.
 
-    interpolator: motion.Interpolator
-    opts: Any  # contour_gym.loop.LoopOptions
-    _config: Array
-    _paths: list[Path]  # member b's path
-    _programs: list[motion.Program]  # member b's program (the same object for a shared path)
-    _slot: NDArray[np.int64]  # member b's path in the bank (index into _bank_paths)
-    _bank_paths: list[Path]
-    _firsts: Array  # (paths in the bank, dim) each bank path's first point, m
-    _starts: Array  # (paths in the bank, A) axis positions at each bank path's start, m
+    Args:
+        stage: The machine.
+        interpolator: The feeds' settings (a member's program is built with them).
+        opts: The loop's options (path control, tolerance, program feeds, settle time).
+        batch: Number of members B.
+        path: The path every member starts on.
+        offsets: (C, 3) each contour's origin in the axes' frame, m.
+    """
+
+    def __init__(self, stage: Stage, interpolator: motion.Interpolator, opts: LoopOptions,
+                 batch: int, path: Path, offsets: Array) -> None:  # fmt: skip
+        self.stage, self.interpolator, self.opts = stage, interpolator, opts
+        self.batch_size, self._offsets = batch, offsets
+        program = self._build_program(path)
+        self._paths: list[Path] = [path] * batch  # member b's path
+        self._programs = [program] * batch  # its program (one object for a shared path)
+        self._build()
 
     # ------------------------------------------------------------- the paths
     @property
@@ -84,14 +96,8 @@ class LoopPaths(LoopViews):
             use_program_feeds=self.opts.use_program_feeds,
         )  # fmt: skip
 
-    def _init_paths(self, path: Path) -> None:
-        # every member on ``path`` (construction)
-        program = self._build_program(path)
-        self._paths = [path] * self.batch_size
-        self._programs = [program] * self.batch_size
-
     def set_paths(self, paths: Path | Sequence[Path], members: ArrayLike | None = None) -> None:
-        """Give members paths of their own (they start them at their next :meth:`reset`).
+        """Give members paths of their own (they start them at their next reset).
 
         Nothing compiles: the path bank changes size, not type. A member's program is built
         from its path with the loop's interpolator and path options.
@@ -106,9 +112,7 @@ class LoopPaths(LoopViews):
                 left on different paths where one of them carries a time law (a time-law
                 path may only be shared by all members).
         """
-        idx = np.arange(self.batch_size)
-        if members is not None:
-            idx = idx[np.asarray(members)].reshape(-1)
+        idx = member_indices(self.batch_size, members)
         given = [paths] * len(idx) if isinstance(paths, Path) else list(paths)
         if len(given) != len(idx):
             raise ValueError(f"need one path or {len(idx)} paths (one per member), got "
@@ -128,11 +132,11 @@ class LoopPaths(LoopViews):
                 self.stage.check_travel(path)
                 programs[id(path)] = self._build_program(path)
         self._paths, self._programs = new, [programs[id(p)] for p in new]
-        self._build_bank()
+        self._build()
 
-    def _build_bank(self) -> None:
-        # the bank of the distinct member paths, p_at, the config's time law step, the starts
-        # (each bank path's first point, and the axis positions there)
+    def _build(self) -> None:
+        # the bank of the distinct member paths, p_at, the starts (each bank path's first
+        # point, and the axis positions there)
         slots: dict[int, int] = {}
         for path in self._paths:
             slots.setdefault(id(path), len(slots))
@@ -140,10 +144,7 @@ class LoopPaths(LoopViews):
         programs = list({id(p): prog for p, prog in zip(self._paths, self._programs,
                                                        strict=True)}.values())  # fmt: skip
         self._slot = np.array([slots[id(p)] for p in self._paths], dtype=np.int64)
-        self._pblob, self._kind, p_at = path_bank(self._bank_paths, programs, self._slot)
-        self.p_at[...] = p_at
-        law = self._bank_paths[0].time_law
-        self._config[CF.law_dt] = 1.0 if law is None else law.dt
+        self._pblob, self._kind, self.p_at = path_bank(self._bank_paths, programs, self._slot)
         self._firsts = np.stack([p.point(0.0) for p in self._bank_paths])
         self._starts = np.stack([self._start_of(q) for q in self._firsts])
 
@@ -152,29 +153,41 @@ class LoopPaths(LoopViews):
         out = np.zeros(self.stage.n_axes)
         for i, con in enumerate(self.stage.contours):
             for j in range(con.dim):
-                out[con.axes[j]] = start[j] + self.c_off[i, j]
+                out[con.axes[j]] = start[j] + self._offsets[i, j]
         return out
 
     def start_positions(self, member: int = 0) -> Array:
         """(A,) axis positions at the start of member ``member``'s path (offsets included), m."""
         return self._starts[self._slot[member]].copy()
 
-    def _start_points(self, idx: NDArray[np.intp]) -> Array:
-        # (len(idx), dim) the start points of members idx's paths
+    def start_points(self, idx: NDArray[np.intp]) -> Array:
+        """(len(idx), dim) the first points of members ``idx``'s paths, m."""
         return self._firsts[self._slot[idx]]
 
+    def start_axes(self, idx: NDArray[np.intp]) -> Array:
+        """(len(idx), A) the axis positions at the start of members ``idx``'s paths, m."""
+        return self._starts[self._slot[idx]]
+
+    @property
+    def time_step(self) -> float:
+        """The time law's step, s (1 without one): a time-law path is every member's."""
+        law = self._bank_paths[0].time_law
+        return 1.0 if law is None else law.dt
+
     # ------------------------------------------------------------- planning
-    def planned_time(self, override: float | None = None, member: int | None = None) -> float:
+    def planned_time(self, overrides: Array, f_max: float, override: float | None = None,
+                     member: int | None = None) -> float:  # fmt: skip
         """A generous estimate of one contour's duration, s.
 
         Args:
+            overrides: (B,) each member's feed override.
+            f_max: The machine's highest feed, m/s.
             override: Feed override to plan at (default: the member's, or the slowest
                 member's).
             member: The member whose path to plan (default: the longest of every member's).
         """
-        ovr_of = self.ip_p[:, IP.ovr] if member is None else self.ip_p[member : member + 1, IP.ovr]
+        ovr_of = overrides if member is None else overrides[member : member + 1]
         slowest = max(float(ovr_of.min()) if override is None else override, 1e-9)
-        f_max = float(self.ip_p[:, IP.f_max].min())
         if member is not None:
             return self._plan(self._paths[member], self._programs[member], slowest, f_max)
         programs = {id(p): prog for p, prog in zip(self._paths, self._programs, strict=True)}
@@ -194,7 +207,7 @@ class LoopPaths(LoopViews):
     def programmed_feedrate(self, member: int = 0) -> float:
         """Member ``member``'s highest programmed feed on a cutting segment, m/s.
 
-        The loop's :attr:`nominal_feedrate` on a plain path (or a part run at one feed); a
+        The loop's ``nominal_feedrate`` on a plain path (or a part run at one feed); a
         part's highest F word when run at its own feeds (:func:`contour_gym.make_scenario`'s
         nominal for a G-code part).
         """
@@ -203,7 +216,7 @@ class LoopPaths(LoopViews):
         feeds = program.feed[cut] if cut.any() else program.feed
         return float(np.max(feeds))
 
-    def path_blobs(self) -> tuple[NDArray[np.int64], NDArray[Any], NDArray[np.int64]]:
+    def blobs(self) -> tuple[NDArray[np.int64], NDArray[Any], NDArray[np.int64]]:
         """The path bank's segment kinds, float blob and layout (what compiled callers take)."""
         return self._kind, self._pblob.buffer, self._pblob.layout
 
@@ -218,4 +231,4 @@ def _check_time_laws(paths: Sequence[Path]) -> None:
         )
 
 
-__all__ = ["LoopPaths"]
+__all__ = ["PathBank"]

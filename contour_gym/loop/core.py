@@ -39,7 +39,8 @@ from contour_gym.contour import ESTIMATORS, Estimator, get_estimator
 from contour_gym.contour.base import ESTIMATOR_FAMILY
 from contour_gym.jit import precompile, tiers
 from contour_gym.jit.stack import on_reserved_stack
-from contour_gym.loop.bank import LoopPaths
+from contour_gym.loop.axis import LOOP_TEMPLATE, simulate_axis
+from contour_gym.loop.bank import PathBank
 from contour_gym.loop.build import (
     axis_arrays,
     config_row,
@@ -52,7 +53,7 @@ from contour_gym.loop.noise import NOISE_CHUNK as NOISE_CHUNK  # re-exported
 from contour_gym.loop.noise import NoiseSource, draws_noise, member_generators
 from contour_gym.loop.options import DEFAULT_SETTLE as DEFAULT_SETTLE  # re-exported
 from contour_gym.loop.options import LoopOptions as LoopOptions  # re-exported
-from contour_gym.loop.parameters import LoopParameters
+from contour_gym.loop.parameters import Parameters
 from contour_gym.loop.record import MAX_RECORD_BYTES, Recorder, Trace
 from contour_gym.loop.state import (
     CF,
@@ -68,19 +69,15 @@ from contour_gym.loop.state import (
     STATUS_PAUSED,
 )
 from contour_gym.loop.threads import ThreadChoice, check_threads, run_parts, split
+from contour_gym.loop.views import LoopViews, member_indices
 from contour_gym.metrics import ErrorSums, metrics_from_sums
+from contour_gym.motion import IP
 from contour_gym.paths import Path
-from contour_gym.plant._kernel import ST, STATE
-from contour_gym.plant.friction import FRICTION_FAMILY, FRICTION_LAWS, law_for
-from contour_gym.plant.params import AxisParams
+from contour_gym.plant._kernel import ST
+from contour_gym.plant.friction import FRICTION_FAMILY, FRICTION_LAWS
 from contour_gym.plant.stage import (
     Stage,
-    axis_row,
-    disturbance_row,
     friction_laws,
-    friction_row,
-    ripple_rows,
-    zoh_matrices,
 )
 from contour_gym.servo import CONTROLLERS, PIDGains, build_controller, compensation
 from contour_gym.servo.base import CONTROLLER_FAMILY
@@ -92,19 +89,18 @@ Array = NDArray[np.float64]
 _CODED = {"ctrl": CONTROLLER_FAMILY, "est": ESTIMATOR_FAMILY, "ccc": CCC_FAMILY,
           "comp": COMPENSATION_FAMILY}  # fmt: skip
 MAX_RUN_TICKS = 200_000_000  # ticks one run() may take (55 h of machine time at 1 kHz)
-LOOP_TEMPLATE = "contour_gym.loop.kernel"  # the servo loop's kernel template (contour_gym.jit)
 
 
-class ServoLoop(LoopPaths, LoopParameters):
+class ServoLoop(LoopViews):
     """Batched closed loop over one stage; its members on one path, or each on its own.
 
     The arrays of its blobs are attributes (``loop.ax_s``, ``loop.status``, ...: views written
     in place, declared in :class:`contour_gym.loop.views.LoopViews` with the state read-outs
-    ``done``, ``failed``, ``cycle_time`` ...); the parameter setters (``set_ccc_gains``,
-    ``set_feedrate``, ``set_plant_scaling`` ...) are those of
-    :class:`contour_gym.loop.parameters.LoopParameters`; members get paths of their own with
-    ``set_paths`` (:class:`contour_gym.loop.bank.LoopPaths`: ``path``, ``paths``,
-    ``programs``, ``planned_time`` ...).
+    ``done``, ``failed``, ``cycle_time`` ...). It holds two parts: its parameter setter
+    ``parameters`` (:class:`~contour_gym.loop.parameters.Parameters`: ``set_ccc_gains``,
+    ``set_feedrate``, ``set_plant_scaling`` ...) and its path bank ``bank``
+    (:class:`~contour_gym.loop.bank.PathBank`: ``set_paths``, ``path``, ``paths``,
+    ``planned_time`` ...); the loop's methods of the same names call them.
 
     Args:
         stage: The machine.
@@ -160,16 +156,16 @@ class ServoLoop(LoopPaths, LoopParameters):
         self.estimator = get_estimator(self.opts.estimator, **(self.opts.estimator_options or {}))
         self.ccc_law = CCC_LAWS.get(self.opts.ccc_law)
         self.law_names = friction_laws(stage)
-        self._init_paths(path)
+        self.bank = PathBank(stage, interpolator, self.opts, b, path, contour_offsets(stage))
         self._bind(bool(np.any(comp_p[..., compensation.C.mode] != compensation.NONE)))
         self._build_blobs(self._parameter_arrays(ctrl_p, comp_p, ccc_gains, ccc_weights))
         self._config = self._config_row()
-        self._build_bank()
+        self._sync_bank()
+        self.parameters = Parameters(self, self.ccc_law, interpolator)
         self._kernel: ModuleType | None = None  # chosen on first use (kernel)
         self._recorder = Recorder(b, stage.n_axes, len(stage.contours))
         self._marked = False  # mark_compiled done (advance)
         self._no_record = self._recorder.empty
-        self._nominal = (self.ax_p.copy(), self.fr_p.copy(), self.dist.copy())
         self.reset(0)
 
     # --------------------------------------------------------------- building
@@ -220,6 +216,102 @@ class ServoLoop(LoopPaths, LoopParameters):
         generic = jit.is_generic(self._slots)
         self._own_slots = jit.bind(uses, own=True)[0] if generic else self._slots
 
+    # ------------------------------------------- the held parts: paths, parameters
+    def _sync_bank(self) -> None:
+        # the bank's member rows and time step into the loop's arrays (after any change)
+        self.p_at[...] = self.bank.p_at
+        self._config[CF.law_dt] = self.bank.time_step
+
+    def set_paths(self, paths: Path | Sequence[Path], members: ArrayLike | None = None) -> None:
+        """Give members paths of their own (:meth:`PathBank.set_paths`; from the next reset)."""
+        self.bank.set_paths(paths, members)
+        self._sync_bank()
+
+    @property
+    def path(self) -> Path:
+        """The path every member runs when they share one; else member 0's (:attr:`paths`)."""
+        return self.bank.path
+
+    @property
+    def paths(self) -> tuple[Path, ...]:
+        """(B,) each member's path."""
+        return self.bank.paths
+
+    @property
+    def program(self) -> motion.Program:
+        """The program of :attr:`path` (member 0's)."""
+        return self.bank.program
+
+    @property
+    def programs(self) -> tuple[motion.Program, ...]:
+        """(B,) each member's program."""
+        return self.bank.programs
+
+    @property
+    def path_lengths(self) -> Array:
+        """(B,) each member's path length, m."""
+        return self.bank.path_lengths
+
+    @property
+    def shares_path(self) -> bool:
+        """Whether every member runs the same path."""
+        return self.bank.shares_path
+
+    def start_positions(self, member: int = 0) -> Array:
+        """(A,) axis positions at the start of ``member``'s path (offsets included), m."""
+        return self.bank.start_positions(member)
+
+    def planned_time(self, override: float | None = None, member: int | None = None) -> float:
+        """A generous estimate of one contour's duration, s (:meth:`PathBank.planned_time`)."""
+        f_max = float(self.ip_p[:, IP.f_max].min())
+        return self.bank.planned_time(self.ip_p[:, IP.ovr], f_max, override, member)
+
+    def programmed_feedrate(self, member: int = 0) -> float:
+        """``member``'s highest programmed cutting feed, m/s (the bank's, of the same name)."""
+        return self.bank.programmed_feedrate(member)
+
+    def path_blobs(self) -> tuple[NDArray[np.int64], NDArray[Any], NDArray[np.int64]]:
+        """The path bank's segment kinds, float blob and layout (what compiled callers take)."""
+        return self.bank.blobs()
+
+    def set_ccc_gains(self, gains: ArrayLike | None, members: ArrayLike | None = None) -> None:
+        """Set the CCC gains (kp, ki, kd) (:meth:`Parameters.set_ccc_gains`)."""
+        self.parameters.set_ccc_gains(gains, members)
+
+    def set_ccc_params(self, **params: ArrayLike) -> None:
+        """Set the CCC law's named parameters, each broadcastable to (B, C)."""
+        self.parameters.set_ccc_params(**params)
+
+    def set_ccc_weights(self, weights: ArrayLike) -> None:
+        """Set per-member CCC output weights (:meth:`Parameters.set_ccc_weights`)."""
+        self.parameters.set_ccc_weights(weights)
+
+    @property
+    def nominal_feedrate(self) -> float:
+        """The programmed cutting feedrate the override refers to, m/s."""
+        return self.parameters.nominal_feedrate
+
+    def set_feedrate(self, feedrate: ArrayLike) -> None:
+        """Command a feedrate (m/s), scalar or (B,): the override ``F / nominal_feedrate``."""
+        self.parameters.set_feedrate(feedrate)
+
+    def set_feed_override(self, override: ArrayLike, members: ArrayLike | None = None) -> None:
+        """Set the feed override (:meth:`Parameters.set_feed_override`)."""
+        self.parameters.set_feed_override(override, members)
+
+    @property
+    def feedrate(self) -> Array:
+        """(B,) commanded feedrate of the cutting moves, m/s (before the machine's cap)."""
+        return self.parameters.feedrate
+
+    def set_controller_params(self, params: ArrayLike) -> None:
+        """Set per-member axis controller parameters, broadcastable to (B, A, P)."""
+        self.parameters.set_controller_params(params)
+
+    def set_plant_scaling(self, members: ArrayLike, **factors: ArrayLike) -> None:
+        """Scale members' axis parameters (:meth:`Parameters.set_plant_scaling`)."""
+        self.parameters.set_plant_scaling(members, **factors)
+
     # ---------------------------------------------------------------- kernel
     def describe(self) -> str:
         """The components of this loop, in one line."""
@@ -267,7 +359,6 @@ class ServoLoop(LoopPaths, LoopParameters):
         # components are pickled by name (and the estimator with its option row) and looked
         # up in their registries again on load; the views are made again from the blobs
         names = set(self._fblob.views) | set(self._iblob.views) | {"sums", "_kernel"}
-        names |= {"_pblob", "_kind", "_slot", "_bank_paths", "_firsts", "_starts"}  # built again
         state = {k: v for k, v in self.__dict__.items() if k not in names}
         state["controller"] = self.controller.name
         state["ccc_law"] = self.ccc_law.name
@@ -281,6 +372,7 @@ class ServoLoop(LoopPaths, LoopParameters):
         self.__dict__.setdefault("_reset_tick", np.zeros(self.batch_size, dtype=np.int64))
         self.controller = CONTROLLERS.get(state["controller"])  # type: ignore[arg-type]
         self.ccc_law = CCC_LAWS.get(state["ccc_law"])  # type: ignore[arg-type]
+        self.parameters.ccc_law = self.ccc_law
         est_name, est_params = cast(tuple[str, Array], state["estimator"])
         self.estimator = Estimator(ESTIMATORS.get(est_name), est_params)
         self.sums = ErrorSums(self.ep_c, self.ep_a)
@@ -291,7 +383,6 @@ class ServoLoop(LoopPaths, LoopParameters):
                              f"{self.codes}")
         self._kernel = None
         self._marked = False
-        self._build_bank()
 
     # ----------------------------------------------------------------- state
     def _restart_clock(self) -> None:
@@ -314,14 +405,14 @@ class ServoLoop(LoopPaths, LoopParameters):
         """
         if members is None:
             self._restart_clock()
-        idx = self._members(members)
-        start = self._starts[self._slot[idx]]  # each member at its own path's start
+        idx = member_indices(self.batch_size, members)
+        start = self.bank.start_axes(idx)  # each member at its own path's start
         for arr in (self.ctrl_s, self.comp_s, self.ccc_s, self.hist, self.last, self.u_cmd,
                     self.mem, self.ax_s, self.foot):  # fmt: skip
             arr[idx] = 0.0
         self.ax_s[idx, :, ST.x] = start
         self.y_last[idx] = start
-        q0, dim = self._start_points(idx)[:, None, :], self.stage.dim
+        q0, dim = self.bank.start_points(idx)[:, None, :], self.stage.dim
         self.foot[idx, :, FT.qx : FT.qx + dim] = q0
         self.foot[idx, :, FT.e_qx : FT.e_qx + dim] = q0
         self.ip_s[idx] = motion.initial_state(len(idx))
@@ -382,8 +473,7 @@ class ServoLoop(LoopPaths, LoopParameters):
         noise = self._noise.take(n_ticks, self.status, self.noise_at)
         rec = self._recorder.new(n_ticks) if self.record else self._no_record
         args = (n_ticks, self.tick, self._config, self._fblob.buffer, self._fblob.layout,
-                self._iblob.buffer, self._iblob.layout, self._kind, self._pblob.buffer,
-                self._pblob.layout, noise, rec)  # fmt: skip
+                self._iblob.buffer, self._iblob.layout, *self.bank.blobs(), noise, rec)  # fmt: skip
         call, head = (self.kernel.run_ticks, args) if via is None else (via, (*leading, *args))
         result = self._run_parts(call, head, n_ticks)
         if result is False:
@@ -563,48 +653,6 @@ def _check_sizes(stage: Stage, path: Path, axis_gains: Sequence[PIDGains], batch
         )
     if len(axis_gains) != stage.n_axes:
         raise ValueError(f"need {stage.n_axes} axis gains, got {len(axis_gains)}")
-
-
-def simulate_axis(
-    axis: AxisParams,
-    controls: ArrayLike,
-    *,
-    ts: float = 1e-3,
-    substeps: int = 1,
-    x0: float = 0.0,
-    v0: float = 0.0,
-    noise: ArrayLike | None = None,
-) -> tuple[Array, Array, Array]:
-    """Drive one axis open-loop through the servo loop's own plant step (tests, studies).
-
-    Args:
-        axis: The axis.
-        controls: (n,) control held over each tick.
-        ts: Tick, s.
-        substeps: Plant substeps per tick.
-        x0: Initial position, m.
-        v0: Initial velocity, m/s.
-        noise: (n,) standard normals for a random disturbance (default zeros).
-
-    Returns:
-        ``(positions (n,), velocities (n,), final state row)`` after each tick.
-    """
-    u = np.ascontiguousarray(as_finite_array(controls, "controls", ndim=1))
-    n = u.shape[0]
-    w = np.zeros(n) if noise is None else np.ascontiguousarray(
-        as_finite_array(noise, "noise", shape=(n,)))  # fmt: skip
-    law = law_for(axis.friction)
-    slots, codes = jit.bind({FRICTION_FAMILY: [law]})
-    ax = axis_row(axis, codes[FRICTION_FAMILY.name][0], ideal=True)[None]
-    ad, bd = zoh_matrices(ax, positive(ts, "ts") / substeps)
-    st = np.zeros((1, STATE.size))
-    st[0, ST.x], st[0, ST.v] = x0, v0
-    kernel = jit.specialise(LOOP_TEMPLATE, slots)
-    xs, vs = np.zeros(n), np.zeros(n)
-    kernel.drive_axis(ax, friction_row(axis)[None], ripple_rows(axis)[None],
-                      disturbance_row(axis, ts)[None], ad, bd, st, u, 0.0, ts, substeps, w, xs,
-                      vs)  # fmt: skip
-    return xs, vs, st[0].copy()
 
 
 def _options(options: dict[str, Any]) -> LoopOptions:

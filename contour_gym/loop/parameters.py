@@ -1,8 +1,9 @@
 """The servo loop's searched parameters: CCC gains and weights, feed, controller, plant scaling.
 
-:class:`LoopParameters` is a base of :class:`contour_gym.loop.ServoLoop`: its setters write
-checked values in place into the loop's parameter arrays (:mod:`contour_gym.loop.views`), per
-batch member where optimisers, agents and domain randomisation need them to differ.
+:class:`Parameters` is held by :class:`contour_gym.loop.ServoLoop` (``loop.parameters``; the
+loop's setters of the same names call it): it writes checked values in place into the loop's
+parameter arrays (:mod:`contour_gym.loop.views`), per batch member where optimisers, agents and
+domain randomisation need them to differ.
 """
 
 from __future__ import annotations
@@ -12,19 +13,31 @@ from numpy.typing import ArrayLike, NDArray
 
 from contour_gym._validate import as_finite_array
 from contour_gym.ccc import CCCLaw, ccc_params
-from contour_gym.loop.views import Array, LoopViews
+from contour_gym.loop.views import Array, LoopViews, member_indices
 from contour_gym.motion import IP, Interpolator
 from contour_gym.plant._kernel import AX, DISTURBANCE
 from contour_gym.plant.friction import law_for
 from contour_gym.plant.stage import zoh_matrices
 
 
-class LoopParameters(LoopViews):
-    """Setters of the parameters optimisers and agents search (a base of ServoLoop)."""
+class Parameters:
+    """Setters of the parameters optimisers and agents search, on one loop's arrays.
 
-    ccc_law: CCCLaw
-    interpolator: Interpolator
-    _nominal: tuple[Array, Array, Array]  # the stage's ax_p, fr_p, dist before any scaling
+    Args:
+        loop: The loop's arrays (its :class:`~contour_gym.loop.views.LoopViews`).
+        ccc_law: The loop's CCC law.
+        interpolator: The loop's feed settings.
+    """
+
+    def __init__(self, loop: LoopViews, ccc_law: CCCLaw, interpolator: Interpolator) -> None:
+        self.loop, self.ccc_law, self.interpolator = loop, ccc_law, interpolator
+        self.stage, self.batch_size = loop.stage, loop.batch_size
+        # the stage's ax_p, fr_p, dist before any scaling
+        self._nominal = (loop.ax_p.copy(), loop.fr_p.copy(), loop.dist.copy())
+
+    def __getstate__(self) -> dict[str, object]:
+        # the law is pickled by name with its loop, which gives it back on load
+        return {k: v for k, v in self.__dict__.items() if k != "ccc_law"}
 
     def set_ccc_gains(self, gains: ArrayLike | None, members: ArrayLike | None = None) -> None:
         """Set the CCC gains (kp, ki, kd); None switches the CCC off.
@@ -35,22 +48,20 @@ class LoopParameters(LoopViews):
         """
         idx = self._members(members)
         rows = ccc_params(gains, len(idx), len(self.stage.contours))
-        self.ccc_p[idx, :, :3] = rows[..., :3]
+        self.loop.ccc_p[idx, :, :3] = rows[..., :3]
 
     def _members(self, members: ArrayLike | None) -> NDArray[np.intp]:
-        # the indices of ``members`` (indices or a mask; None: every member)
-        every = np.arange(self.batch_size)
-        return every if members is None else every[np.asarray(members)].reshape(-1)
+        return member_indices(self.batch_size, members)
 
     def set_ccc_params(self, **params: ArrayLike) -> None:
         """Set the CCC law's named parameters, each broadcastable to (B, C)."""
         schema = self.ccc_law.params
         schema.check_names(params)
         for name, value in params.items():
-            arr = np.broadcast_to(as_finite_array(value, name), self.ccc_p.shape[:2])
+            arr = np.broadcast_to(as_finite_array(value, name), self.loop.ccc_p.shape[:2])
             for x in np.unique(arr):
                 schema.value(name, x)
-            self.ccc_p[..., schema.names.index(name)] = arr
+            self.loop.ccc_p[..., schema.names.index(name)] = arr
 
     def set_ccc_weights(self, weights: ArrayLike) -> None:
         """Set per-member CCC output weights, broadcastable to (B, C, 3).
@@ -62,7 +73,7 @@ class LoopParameters(LoopViews):
         Raises:
             ValueError: for a NaN or infinite weight or a shape that does not broadcast.
         """
-        _assign(self.ccc_w, weights, "ccc_weights")
+        _assign(self.loop.ccc_w, weights, "ccc_weights")
 
     @property
     def nominal_feedrate(self) -> float:
@@ -87,19 +98,19 @@ class LoopParameters(LoopViews):
         if np.any(o < 0):
             raise ValueError(f"feed override must be >= 0, got {o.min()}")
         idx = self._members(members)
-        self.ip_p[idx, IP.ovr] = np.broadcast_to(o, (len(idx),))
+        self.loop.ip_p[idx, IP.ovr] = np.broadcast_to(o, (len(idx),))
 
     @property
     def feedrate(self) -> Array:
         """(B,) commanded feedrate of the cutting moves, m/s (before the machine's cap)."""
-        return self.ip_p[:, IP.ovr] * self.nominal_feedrate
+        return self.loop.ip_p[:, IP.ovr] * self.nominal_feedrate
 
     def set_controller_params(self, params: ArrayLike) -> None:
         """Set per-member axis controller parameters, broadcastable to (B, A, P).
 
         The columns are the controller's schema (``loop.controller.params.col``).
         """
-        _assign(self.ctrl_p, params, "controller params")
+        _assign(self.loop.ctrl_p, params, "controller params")
 
     def set_plant_scaling(
         self,
@@ -132,8 +143,9 @@ class LoopParameters(LoopViews):
                 fr_p[:, a, law.params.names.index(name)] *= f["friction"][:, a]
         for name in ("step_a", "sin_a", "rnd_std"):
             dist[..., DISTURBANCE.names.index(name)] *= f["disturbance"]
-        self.ax_p[idx], self.fr_p[idx], self.dist[idx] = ax_p, fr_p, dist
-        self.ad[idx], self.bd[idx] = zoh_matrices(ax_p, self.stage.ts / self.stage.substeps)
+        loop = self.loop
+        loop.ax_p[idx], loop.fr_p[idx], loop.dist[idx] = ax_p, fr_p, dist
+        loop.ad[idx], loop.bd[idx] = zoh_matrices(ax_p, self.stage.ts / self.stage.substeps)
 
 
 def _scale_factors(shape: tuple[int, int], **factors: ArrayLike) -> dict[str, Array]:

@@ -17,7 +17,7 @@ import typing
 from typing import Any, Generic, TypeVar
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from contour_gym._blob import Blob
 from contour_gym.loop.state import (
@@ -211,6 +211,12 @@ class LoopViews:
     def blobs(self) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any], NDArray[Any]]:
         """The float and int blobs and their layouts (what compiled callers take)."""
         return self._fblob.buffer, self._fblob.layout, self._iblob.buffer, self._iblob.layout
+
+
+def member_indices(batch: int, members: ArrayLike | None) -> NDArray[np.intp]:
+    """The indices of ``members`` (indices or a boolean mask; None: every member of ``batch``)."""
+    every = np.arange(batch)
+    return every if members is None else every[np.asarray(members)].reshape(-1)
 
 
 def _check_declared() -> None:
