@@ -122,7 +122,7 @@ class EnvPool:
         key = json.dumps([env_id, kwargs, count, record], sort_keys=True, default=repr)
         if key not in self._envs:
             self._envs[key] = make_vector_env(env_id, policy, num_envs=count, record=record,
-                                              **scenario.kwargs)  # fmt: skip
+                                              **scenario.kwargs)
         return self._envs[key]
 
     def any_env(self) -> Any | None:
@@ -192,14 +192,14 @@ class RunFolder:
                 )
         elif root.exists() and any(root.iterdir()):
             raise ValueError(f"{root} is not empty and holds no bench run (no suite.json): "
-                             "pass another --out")  # fmt: skip
+                             "pass another --out")
 
     def start(self) -> None:
         """Write the suite's identity and a copy of its file (those missing)."""
         self.root.mkdir(parents=True, exist_ok=True)
         if not (self.root / "suite.json").is_file():
             identity = {"name": self.suite.name, "source": str(self.suite.source),
-                        "hash": self.suite.digest}  # fmt: skip
+                        "hash": self.suite.digest}
             _write_text(self.root / "suite.json", json.dumps(identity, indent=1) + "\n")
         if not (self.root / "suite.yaml").is_file():
             _write_text(self.root / "suite.yaml", self.suite.text)
@@ -222,7 +222,7 @@ class RunFolder:
                 self._read(target, suffix)
             except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as exc:
                 warnings.warn(f"{target} cannot be read ({exc}); the cell is computed again",
-                              stacklevel=2)  # fmt: skip
+                              stacklevel=2)
                 for stale in (".json", ".npz"):
                     self.cell_file(scenario, policy, stale).unlink(missing_ok=True)
                 return False
@@ -254,7 +254,7 @@ class RunFolder:
         record = {"scenario": cell.scenario, "policy": cell.policy, "target": spec.target,
                   "params": dict(spec.params), "env": scenario.env_spec(),
                   "suite_hash": self.suite.digest, "wall_time": cell.wall_time,
-                  "episodes": cell.episodes}  # fmt: skip
+                  "episodes": cell.episodes}
         text = json.dumps(record, indent=1, default=repr)
         _write_text(self.cell_file(cell.scenario, cell.policy), text)
 
@@ -305,7 +305,7 @@ def table_rows(suite: Suite, cells: Mapping[tuple[str, str], Cell]) -> list[dict
         for label in sc.policies:
             cell = cells[(sc.name, label)]
             row: dict[str, Any] = {"scenario": sc.name, "policy": label,
-                                   "seeds": len(cell.episodes), "note": cell.note}  # fmt: skip
+                                   "seeds": len(cell.episodes), "note": cell.note}
             for column, key, scale in _METRICS:
                 row[column] = cell.mean(key) * scale
             row["failures"] = cell.failures if cell.episodes else math.nan
@@ -332,7 +332,7 @@ def _change(cell: Cell, base: Cell | None, key: str) -> float:
 def markdown_table(suite: Suite, rows: Sequence[Mapping[str, Any]]) -> str:
     """The results as Markdown: the table, then the scenarios it ran."""
     lines = ["| " + " | ".join(h for _, h in COLUMNS) + " |",
-             "|" + "---|" * len(COLUMNS)]  # fmt: skip
+             "|" + "---|" * len(COLUMNS)]
     for row in rows:
         cells = []
         for key, _ in COLUMNS:
@@ -359,7 +359,7 @@ def csv_table(rows: Sequence[Mapping[str, Any]]) -> str:
     writer.writerow([key for key, _ in COLUMNS])
     for row in rows:
         writer.writerow(["" if isinstance(v, float) and math.isnan(v) else v
-                         for v in (row[key] for key, _ in COLUMNS)])  # fmt: skip
+                         for v in (row[key] for key, _ in COLUMNS)])
     return buf.getvalue()
 
 
@@ -377,7 +377,7 @@ class Progress:
                 tqdm = None
             if tqdm is not None:
                 self._bar = tqdm(total=total, initial=done, unit="cell", file=sys.stderr,
-                                 dynamic_ncols=True)  # fmt: skip
+                                 dynamic_ncols=True)
 
     def start(self, label: str) -> None:
         """Name the cell being computed."""
@@ -387,7 +387,7 @@ class Progress:
             self._bar.set_description_str(label)
         else:
             print(f"\r[{self.done}/{self.total}] {label}\033[K", end="", file=sys.stderr,
-                  flush=True)  # fmt: skip
+                  flush=True)
 
     def advance(self) -> None:
         """One cell done."""
@@ -493,7 +493,7 @@ def run_suite(
         computed.sort(key=list(notes).index)  # the suite's order, wherever they ran
         _draw_the_rest(suite, folder, where, {key[0] for key in computed}, drawn)
     cells = {key: Cell(*key, note=note) if note else folder.load(*key, with_trace=False)
-             for key, note in notes.items()}  # fmt: skip
+             for key, note in notes.items()}
     rows = table_rows(suite, cells)
     markdown = markdown_table(suite, rows)
     if suite.summary == "paths":
@@ -504,14 +504,14 @@ def run_suite(
 
 
 def _draw_the_rest(suite: Suite, folder: RunFolder, where: Runner, fresh: set[str],
-                   drawn: set[str]) -> None:  # fmt: skip
+                   drawn: set[str]) -> None:
     """Draw the plots the cells' units did not draw (``drawn``: the scenarios they drew).
 
     Those of the scenarios read back (when a plot file is missing), and on a Ray cluster
     those of a scenario whose unit ran only some of its cells (the rest were read back here).
     """
     units = [(suite, sc.name, folder.root, sc.name in fresh) for sc in suite.scenarios
-             if sc.name not in drawn]  # fmt: skip
+             if sc.name not in drawn]
     for _ in (where if where.shares_files else Runner()).map(draw_scenario, units):
         pass
 
@@ -519,7 +519,7 @@ def _draw_the_rest(suite: Suite, folder: RunFolder, where: Runner, fresh: set[st
 def _run_cells(
     suite: Suite, pending: list[tuple[str, str]], where: Runner, folder: RunFolder,
     bar: Progress,
-) -> tuple[list[tuple[str, str]], set[str]]:  # fmt: skip
+) -> tuple[list[tuple[str, str]], set[str]]:
     """Run the pending cells on ``where``, each saved as it arrives.
 
     A unit is a scenario's pending cells (they share its envs and compiled kernels: one
@@ -578,7 +578,7 @@ def close_worker_envs() -> None:
 
 def run_scenario(
     unit: tuple[Suite, str, tuple[str, ...], Path | None],
-) -> tuple[list[Cell], dict[str, bytes]]:  # fmt: skip
+) -> tuple[list[Cell], dict[str, bytes]]:
     """A unit of a bench run: cells ``labels`` of a suite's scenario (any process).
 
     With a run folder's ``root`` (a worker on this machine) the cells are saved there, the
@@ -597,7 +597,7 @@ def run_scenario(
     folder = RunFolder(root, suite)  # the plots drawn here, with the traces in hand
     drawn = {(sc.name, c.policy): c for c in cells}
     drawn.update({(sc.name, label): folder.load(sc.name, label) for label in sc.policies
-                  if label not in labels and folder.done(sc.name, label)})  # fmt: skip
+                  if label not in labels and folder.done(sc.name, label)})
     _plots(sc, drawn, folder, worker_envs(suite, scenario), fresh=True)
     for cell in cells:
         cell.trace = None
@@ -640,7 +640,7 @@ def draw_scenario(unit: tuple[Suite, str, Path, bool]) -> None:
         return
     folder = RunFolder(root, suite)
     cells = {(sc.name, label): folder.load(sc.name, label) for label in sc.policies
-             if folder.done(sc.name, label)}  # fmt: skip
+             if folder.done(sc.name, label)}
     envs = EnvPool()
     try:
         _plots(sc, cells, folder, envs, fresh)
@@ -656,7 +656,7 @@ def _plot_names(sc: ScenarioSpec) -> list[str]:
 def _plots(
     sc: ScenarioSpec, cells: Mapping[tuple[str, str], Cell], folder: RunFolder, envs: EnvPool,
     fresh: bool,
-) -> None:  # fmt: skip
+) -> None:
     """Draw a scenario's plots when a cell of it ran now or a plot file is missing."""
     plots = folder.root / "plots"
     if not fresh and all((plots / n).is_file() for n in _plot_names(sc)):

@@ -56,10 +56,10 @@ def scenario_plots(
     dense = task.path.point(np.linspace(0.0, task.path.length, 500))
     extent = float(np.ptp(dense[:, :2], axis=0).max())
     worst = max((float(np.nanmax(np.abs(tr.eps))) for tr in traces.values() if tr.eps.size),
-                default=0.0)  # fmt: skip
+                default=0.0)
     magnify = scenario.magnify or auto_magnify(extent, worst)
     fig = contour_figure(task.path, traces, axes=contour.axes[:2],
-                         offset=(contour.offset or (0.0, 0.0))[:2], magnify=magnify)  # fmt: skip
+                         offset=(contour.offset or (0.0, 0.0))[:2], magnify=magnify)
     fig.suptitle(f"{scenario.name} ({scenario.env_id})")
     files = [folder / f"{scenario.name}_contour.png"]
     save_figure(fig, files[0], dpi=100)

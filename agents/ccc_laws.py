@@ -246,7 +246,7 @@ def fuzzy_pid_units(machine: Preset) -> dict[str, float]:
     if not counts:
         raise ValueError(f"fuzzy_pid: machine {machine.name!r} has no encoder to scale k_de by")
     return {"k_e": 1.0 / machine.tolerance, "k_de": stage.ts / min(counts),
-            "k_pf": gains.kp, "k_if": gains.ki, "k_df": gains.kp * stage.ts}  # fmt: skip
+            "k_pf": gains.kp, "k_if": gains.ki, "k_df": gains.kp * stage.ts}
 
 
 FUZZY_PID = register_ccc_law(
@@ -257,7 +257,7 @@ FUZZY_PID = register_ccc_law(
         inline=False,  # called: the kernel compiles faster, protocol 000 runs as fast
         home=_MACHINE_000.name, units=fuzzy_pid_units, release=release_integral,
     )
-)  # fmt: skip
+)
 
 
 # ----------------------------------------------------------------------------------------
@@ -446,7 +446,7 @@ def adaptive_fuzzy_pid_units(machine: Preset) -> dict[str, float]:
     return {"k_e": units["k_e"], "k_de": units["k_de"],
             "gamma_p": kp0 / (tol * tol), "gamma_i": gamma_i,
             "gamma_d": kd_unit / (tol * de_ref),
-            "dkp_max": kp0, "dki_max": ki0, "dkd_max": kd_unit}  # fmt: skip
+            "dkp_max": kp0, "dki_max": ki0, "dkd_max": kd_unit}
 
 
 ADAPTIVE_FUZZY_PID = register_ccc_law(
@@ -458,4 +458,4 @@ ADAPTIVE_FUZZY_PID = register_ccc_law(
         inline=False,  # called, not inlined (as fuzzy_pid)
         home=_MACHINE_001.name, units=adaptive_fuzzy_pid_units, release=release_integral,
     )
-)  # fmt: skip
+)

@@ -70,7 +70,7 @@ def law_params(schema: Schema, given: tuple[float | None, ...]) -> dict[str, flo
     """
     names = schema.names[3:]
     return {name: schema.value(name, value)
-            for name, value in zip(names, given, strict=True) if value is not None}  # fmt: skip
+            for name, value in zip(names, given, strict=True) if value is not None}
 
 
 class HeldGains(ConstantPolicy):
@@ -416,10 +416,10 @@ class ACC2PID(HeldGains):
 
         p = self.params
         options = {q: [p[f"{q}_{a}"] for a in ACC2PID_AXES]
-                   for q in ("kp", "ti", "td", "alpha", "beta")}  # fmt: skip
+                   for q in ("kp", "ti", "td", "alpha", "beta")}
         weights = [[p["kc1x"], p["kc1y"], 0.0], [p["kc2x"], p["kc2y"], 0.0]]
         return {"axis_controller": "two_dof_pid", "controller_options": options,
-                "ccc_weights": weights}  # fmt: skip
+                "ccc_weights": weights}
 
 
 class IABCACC2PID(ACC2PID):

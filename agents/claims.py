@@ -98,12 +98,12 @@ def _change(ours: float, against: float) -> float:
 def _peak_claim(
     paper: str, scenario: str, env_id: str, policy: str, against: str, paper_change: float,
     need: float, ideal: bool,
-) -> Claim:  # fmt: skip
+) -> Claim:
     a = run_policy(env_id, make_policy(policy), ideal=ideal)["max_contour_error"]
     b = run_policy(env_id, make_policy(against), ideal=ideal)["max_contour_error"]
     return Claim(paper, scenario, f"{policy} vs {against}, max contour error", paper_change,
                  need, _change(a, b), _model(ideal),
-                 f"{a * UM:.2f} vs {b * UM:.2f} um")  # fmt: skip
+                 f"{a * UM:.2f} vs {b * UM:.2f} um")
 
 
 def claims_000(ideal: bool = False) -> list[Claim]:
@@ -115,7 +115,7 @@ def claims_000(ideal: bool = False) -> list[Claim]:
                     -0.536, -0.50, ideal),
         _peak_claim("000", "trident", TRIDENT_000, "pso_fuzzy_pid_ccc_000", "fuzzy_pid_ccc",
                     -0.677, -0.50, ideal),
-    ]  # fmt: skip
+    ]
 
 
 def claims_001(ideal: bool = False, episodes: int = 5) -> list[Claim]:
@@ -125,7 +125,7 @@ def claims_001(ideal: bool = False, episodes: int = 5) -> list[Claim]:
     b = evaluate("pid_ccc", spec, n_episodes=episodes)["mean_contour_error"]
     return [Claim("001", "helix", "adaptive_fuzzy_pid_ccc vs pid_ccc (smc_dob axes), mean "
                   f"contour error over {episodes} seeds", -0.305, -0.30, _change(a, b),
-                  _model(ideal), f"{a * UM:.3f} vs {b * UM:.3f} um")]  # fmt: skip
+                  _model(ideal), f"{a * UM:.3f} vs {b * UM:.3f} um")]
 
 
 def sampled_003(env_id: str, policy: Policy, ideal: bool) -> dict[str, float]:
@@ -138,7 +138,7 @@ def sampled_003(env_id: str, policy: Policy, ideal: bool) -> dict[str, float]:
     config = EnvConfig.from_kwargs({**gym.spec(env_id).kwargs, **kwargs})
     gains = None if policy.name == "no_ccc" else (1.0, 0.0, 0.0)
     loop = config.scenario().loop(ccc_gains=gains, ccc_weights=config.ccc_weights,
-                                     sample_period=0.1, settle_time=config.settle_time)  # fmt: skip
+                                     sample_period=0.1, settle_time=config.settle_time)
     loop.reset(0)
     m = loop.run()
     return {k: float(np.ravel(m[k])[0]) for k in ("p_eps", "p_e")}
@@ -148,12 +148,12 @@ def claims_003(ideal: bool = False) -> list[Claim]:
     """003's P_eps claims: IABC-tuned ACC2PID vs the hand-tuned 2PID (``no_ccc`` on the gantry)."""
     out = []
     for scenario, env_id, paper in (("dual circle", CIRCLE_003, -0.655),
-                                    ("three-leaf", LEAF_003, -0.688)):  # fmt: skip
+                                    ("three-leaf", LEAF_003, -0.688)):
         a = sampled_003(env_id, make_policy("iabc_acc2pid"), ideal)["p_eps"]
         b = sampled_003(env_id, make_policy("no_ccc"), ideal)["p_eps"]
         out.append(Claim("003", scenario, "iabc_acc2pid vs hand-tuned 2PID, P_eps at 10 Hz",
                          paper, -0.60, _change(a, b), _model(ideal),
-                         f"{a * MM:.4f} vs {b * MM:.4f} mm"))  # fmt: skip
+                         f"{a * MM:.4f} vs {b * MM:.4f} mm"))
     return out
 
 
@@ -172,7 +172,7 @@ def claims_004(ideal: bool = False, members: int = 24) -> list[Claim]:
         if best is None:
             out.append(Claim("004", scenario, "fuzzy_feedrate vs fastest constant within tol, "
                              "cycle time", -0.098, -0.10, float("nan"), _model(ideal),
-                             "no constant override keeps the tolerance"))  # fmt: skip
+                             "no constant override keeps the tolerance"))
             continue
         override, const = best
         peak_ok = fuzzy["max_contour_error"] <= const["max_contour_error"] and fuzzy["finished"]
@@ -183,14 +183,14 @@ def claims_004(ideal: bool = False, members: int = 24) -> list[Claim]:
             f"{const['cycle_time']:.3f} s at {const['max_contour_error'] * UM:.2f} um "
             f"(override {override:.3f})",
             peak_ok, "peak error no higher than the constant's",
-        ))  # fmt: skip
+        ))
     return out
 
 
 def optimizer_claim(
     paper: str, protocol: str, improved: str, standard: str, seeds: Sequence[int],
     **kwargs: Any,
-) -> tuple[Claim, dict[str, list[float]]]:  # fmt: skip
+) -> tuple[Claim, dict[str, list[float]]]:
     """The improved optimiser's median best fitness against the standard one's over ``seeds``.
 
     Holds when the improved median is lower (``need`` 0: any improvement). ``kwargs`` go to
@@ -203,7 +203,7 @@ def optimizer_claim(
     change = _change(a, b)
     claim = Claim(paper, f"protocol {protocol}", f"{improved} vs {standard}, median best "
                   f"fitness over {len(seeds)} seeds", None, -1e-12, change, _model(ideal),
-                  f"{a * UM:.4g} vs {b * UM:.4g} um")  # fmt: skip
+                  f"{a * UM:.4g} vs {b * UM:.4g} um")
     return claim, runs
 
 

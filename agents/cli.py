@@ -85,7 +85,7 @@ def _work_offset(text: str) -> tuple[str, tuple[float, ...]]:
     name = name.upper()
     if name not in WORK_SYSTEMS:
         raise argparse.ArgumentTypeError(f"unknown work offset {name!r}; accepted: "
-                                         f"{', '.join(WORK_SYSTEMS)}")  # fmt: skip
+                                         f"{', '.join(WORK_SYSTEMS)}")
     coords = tuple(_finite(v) * 1e-3 for v in value.split(","))
     if len(coords) not in (2, 3):
         raise argparse.ArgumentTypeError(f"expected X,Y or X,Y,Z (mm), got {value!r}")
@@ -116,15 +116,15 @@ def _add_simulate_parser(sub: argparse._SubParsersAction) -> None:
         "--plant", default=None, choices=PRESETS,
         help=f"machine (default: {DEFAULT_PLANT}; for a part, {PART_PLANTS[2]} if it is 2-D, "
         f"{PART_PLANTS[3]} if 3-D)",
-    )  # fmt: skip
+    )
     where = sim.add_mutually_exclusive_group()
     where.add_argument("--path", default=None, help="library path name (default: the paper's)")
     where.add_argument("--gcode", default=None, metavar="PART.nc",
-                       help="G-code part file, run at its own F words")  # fmt: skip
+                       help="G-code part file, run at its own F words")
     sim.add_argument(
         "--feedrate", type=_positive, default=None,
         help="mm/min (default: the paper's, or a part's own F words, which it replaces)",
-    )  # fmt: skip
+    )
     sim.add_argument("--feedrate-override", type=_positive, default=1.0, metavar="FRACTION",
                      help="feed override, fraction of the programmed feeds (default 1)")
     part = sim.add_argument_group("G-code part setup (mm)")
@@ -136,7 +136,7 @@ def _add_simulate_parser(sub: argparse._SubParsersAction) -> None:
                       help="program Z at or below which a feed move cuts (default 0)")
     part.add_argument("--default-feed", type=_positive, default=None, metavar="MM_PER_MIN",
                       help="feed of the moves before the program's first F word (default: "
-                      "such a move is an error)")  # fmt: skip
+                      "such a move is an error)")
     sim.add_argument("--seed", type=int, default=0)
     sim.add_argument("--out", default="contour_gym_simulate.png", help="plot file")
     sim.add_argument("--dpi", type=_positive, default=120.0, help="plot resolution")
@@ -144,16 +144,16 @@ def _add_simulate_parser(sub: argparse._SubParsersAction) -> None:
 
 def _add_train_parser(sub: argparse._SubParsersAction) -> None:
     train = sub.add_parser("train", help="train a stable-baselines3 agent on the native vector "
-                           "env (needs the rl extra; configs/rl/ALGO.yml)")  # fmt: skip
+                           "env (needs the rl extra; configs/rl/ALGO.yml)")
     train.add_argument("env", nargs="?", default=None, metavar="ENV_ID",
                        help="registered env id with a block in the config, e.g. "
-                       "contour_gym/CCC-Circle-v0 (not with --resume)")  # fmt: skip
+                       "contour_gym/CCC-Circle-v0 (not with --resume)")
     train.add_argument("--algo", default=["ppo"], type=_algorithms, metavar="ALGO[,ALGO...]",
                        help="RL algorithm, or several to train each (agents.rl.algorithms: "
                        f"{', '.join(ALGORITHMS.names())}; sb3-contrib's when installed)")
     train.add_argument("--timesteps", type=int, default=None, metavar="N",
                        help="env steps (default: the config's n_timesteps; with --resume, the "
-                       "run's)")  # fmt: skip
+                       "run's)")
     seeds = train.add_mutually_exclusive_group()
     seeds.add_argument("--seed", type=int, default=None, help="the run's seed (default 0)")
     seeds.add_argument("--seeds", type=_seed_list, default=None, metavar="S[,S...]",
@@ -190,7 +190,7 @@ def _add_tune_parser(sub: argparse._SubParsersAction) -> None:
                             "population spread over the cluster's CPUs)")
     tune.add_argument("--quiet", action="store_true", help="no progress bar")
     tune.add_argument("--overwrite", action="store_true",
-                      help="replace a finished result in the run folder")  # fmt: skip
+                      help="replace a finished result in the run folder")
 
 
 def _add_bench_parser(sub: argparse._SubParsersAction) -> None:
@@ -209,11 +209,11 @@ def _add_bench_parser(sub: argparse._SubParsersAction) -> None:
 def _add_parallel_arguments(parser: argparse.ArgumentParser, what: str) -> None:
     parser.add_argument("--workers", type=_workers, default=None, metavar="N",
                         help=f"{what} (default: every CPU; 1: one after another; the numbers "
-                        "do not depend on it)")  # fmt: skip
+                        "do not depend on it)")
     parser.add_argument("--ray", default=None, metavar="ADDRESS",
                         help="run on a Ray cluster: 'auto' (this machine's cluster), "
                         "HOST:PORT of its head, or 'local' (start one here); needs the ray "
-                        "extra: pip install \"contour-gym[ray]\"")  # fmt: skip
+                        "extra: pip install \"contour-gym[ray]\"")
 
 
 def _algorithms(text: str) -> list[str]:
@@ -275,7 +275,7 @@ def read_part(args: argparse.Namespace) -> GcodePath:
         return from_gcode(text, work_offsets=dict(args.work_offset) or None,
                           tool_lengths=dict(args.tool_length) or None, cut_z=args.cut_z * 1e-3,
                           default_feed=None if args.default_feed is None else
-                          args.default_feed * 1e-3 / 60.0)  # fmt: skip
+                          args.default_feed * 1e-3 / 60.0)
 
 
 @contextmanager
@@ -308,11 +308,11 @@ def scenario_of(args: argparse.Namespace) -> Scenario:
     feedrate = None if args.feedrate is None else args.feedrate / 60e3
     if args.gcode is None:
         return make_scenario(args.plant or DEFAULT_PLANT, args.path, feedrate,
-                             feedrate_override=args.feedrate_override)  # fmt: skip
+                             feedrate_override=args.feedrate_override)
     part = read_part(args)
     with _naming(args.gcode):  # mapping onto the machine's axes can reject a line
         return make_scenario(args.plant or PART_PLANTS[part.dim], part, feedrate,
-                             feedrate_override=args.feedrate_override)  # fmt: skip
+                             feedrate_override=args.feedrate_override)
 
 
 def _headline(scenario: Scenario, part: str | None) -> str:
@@ -354,7 +354,7 @@ def simulate_command(args: argparse.Namespace) -> int:
         fig = contour_figure(scenario.path, traces, axes=axes, offset=offset)
     else:
         fig = part_figure(scenario.path, traces, axes=axes, offset=offset,
-                          title=FilePath(args.gcode).name)  # fmt: skip
+                          title=FilePath(args.gcode).name)
     save_figure(fig, FilePath(args.out), args.dpi)
     print(f"plot written to {args.out}")
     return _report_failures(columns)
@@ -404,10 +404,10 @@ def _train_one(args: argparse.Namespace) -> int:
     try:
         train(args.env, args.algo, args.timesteps, seed=args.seed, out_dir=args.out,
               resume=args.resume, config_file=args.config, progress=not args.quiet,
-              command=shlex.join(argv))  # fmt: skip
+              command=shlex.join(argv))
     except KeyboardInterrupt:
         print(f"interrupted: model and checkpoint saved in {run}; continue with "
-              f"contour-gym train --resume {shlex.quote(str(run))}", file=sys.stderr)  # fmt: skip
+              f"contour-gym train --resume {shlex.quote(str(run))}", file=sys.stderr)
         return 130
     print(f"run written to {run} (model.zip, eval.csv, eval.png, checkpoints/, tensorboard/)")
     return 0
@@ -425,7 +425,7 @@ def tune_command(args: argparse.Namespace) -> int:
         suffix = "-ideal" if args.ideal else ""
         out = os.path.join("runs", "tune", f"{protocol.name}-{optimizer}-seed{args.seed}{suffix}")
     argv = ["contour-gym", "tune", protocol.name, "--optimizer", optimizer, "--seed",
-            str(args.seed)]  # fmt: skip
+            str(args.seed)]
     for flag, value in (("--population", args.population), ("--iterations", args.iterations)):
         if value is not None:
             argv += [flag, str(value)]
@@ -433,10 +433,10 @@ def tune_command(args: argparse.Namespace) -> int:
     result = tune(protocol, optimizer, seed=args.seed, population=args.population,
                   iterations=args.iterations, ideal=args.ideal, out=out,
                   progress=not args.quiet, command=shlex.join(argv),
-                  workers=args.workers, overwrite=args.overwrite, ray=args.ray)  # fmt: skip
+                  workers=args.workers, overwrite=args.overwrite, ray=args.ray)
     print(f"protocol {result.protocol}, {result.optimizer}, seed {result.seed}: best fitness "
           f"{result.fitness * 1e6:.6g} um ({result.settings['fitness']}) after "
-          f"{result.nfev} candidates in {result.wall_time:.1f} s")  # fmt: skip
+          f"{result.nfev} candidates in {result.wall_time:.1f} s")
     for name, value in result.params.items():
         print(f"  {name} = {value:.6g}")
     if protocol.start_at_reference and result.params == protocol.reference_point():
@@ -453,10 +453,10 @@ def bench_command(args: argparse.Namespace) -> int:
 
     _compile_up_front(args, "loop", "env", "path_api")
     result = run_suite(args.suite, args.out, progress=not args.quiet, workers=args.workers,
-                       ray=args.ray)  # fmt: skip
+                       ray=args.ray)
     print(result.markdown, end="")
     print(f"\n{len(result.computed)} cell(s) computed in {result.wall_time:.1f} s; tables and "
-          f"plots written to {result.out}")  # fmt: skip
+          f"plots written to {result.out}")
     return 0
 
 
@@ -465,7 +465,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     exit_quickly()
     args = _parser().parse_args(argv)
     command = {"simulate": simulate_command, "train": train_command,
-               "tune": tune_command, "bench": bench_command}[args.command]  # fmt: skip
+               "tune": tune_command, "bench": bench_command}[args.command]
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _show_warning

@@ -60,7 +60,7 @@ def _merge(into: dict[str, Any], more: Mapping[str, Any], what: str) -> None:
     for key, value in more.items():
         if key in into and not _same(into[key], value):
             raise ValueError(f"env argument {key}={into[key]!r} conflicts with {key}={value!r} "
-                             f"from {what}")  # fmt: skip
+                             f"from {what}")
         into[key] = value
 
 
@@ -160,7 +160,7 @@ def run_episodes(
     if trace_member is not None and not (0 <= trace_member < n and task.loop.record):
         raise ValueError(f"trace_member={trace_member!r} needs a member of a recording env "
                          f"(make_vector_env(..., record=True)); the env has {n} member(s), "
-                         f"recording {task.loop.record}")  # fmt: skip
+                         f"recording {task.loop.record}")
     start = task.loop.tick  # a reset restarts the members, not the loop's clock or record
     obs, _ = venv.reset(seed=seed, options={"keep_paths": True})  # later episodes are unused
     policy.reset(venv)
@@ -179,7 +179,7 @@ def _episodes(venv: Any, policy: Policy, obs: Mapping[str, Any], n: int) -> dict
     out: dict[str, NDArray[Any]] = {
         "return": np.zeros(n), "failed": np.zeros(n, dtype=bool),
         "truncated": np.zeros(n, dtype=bool), "steps": np.zeros(n, dtype=np.int64),
-    }  # fmt: skip
+    }
     metrics: dict[str, NDArray[Any]] = {}
     while live.any():
         obs, reward, terminated, truncated, info = venv.step(policy.act(obs))
@@ -279,7 +279,7 @@ def _run_on_instance(
             have = unwrapped.task.scenario.feed_override
         if not _same(have, value):
             raise ValueError(f"policy {policy.name!r} needs the env built with {key}={value!r}; "
-                             f"the env has {key}={have!r}")  # fmt: skip
+                             f"the env has {key}={have!r}")
     venv = env if isinstance(env, gym.vector.VectorEnv) else _OneMember(env)
     rounds = []
     for first in range(0, n, venv.num_envs):
@@ -314,13 +314,13 @@ class _OneMember(gym.vector.VectorEnv):
             info = {**info, "metrics": _batched(info["metrics"])}
         batched = {**info, "failure": np.array([info["failure"]])}
         return (_batched(obs), np.array([reward]), np.array([terminated]),
-                np.array([truncated]), batched)  # fmt: skip
+                np.array([truncated]), batched)
 
 
 def _batched(values: Mapping[str, Any]) -> dict[str, Any]:
     # one member's values with a leading batch axis of 1
     return {k: _batched(v) if isinstance(v, Mapping) else np.asarray(v)[None]
-            for k, v in values.items()}  # fmt: skip
+            for k, v in values.items()}
 
 
 def _episode(batch: Mapping[str, NDArray[Any]], i: int) -> dict[str, Any]:

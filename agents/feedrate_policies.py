@@ -216,16 +216,16 @@ class ConstantFeedrate(ConstantPolicy):
     tasks = (FEEDRATE,)
 
     def __init__(self, override: float = 1.0,
-                 feedrate_range: tuple[float, float] | None = None) -> None:  # fmt: skip
+                 feedrate_range: tuple[float, float] | None = None) -> None:
         super().__init__(0.0)
         self.override = positive(override, "override")
         self.feedrate_range: tuple[float, float] | None = None
         if feedrate_range is not None:
             lo, hi = (float(v) for v in as_finite_array(feedrate_range, "feedrate_range",
-                                                        shape=(2,)))  # fmt: skip
+                                                        shape=(2,)))
             if not lo <= self.override <= hi:
                 raise ValueError(f"override {override!r} is outside feedrate_range "
-                                 f"{tuple(feedrate_range)!r}")  # fmt: skip
+                                 f"{tuple(feedrate_range)!r}")
             self.feedrate_range = (lo, hi)
 
     @property
@@ -247,7 +247,7 @@ class ConstantFeedrate(ConstantPolicy):
         lo, hi = feedrate_task(env, "constant_feedrate").config.feedrate_range
         if not lo <= self.override <= hi:
             raise ValueError(f"override {self.override!r} is outside the env's feedrate_range "
-                             f"({lo!r}, {hi!r}), which the env clips it to")  # fmt: skip
+                             f"({lo!r}, {hi!r}), which the env clips it to")
 
     def act(self, obs: Observation) -> Actions:
         """Zeros ``(B, 1)``: hold the override (feedrate env only)."""
@@ -294,7 +294,7 @@ class CurvatureFeedLimit(ConstantPolicy):
 
     def __init__(self, accel: float = 0.05, reach: float = 0.005, cap: float = 0.6,
                  floor: float = 0.05, end_speed: float | None = 0.02,
-                 end_reach: float = 0.01) -> None:  # fmt: skip
+                 end_reach: float = 0.01) -> None:
         super().__init__(0.0)
         self.accel, self.reach = positive(accel, "accel"), positive(reach, "reach")
         self.floor, self.cap = positive(floor, "floor"), finite(cap, "cap")
@@ -308,7 +308,7 @@ class CurvatureFeedLimit(ConstantPolicy):
         """``feedrate_range``, ``feedrate_target`` and ``feedrate_limit`` as the class says."""
         return {"feedrate_range": (self.floor, 2.0),
                 "feedrate_target": (self.floor, self.cap, 2.0),
-                "feedrate_limit": (self.accel, self.reach, *(self.end or ()))}  # fmt: skip
+                "feedrate_limit": (self.accel, self.reach, *(self.end or ()))}
 
     def act(self, obs: Observation) -> Actions:
         """Zeros ``(B, 1)``: follow the limit (feedrate env only)."""

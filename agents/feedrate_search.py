@@ -69,7 +69,7 @@ class OverrideRamp(Policy):
 def search_round(spec: Any, targets: np.ndarray, start: float) -> list[dict[str, Any]]:
     """One episode per target override, as members of one native vector env (seed 0)."""
     out = run_policy_batch(spec, OverrideRamp(targets), num_envs=targets.size, seed=0,
-                           feedrate_override=start)  # fmt: skip
+                           feedrate_override=start)
     return [{k: v[i].item() for k, v in out.items()} for i in range(targets.size)]
 
 

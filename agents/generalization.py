@@ -73,7 +73,7 @@ def path_results(cells: Mapping[CellKey, Any]) -> dict[CellKey, dict[PathKey, Pa
                 float(e["max_contour_error"]), float(e["cycle_time"]), float(e["tolerance"]),
                 bool(e["failed"]) or not bool(e["finished"]))
             for e in cell.episodes
-        }  # fmt: skip
+        }
     return out
 
 
@@ -126,13 +126,13 @@ def _oracles(
             tried = [per_policy[label][key] for label in labels if key in per_policy[label]]
             within = [r for r in tried if r.within]
             best[key] = (min(within, key=lambda r: (r.cycle_time, r.max_ce)) if within
-                         else min(tried, key=lambda r: (r.max_ce, r.cycle_time)))  # fmt: skip
+                         else min(tried, key=lambda r: (r.max_ce, r.cycle_time)))
         out[f"best {target}"] = best
     return out
 
 
 def _row(group: str, task: str, label: str, paths: Mapping[PathKey, PathResult],
-         worse: int | None) -> dict[str, Any]:  # fmt: skip
+         worse: int | None) -> dict[str, Any]:
     ce = np.array([r.max_ce for r in paths.values()]) * UM
     times = np.array([r.cycle_time for r in paths.values()])
     return {
@@ -151,7 +151,7 @@ COLUMNS = (
     ("median_max_ce_um", "median max CE um"), ("worst_max_ce_um", "worst max CE um"),
     ("within_tolerance", "within tol"), ("worse_than_baseline", "worse than baseline"),
     ("failed", "failed"), ("median_cycle_time_s", "median cycle s"),
-)  # fmt: skip
+)
 
 
 def markdown(rows: Sequence[Mapping[str, Any]]) -> str:

@@ -312,7 +312,7 @@ def identify_friction(
         res = least_squares(
             fitness.residuals, x0, bounds=(box[:, 0], box[:, 1]), x_scale=box[:, 1] - box[:, 0],
             max_nfev=budget,
-        )  # fmt: skip
+        )
         # the 2-point Jacobian costs 4 evaluations each time
         theta, nfev = np.asarray(res.x, dtype=float), int(res.nfev + 4 * (res.njev or 0))
     else:

@@ -234,7 +234,7 @@ def _init_worker(*modules: str, filters: list[Any] | None = None, parent: int = 
         for action, message, category, module, lineno in reversed(filters):
             warnings.filterwarnings(action, getattr(message, "pattern", message) or "",
                                     category, getattr(module, "pattern", module) or "",
-                                    lineno)  # fmt: skip
+                                    lineno)
     os.environ.update(_SINGLE_THREADED)
     os.environ.setdefault("CONTOUR_GYM_BACKGROUND", "0")
     exit_quickly()
@@ -266,7 +266,7 @@ class Processes(Runner):
         if self._pool is None:
             context = multiprocessing.get_context(start_method())
             start = functools.partial(_init_worker, filters=list(warnings.filters),
-                                      parent=os.getpid())  # fmt: skip
+                                      parent=os.getpid())
             self._pool = ProcessPoolExecutor(self.workers - 1, mp_context=context,
                                              initializer=start, initargs=self._modules)
         return self._pool
@@ -362,7 +362,7 @@ class RayRunner(Runner):
                          log_to_driver=False, runtime_env={"env_vars": _worker_environment()})
             else:
                 ray.init(address=address, log_to_driver=False,
-                         runtime_env={"env_vars": _worker_environment()})  # fmt: skip
+                         runtime_env={"env_vars": _worker_environment()})
         self.address = address or "local"
         self.shares_files = False  # nodes may be other machines
         self.workers = max(1, int(ray.cluster_resources().get("CPU", 1)))
@@ -453,7 +453,7 @@ def local_cluster(nodes: int = 2, cpus_per_node: int = 1, **head: Any) -> Iterat
     from ray.cluster_utils import Cluster
 
     cluster = Cluster(initialize_head=True, head_node_args={
-        "num_cpus": cpus_per_node, "include_dashboard": False, **head})  # fmt: skip
+        "num_cpus": cpus_per_node, "include_dashboard": False, **head})
     try:
         for _ in range(nodes - 1):
             cluster.add_node(num_cpus=cpus_per_node)

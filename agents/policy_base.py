@@ -162,7 +162,7 @@ class ConstantPolicy(Policy):
             return np.full((b, n), float(a))
         if a.shape[-1] != n or (a.ndim == 2 and a.shape[0] != b):
             raise ValueError(f"constant action of shape {a.shape} does not fit a batch of {b} "
-                             f"members with {n} action(s) each")  # fmt: skip
+                             f"members with {n} action(s) each")
         return np.array(np.broadcast_to(a, (b, n)))
 
 
@@ -226,7 +226,7 @@ class CNCLookahead(Policy):
         self.mode = choice(mode, "mode", LOOKAHEAD_MODES)
         if mode != "G64" and tolerance is not None:
             raise ValueError(f"tolerance applies to mode 'G64' only, got tolerance={tolerance!r} "
-                             f"with mode={mode!r}")  # fmt: skip
+                             f"with mode={mode!r}")
         self.tolerance: float | None = None
         if mode == "G64":
             given = DEFAULT_TOLERANCE if tolerance is None else tolerance
@@ -294,7 +294,7 @@ def make_policy(name: str, **params: Any) -> Policy:
         unknown = sorted(set(params) - set(accepted))
         if unknown:
             raise ValueError(f"unknown parameter(s) {unknown} of policy {name!r}; accepted: "
-                             f"{', '.join(accepted) or 'none'}")  # fmt: skip
+                             f"{', '.join(accepted) or 'none'}")
     policy = entry.factory(**params)
     if not isinstance(policy, Policy):
         raise ValueError(f"policy factory {name!r} returned {type(policy).__name__}, not Policy")

@@ -139,11 +139,11 @@ class PolicySpec:
                 module = importlib.import_module(module_name)
             except ImportError as exc:
                 raise ValueError(f"cannot import module {module_name!r} of policy "
-                                 f"{self.target!r}: {exc}") from None  # fmt: skip
+                                 f"{self.target!r}: {exc}") from None
         cls = getattr(module, class_name, None)
         if not isinstance(cls, type):
             raise ValueError(f"module {module_name!r} has no class {class_name!r} "
-                             f"(policy {self.target!r})")  # fmt: skip
+                             f"(policy {self.target!r})")
         try:
             obj = cls(**self.params)
         except TypeError as exc:
@@ -299,7 +299,7 @@ def suite_file(name_or_path: str | os.PathLike[str]) -> Path:
         return as_path
     if text not in shipped_suites():
         raise ValueError(f"unknown suite {text!r}; shipped: {', '.join(shipped_suites())} "
-                         "(or give a path to a .yaml file)")  # fmt: skip
+                         "(or give a path to a .yaml file)")
     return SUITES_DIR / f"{text}.yaml"
 
 
@@ -332,7 +332,7 @@ class _SuiteReader:
     SUMMARIES = ("paths",)
     POLICY_KEYS = ("policy", "params")
     SCENARIO_KEYS = ("env", "task", "plant", "path", "gcode", "estimator", "axis_controller",
-                     "ideal", "seeds", "env_kwargs", "baseline", "policies", "magnify")  # fmt: skip
+                     "ideal", "seeds", "env_kwargs", "baseline", "policies", "magnify")
     ENV_KEYS = ("plant", "path", "estimator", "axis_controller", "ideal")  # scenario -> env
 
     def __init__(self, path: Path) -> None:
@@ -362,7 +362,7 @@ class _SuiteReader:
     def name(self, value: str, where: str) -> str:
         if not _NAME.match(value):
             raise self.error(where, f"names must be letters, digits, '_', '.', '+', '-' "
-                             f"(a file name), got {value!r}")  # fmt: skip
+                             f"(a file name), got {value!r}")
         return value
 
     def seeds(self, value: Any, where: str) -> tuple[int, ...]:
@@ -371,7 +371,7 @@ class _SuiteReader:
             return tuple(range(value))
         if isinstance(value, list) and value and len(set(value)) == len(value) and all(
             isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in value
-        ):  # fmt: skip
+        ):
             return tuple(value)
         raise self.error(where, f"expected {expected}, got {value!r} ({_type_name(value)})")
 
@@ -385,7 +385,7 @@ class _SuiteReader:
         summary = self.typed(top.get("summary", ""), "summary", str, "'paths'")
         if summary and summary not in self.SUMMARIES:
             raise self.error("summary", f"unknown summary {summary!r}; accepted: "
-                             f"{', '.join(self.SUMMARIES)}")  # fmt: skip
+                             f"{', '.join(self.SUMMARIES)}")
         seeds = self.seeds(top.get("seeds", 1), "seeds")
         policies = self.policies(top["policies"])
         built = {label: self.build(spec) for label, spec in policies.items()}
@@ -393,10 +393,10 @@ class _SuiteReader:
         if not scenarios:
             raise self.error("scenarios", "no scenario")
         specs = tuple(self.scenario(name, value, seeds, built)
-                      for name, value in scenarios.items())  # fmt: skip
+                      for name, value in scenarios.items())
         canonical = json.dumps([raw, self.parts], sort_keys=True, default=str)
         return Suite(self.path.stem, self.path, description, policies, specs,
-                     hashlib.sha256(canonical.encode()).hexdigest(), text, summary)  # fmt: skip
+                     hashlib.sha256(canonical.encode()).hexdigest(), text, summary)
 
     def policies(self, raw: Any) -> dict[str, PolicySpec]:
         entries = self.mapping(raw, "policies", None)
@@ -408,7 +408,7 @@ class _SuiteReader:
             self.name(label, where)
             body = self.mapping({} if value is None else value, where, self.POLICY_KEYS)
             target = self.typed(body.get("policy", label), f"{where}.policy", str,
-                                "a policy name or module:Class")  # fmt: skip
+                                "a policy name or module:Class")
             params = self.mapping(body.get("params") or {}, f"{where}.params", None)
             out[label] = PolicySpec(label, target, dict(params), self.path.parent.resolve())
         return out
@@ -417,7 +417,7 @@ class _SuiteReader:
         where = f"policies.{spec.label}"
         if ":" not in spec.target and spec.target not in available():
             raise self.error(where, f"unknown policy {spec.target!r}; accepted: "
-                             f"{', '.join(available())}, or module:Class")  # fmt: skip
+                             f"{', '.join(available())}, or module:Class")
         try:
             return spec.build()
         except ValueError as exc:
@@ -438,7 +438,7 @@ class _SuiteReader:
         baseline = self.typed(body["baseline"], f"{where}.baseline", str, "a policy label")
         if baseline not in labels:
             raise self.error(f"{where}.baseline", f"{baseline!r} is not among the scenario's "
-                             f"policies ({', '.join(labels)})")  # fmt: skip
+                             f"policies ({', '.join(labels)})")
         magnify = body.get("magnify")
         if magnify is not None:
             self.typed(magnify, f"{where}.magnify", (int, float), "a number > 0")
@@ -446,7 +446,7 @@ class _SuiteReader:
                 raise self.error(f"{where}.magnify", f"expected a number > 0, got {magnify!r}")
         scenario_seeds = self.seeds(body["seeds"], f"{where}.seeds") if "seeds" in body else seeds
         return ScenarioSpec(name, env_id, task, kwargs, scenario_seeds, baseline, labels,
-                            None if magnify is None else float(magnify))  # fmt: skip
+                            None if magnify is None else float(magnify))
 
     def env(self, body: dict[str, Any], where: str) -> tuple[str, str, dict[str, Any]]:
         """The id, the env kind and the id's registered kwargs."""
@@ -455,20 +455,20 @@ class _SuiteReader:
             spelled = self.typed(body["task"], f"{where}.task", str, "'ccc' or 'feedrate'")
             if spelled not in TASKS:
                 raise self.error(f"{where}.task", f"unknown task {spelled!r}; accepted: "
-                                 f"{', '.join(TASKS)}")  # fmt: skip
+                                 f"{', '.join(TASKS)}")
             task = TASKS[spelled]
         if "env" in body:
             given = self.typed(body["env"], f"{where}.env", str, "a registered env id")
             env_id = ID_PREFIX + given.removeprefix(ID_PREFIX)
             if env_id not in ENV_IDS:
                 raise self.error(f"{where}.env", f"unknown env {given!r}; accepted: "
-                                 f"{', '.join(ENV_IDS)}")  # fmt: skip
+                                 f"{', '.join(ENV_IDS)}")
             # the scenario of a -v0 or -v1 id (the registry names its -v0 id)
             scenario = env_id.removeprefix(ID_PREFIX).rsplit("-v", 1)[0] + "-v0"
             kind = SCENARIOS[scenario][0].lower()
             if task is not None and task != kind:
                 raise self.error(f"{where}.task", f"{body['task']!r} contradicts env {given!r} "
-                                 f"(a {kind} env)")  # fmt: skip
+                                 f"(a {kind} env)")
             return env_id, kind, dict(gym.spec(env_id).kwargs)
         if task is None:
             raise self.error(where, "give 'env' (a registered id) or 'task' (with plant, path)")
@@ -484,7 +484,7 @@ class _SuiteReader:
             if key in body:
                 if key in extra:
                     raise self.error(f"{where}.env_kwargs", f"{key!r} is also given as "
-                                     f"{where}.{key}: give it once")  # fmt: skip
+                                     f"{where}.{key}: give it once")
                 kwargs[key] = self.env_value(key, body[key], f"{where}.{key}")
         if "gcode" in body:
             if "path" in body or "path" in extra:
@@ -509,10 +509,10 @@ class _SuiteReader:
             if value != RANDOM_PATH and value not in PATH_NAMES:
                 raise self.error(where, f"unknown path {value!r}; accepted: {RANDOM_PATH!r} "
                                  f"(random paths; env_kwargs.path_options) or one of "
-                                 f"{', '.join(PATH_NAMES)}")  # fmt: skip
+                                 f"{', '.join(PATH_NAMES)}")
         else:
             self.registered(ESTIMATORS.get if key == "estimator" else CONTROLLERS.get, value,
-                            where)  # fmt: skip
+                            where)
         return value
 
     def part(self, value: Any, where: str) -> GcodePath:
@@ -550,7 +550,7 @@ class _SuiteReader:
             self.typed(label, f"{where}.policies[{i}]", str, "a policy label")
             if label not in built:
                 raise self.error(f"{where}.policies[{i}]", f"unknown policy {label!r}; the "
-                                 f"suite's policies: {', '.join(built)}")  # fmt: skip
+                                 f"suite's policies: {', '.join(built)}")
             if task not in built[label].tasks:
                 raise self.error(f"{where}.policies[{i}]", f"policy {label!r} acts in "
                                  f"{'/'.join(built[label].tasks)} envs, the scenario is {task}")

@@ -116,10 +116,10 @@ def run(args: list[str], root: Path, cache: str, timeout: float = 3600.0) -> tup
     The wall time is the run's own; its background compiles are then waited for (:func:`settle`).
     """
     env = dict(os.environ, NUMBA_CACHE_DIR=cache,
-               PYTHONPATH=os.pathsep.join([str(root), str(root / "benchmarks")]))  # fmt: skip
+               PYTHONPATH=os.pathsep.join([str(root), str(root / "benchmarks")]))
     start = time.perf_counter()
     out = subprocess.run(args, cwd=root, env=env, capture_output=True, text=True,
-                         timeout=timeout, check=False)  # fmt: skip
+                         timeout=timeout, check=False)
     wall = time.perf_counter() - start
     if out.returncode != 0:
         raise RuntimeError(f"{args} failed ({out.returncode}):\n{out.stderr[-3000:]}")
@@ -139,10 +139,10 @@ def cold_rows(root: Path, skip_bench: bool) -> list[tuple[str, float]]:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         rows.append(("import contour_gym", run(python("import contour_gym"), root,
-                                               f"{tmp}/c0")[0]))  # fmt: skip
+                                               f"{tmp}/c0")[0]))
         plot = f"{tmp}/simulate.png"
         rows.append(("contour-gym simulate", run(cli("simulate", "--out", plot), root,
-                                                 f"{tmp}/c1")[0]))  # fmt: skip
+                                                 f"{tmp}/c1")[0]))
         cache = f"{tmp}/c2"
         if not skip_bench:
             wall, _ = run(cli("bench", "--out", f"{tmp}/bench", "--quiet"), root, cache)
@@ -165,11 +165,11 @@ def warm_rows(roots: dict[str, Path], repeats: int) -> dict[str, dict[str, float
             for _ in range(repeats):  # interleaved: a busy moment hits both checkouts
                 for label, root in roots.items():
                     values[label].append(float(run(python(code), root, caches[label])[1]
-                                               .split()[-1]))  # fmt: skip
+                                               .split()[-1]))
             for label in roots:
                 out[name][label] = statistics.median(values[label])
             print(f"  {name}: " + ", ".join(f"{k} {v:.4g}" for k, v in out[name].items()),
-                  file=sys.stderr, flush=True)  # fmt: skip
+                  file=sys.stderr, flush=True)
     return out
 
 

@@ -52,7 +52,7 @@ def split(spec: dict[str, Any], policy_name: str, seed: int, reach: float) -> tu
     after = float(eps[near].max(initial=0.0)) * 1e6
     if not np.isclose(max(before, after), peak, rtol=1e-6, atol=1e-3):
         raise RuntimeError(f"{policy_name}: the trace's peak {max(before, after)} um is not the "
-                           f"episode's {peak} um")  # fmt: skip
+                           f"episode's {peak} um")
     return peak, before, after, float(failed(out)[0])
 
 
@@ -81,11 +81,11 @@ def main() -> None:
     med = np.median(np.array([[r[:3] for r in row] for row in table]), axis=0)
     print(f"| median | {' | '.join(', '.join(f'{v:.1f}' for v in m) for m in med)} |")
     at_stop = ", ".join(f"{p} {sum(r[i][2] >= r[i][1] for r in table)}"
-                        for i, p in enumerate(args.policies))  # fmt: skip
+                        for i, p in enumerate(args.policies))
     print(f"Peak contour error, um: the episode's, before the reference comes within "
           f"{args.end_reach * 1e3:g} mm of the path's end, and from then on (the stop); "
           f"F: failed or never in position. Peaks at the stop: {at_stop} of "
-          f"{len(table)}.")  # fmt: skip
+          f"{len(table)}.")
 
 
 if __name__ == "__main__":

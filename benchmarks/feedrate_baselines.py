@@ -95,7 +95,7 @@ def row(label: str, policy: str, control: str, override: str, r: dict[str, Any])
     verdict = "yes" if r["ok"] else ("FAILED" if r["failed"] else "no")
     return (f"| {label} | {policy} | {control} | {override} | {r['cycle_time']:.3f} | "
             f"{r['max_contour_error'] * 1e6:.2f} | {r['max_contour_error'] / r['tolerance']:.2f} | "
-            f"{verdict} | {r['return']:.1f} |")  # fmt: skip
+            f"{verdict} | {r['return']:.1f} |")
 
 
 def constant_rows(
@@ -108,7 +108,7 @@ def constant_rows(
         return [row(label, "constant, best feasible", control, _override(grid[i], top), top)]
     i = int(np.argmin([r["max_contour_error"] for r in results]))
     return [row(label, "constant: NONE feasible (least peak shown)", control,
-                _override(grid[i], results[i]), results[i])]  # fmt: skip
+                _override(grid[i], results[i]), results[i])]
 
 
 def _override(c: float, r: dict[str, Any]) -> str:
@@ -142,7 +142,7 @@ def baseline_tables(args: argparse.Namespace) -> None:
     print("\n".join(rows))
     print(f"\nConstant-override sweep (seed 0): peak contour error / tolerance, then cycle time "
           f"(s), at {args.grid} overrides spanning feedrate_range; F = failed, "
-          "* = feed capped at the machine's limit.\n")  # fmt: skip
+          "* = feed capped at the machine's limit.\n")
     shown = None
     for label, control, grid, results in sweeps:
         if shown is None or not np.array_equal(grid, shown):
@@ -150,12 +150,12 @@ def baseline_tables(args: argparse.Namespace) -> None:
             print("|---|---|" + "---|" * grid.size)
             shown = grid
         peaks = [f"{r['max_contour_error'] / r['tolerance']:.2f}{'F' if r['failed'] else ''}"
-                 f"{'*' if r['capped'] else ''}" for r in results]  # fmt: skip
+                 f"{'*' if r['capped'] else ''}" for r in results]
         print(f"| {label} | {control} | " + " | ".join(peaks) + " |")
         print("| | cycle time (s) | " + " | ".join(f"{r['cycle_time']:.3f}" for r in results)
-              + " |")  # fmt: skip
+              + " |")
     print("\nrun time: " + ", ".join(f"{label} {s:.1f} s" for label, s in times)
-          + f"; total {time.perf_counter() - t0:.1f} s")  # fmt: skip
+          + f"; total {time.perf_counter() - t0:.1f} s")
 
 
 def fuzzy_row(label: str, policy: str, override: str, r: dict[str, Any], ref: float) -> str:
@@ -164,14 +164,14 @@ def fuzzy_row(label: str, policy: str, override: str, r: dict[str, Any], ref: fl
     change = r["cycle_time"] / ref - 1.0
     return (f"| {label} | {policy} | {override} | {r['cycle_time']:.3f} | {change:+.1%} | "
             f"{r['max_contour_error'] * 1e6:.2f} | {r['max_contour_error'] / r['tolerance']:.2f} | "
-            f"{verdict} |")  # fmt: skip
+            f"{verdict} |")
 
 
 def fuzzy_table(args: argparse.Namespace) -> None:
     """Print 004's comparison: fuzzy_feedrate against constant overrides."""
     t0 = time.perf_counter()
     units = [DEFAULT_DF_UNIT] + ([u for u in DF_UNITS if u != DEFAULT_DF_UNIT]
-                                 if args.fuzzy_units else [])  # fmt: skip
+                                 if args.fuzzy_units else [])
     rows = []
     for label, spec in cases().items():
         _, (lo, hi) = env_settings(spec)
@@ -180,26 +180,26 @@ def fuzzy_table(args: argparse.Namespace) -> None:
         best = fastest_constant(spec, args.members, lo, hi)
         if best is None:
             rows.append(f"| {label} | constant_feedrate: NONE within tol in [{lo:g}, {hi:g}] "
-                        "| | | | | | |")  # fmt: skip
+                        "| | | | | | |")
         else:
             c, member = best
             r = run(spec, "constant_feedrate", params={"override": c})
             same = all(r[k] == member[k] for k in ("cycle_time", "max_contour_error"))
             rows.append(fuzzy_row(label, "constant_feedrate, fastest within tol",
                                   f"{_override(c, r)}{'' if same else '!'}", r,
-                                  ref["cycle_time"]))  # fmt: skip
+                                  ref["cycle_time"]))
         for unit in units:
             r = run(spec, "fuzzy_feedrate", params={"unit": unit})
             rows.append(fuzzy_row(label, f"fuzzy_feedrate, dF in {unit}", "varies", r,
-                                  ref["cycle_time"]))  # fmt: skip
+                                  ref["cycle_time"]))
     print("\n004's fuzzy feedrate controller against constant overrides (seed 0, the env's "
-          "own path control; cycle vs the constant 1.0 run's):\n")  # fmt: skip
+          "own path control; cycle vs the constant 1.0 run's):\n")
     print("| path | policy | override | cycle time (s) | cycle vs 1.0 | peak error (um) | "
-          "peak / tol | within tol |")  # fmt: skip
+          "peak / tol | within tol |")
     print("|---|---|---|---|---|---|---|---|")
     print("\n".join(rows))
     print(f"\nrun time {time.perf_counter() - t0:.1f} s; ! = the confirming constant run "
-          "differs from its search member; * = feed capped at the machine's limit")  # fmt: skip
+          "differs from its search member; * = feed capped at the machine's limit")
 
 
 def main() -> None:
@@ -207,12 +207,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--grid", type=int, default=12, help="overrides swept (default 12)")
     parser.add_argument("--tolerances", type=float, nargs="*", default=[0.001, 0.01, 0.05],
-                        help="G64 tolerances of cnc_lookahead, mm")  # fmt: skip
+                        help="G64 tolerances of cnc_lookahead, mm")
     parser.add_argument("--table", choices=("baselines", "fuzzy", "both"), default="both")
     parser.add_argument("--members", type=int, default=24,
-                        help="overrides per round of the fuzzy table's search")  # fmt: skip
+                        help="overrides per round of the fuzzy table's search")
     parser.add_argument("--fuzzy-units", action="store_true",
-                        help="a fuzzy_feedrate row per reading of dF's unit")  # fmt: skip
+                        help="a fuzzy_feedrate row per reading of dF's unit")
     args = parser.parse_args()
     if args.table in ("baselines", "both"):
         baseline_tables(args)

@@ -69,7 +69,7 @@ def failed(out: dict[str, np.ndarray]) -> np.ndarray:
 
 
 def search(venv: gym.vector.VectorEnv, policy: Schedule, x0: np.ndarray, n_seg: int,
-           generations: int, seed: int) -> tuple[float, np.ndarray]:  # fmt: skip
+           generations: int, seed: int) -> tuple[float, np.ndarray]:
     """CMA-ES over ``n_seg`` actions per member from ``x0``: the best peak (um), its point."""
     n_act = venv.single_action_space.shape[0]
 
@@ -79,7 +79,7 @@ def search(venv: gym.vector.VectorEnv, policy: Schedule, x0: np.ndarray, n_seg: 
             chunk = x[i:i + POPULATION]
             rows = np.vstack([chunk, np.repeat(chunk[-1:], POPULATION - len(chunk), axis=0)])
             policy.table = np.repeat(rows.reshape(POPULATION, n_seg, n_act),
-                                     policy.segments // n_seg, axis=1)  # fmt: skip
+                                     policy.segments // n_seg, axis=1)
             out, _ = run_episodes(venv, policy, seed=seed)
             peak = np.where(failed(out), np.inf, out["max_contour_error"] * 1e6)
             peaks[i:i + len(chunk)] = peak[:len(chunk)]
@@ -87,12 +87,12 @@ def search(venv: gym.vector.VectorEnv, policy: Schedule, x0: np.ndarray, n_seg: 
 
     res = minimize("cma", objective, [[-1.0, 1.0]] * (n_seg * n_act), population=POPULATION,
                    iterations=generations, seed=seed, x0=x0[None, :],
-                   sigma0=0.2 if n_seg == 1 else 0.1)  # fmt: skip
+                   sigma0=0.2 if n_seg == 1 else 0.1)
     return float(res.fun), np.asarray(res.x)
 
 
 def bound(spec: dict[str, Any], seed: int, segments: int, generations: int,
-          search_kwargs: dict[str, Any]) -> dict[str, float]:  # fmt: skip
+          search_kwargs: dict[str, Any]) -> dict[str, float]:
     """The row of one path: no CCC, PID CCC, best constant, best schedule (um).
 
     The references run in ``spec``; the search in ``spec`` and ``search_kwargs``.
@@ -110,7 +110,7 @@ def bound(spec: dict[str, Any], seed: int, segments: int, generations: int,
         x0 = np.zeros(venv.single_action_space.shape[0])
         row["constant"], x1 = search(venv, policy, x0, 1, generations // 2, seed)
         row["schedule"], _ = search(venv, policy, np.tile(x1, segments), segments, generations,
-                                    seed)  # fmt: skip
+                                    seed)
     finally:
         venv.close()
     row["schedule"] = min(row["schedule"], row["constant"])
@@ -125,10 +125,10 @@ def random_specs(plant: str, seeds: list[int]) -> list[tuple[str, dict[str, Any]
     out = []
     for seed in seeds:
         sc = task.config.random_scenario(np.random.default_rng(seed), task.task_kind,
-                                         as_reset=True)  # fmt: skip
+                                         as_reset=True)
         control = {k: sc.options[k] for k in ("path_control", "path_tolerance")}
         out.append((str(seed), {"id": "contour_gym/CCC-v1", "plant": plant, "path": sc.path,
-                                **control}, seed))  # fmt: skip
+                                **control}, seed))
     return out
 
 
@@ -144,7 +144,7 @@ def add_path_arguments(parser: argparse.ArgumentParser, gcode: bool = True) -> N
         parser.add_argument("--path-tolerance", type=float, default=None)
     parser.add_argument("--env-kwargs", type=json_object, default={},
                         help='more env keyword arguments, JSON (e.g. \'{"controller_options": '
-                        '{"friction": "feedforward"}}\')')  # fmt: skip
+                        '{"friction": "feedforward"}}\')')
 
 
 def paths(args: argparse.Namespace) -> list[tuple[str, dict[str, Any], int]]:
@@ -152,7 +152,7 @@ def paths(args: argparse.Namespace) -> list[tuple[str, dict[str, Any], int]]:
     out = random_specs(args.plant, args.seeds)
     out += [(env_id.split("/")[-1], {"id": env_id}, 0) for env_id in args.ids]
     out += [(name, {"id": "contour_gym/CCC-v1", "plant": args.plant, "path": name}, 0)
-            for name in args.library]  # fmt: skip
+            for name in args.library]
     for file in getattr(args, "gcode", []):
         part = from_gcode(FilePath(file).read_text(encoding="utf-8"), name=FilePath(file).stem)
         spec = {"id": "contour_gym/CCC-v1", "plant": args.plant, "path": part}
@@ -194,10 +194,10 @@ def main() -> None:
     add_path_arguments(parser)
     parser.add_argument("--search-kwargs", type=json_object, default={},
                         help="env keyword arguments of the search alone, JSON (an agent's "
-                        "action map: ccc_gains, kd_scale)")  # fmt: skip
+                        "action map: ccc_gains, kd_scale)")
     parser.add_argument("--segments", type=at_least(1), default=8)
     parser.add_argument("--generations", type=at_least(2), default=60,
-                        help="of the schedule's search; the constant's gets half")  # fmt: skip
+                        help="of the schedule's search; the constant's gets half")
     args = parser.parse_args()
     if not (args.seeds or args.ids or args.library or args.gcode):
         parser.error("give paths: --seeds, --ids, --library or --gcode")
@@ -211,10 +211,10 @@ def main() -> None:
         rows.append(row)
         cells = " | ".join(f"{row[c]:.1f}{' F' if f'{c} failed' in row else ''}" for c in cols)
         print(f"| {name} | {cells} | {row['schedule'] / row['pid_ccc'] - 1:+.0%} | "
-              f"{time.perf_counter() - start:.0f} |", flush=True)  # fmt: skip
+              f"{time.perf_counter() - start:.0f} |", flush=True)
     medians = {c: float(np.median([r[c] for r in rows])) for c in cols}
     print(f"| median | {' | '.join(f'{medians[c]:.1f}' for c in cols)} | "
-          f"{medians['schedule'] / medians['pid_ccc'] - 1:+.0%} | |")  # fmt: skip
+          f"{medians['schedule'] / medians['pid_ccc'] - 1:+.0%} | |")
     print(f"Peak contour error, um ({args.segments} segments, {args.generations} generations of "
           f"{POPULATION}; rows 20 % below the PID CCC: "
           f"{sum(r['schedule'] <= 0.8 * r['pid_ccc'] for r in rows)} of {len(rows)}).")

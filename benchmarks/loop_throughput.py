@@ -42,7 +42,7 @@ def measure(
 def main() -> None:
     print(f"# loop throughput, {platform.machine()}, {os.cpu_count()} cores visible, one used")
     print(f"{'B':>6} {'ticks/call':>10} {'rig ticks/s':>14} {'ideal ticks/s':>14} "
-          f"{'ideal, truth':>14} {'target':>10}")  # fmt: skip
+          f"{'ideal, truth':>14} {'target':>10}")
     for batch, ticks, target in ((1, 2000, 2e4), (64, 2000, None), (1024, 1000, 3e6)):
         rate, ideal = measure(batch, ticks), measure(batch, ticks, ideal=True)
         truth = measure(batch, ticks, ideal=True, estimator="ground_truth")

@@ -45,7 +45,7 @@ def print_claims(claims: list[Claim]) -> None:
             need += f", {c.extra}"
         print(f"| {c.paper} | {c.scenario} | {c.model} | {c.comparison} | "
               f"{_pct(c.paper_change)} | {_pct(c.ours)} | {need} | {c.detail} | "
-              f"{c.verdict} |", flush=True)  # fmt: skip
+              f"{c.verdict} |", flush=True)
 
 
 def speed_line(protocol: str, optimizer: str) -> str:
@@ -55,7 +55,7 @@ def speed_line(protocol: str, optimizer: str) -> str:
     wall = time.perf_counter() - start
     verdict = "HOLDS" if wall <= 15.0 else "FALLS SHORT"
     return (f"protocol {protocol} ({optimizer}, {result.nfev} candidates): {wall:.1f} s wall "
-            f"(target <= 15 s) {verdict}")  # fmt: skip
+            f"(target <= 15 s) {verdict}")
 
 
 def main() -> None:
@@ -63,7 +63,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10, help="optimiser seeds (default 10)")
     parser.add_argument("--skip-optimizers", action="store_true",
-                        help="leave out the optimiser comparisons and speed lines")  # fmt: skip
+                        help="leave out the optimiser comparisons and speed lines")
     args = parser.parse_args()
     t0 = time.perf_counter()
     claims: list[Claim] = []
@@ -78,7 +78,7 @@ def main() -> None:
     print(speed_line("000_circle", "improved_pso"), flush=True)
     print(speed_line("003", "improved_abc"), flush=True)
     opt = [optimizer_claim("000", "000_circle", "improved_pso", "pso", seeds)[0],
-           optimizer_claim("003", "003", "improved_abc", "abc", seeds)[0]]  # fmt: skip
+           optimizer_claim("003", "003", "improved_abc", "abc", seeds)[0]]
     print()
     print_claims(opt)
     print(f"\n(total {time.perf_counter() - t0:.0f} s)")

@@ -116,7 +116,7 @@ def env_rates(env_id: str, threads: int, repeats: int) -> dict[tuple[int, int | 
         envs: dict[int | None, Any] = {}
         for n in (*sorted({1, threads}), None):
             env = gym.make_vec(env_id, num_envs=size, num_threads=n,
-                               vectorization_mode="vector_entry_point")  # fmt: skip
+                               vectorization_mode="vector_entry_point")
             env.reset(seed=0)
             envs[n] = env
         steps = max(20, 20_000 // size)
@@ -140,11 +140,11 @@ def print_env_table(env_id: str, cpus: int, repeats: int) -> None:
     envs = env_rates(env_id, cpus, repeats)
     name = env_id.split("/")[-1]
     print(f"\n| vector env {name}, num_envs | 1 thread | {cpus} threads | speed-up "
-          "| default | its speed-up |\n|---|---|---|---|---|---|")  # fmt: skip
+          "| default | its speed-up |\n|---|---|---|---|---|---|")
     for size in ENV_SIZES:
         one, many, auto = envs[size, 1], envs[size, cpus], envs[size, None]
         print(f"| {size} | {one:.3g} | {many:.3g} | {many / one:.2f}x | {auto:.3g} "
-              f"| {auto / one:.2f}x |")  # fmt: skip
+              f"| {auto / one:.2f}x |")
 
 
 def wall(job: Callable[[], object]) -> float:
@@ -176,7 +176,7 @@ def bench_job(suite: str, root: Path, *flags: str) -> Callable[[], object]:
             return subprocess.run(
                 [sys.executable, "-m", "agents.cli", "bench", "--suite", suite, "--quiet",
                  "--out", str(out), *flags], check=True, env=env, stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL)  # fmt: skip
+                stderr=subprocess.DEVNULL)
         finally:
             shutil.rmtree(out, ignore_errors=True)
 
@@ -195,7 +195,7 @@ def row(label: str, workers: int, value: float, base: float, unit: str, faster: 
     """A table row: value, speed-up against ``base`` and efficiency."""
     speedup = value / base if faster else base / value
     return (f"| {label} | {workers} | {value:.3g} {unit} | {speedup:.2f}x | "
-            f"{speedup / workers:.0%} |")  # fmt: skip
+            f"{speedup / workers:.0%} |")
 
 
 def main() -> None:
@@ -212,7 +212,7 @@ def main() -> None:
                         help="the vector env tables only")
     args = parser.parse_args()
     budget = None if args.tune_budget is None else tuple(
-        int(v) for v in args.tune_budget.split(","))  # fmt: skip
+        int(v) for v in args.tune_budget.split(","))
     cpus = available_cpus()
     counts = list(range(1, cpus + 1))
     os.environ.setdefault("CONTOUR_GYM_BACKGROUND", "0")
@@ -224,7 +224,7 @@ def main() -> None:
           f"medians of {args.repeats}{walls}")
     if not args.only_envs:
         worker_rows(counts, args.repeats, args.suites.split(","), budget, args.wall_repeats,
-                    not args.skip_ray)  # fmt: skip
+                    not args.skip_ray)
     for env_id in ENV_IDS:
         print_env_table(env_id, cpus, args.repeats)
 
@@ -232,7 +232,7 @@ def main() -> None:
 def worker_rows(
     counts: list[int], repeats: int, suites: list[str], budget: tuple[int, int] | None,
     wall_repeats: int, ray: bool,
-) -> None:  # fmt: skip
+) -> None:
     """The table against workers: the loop, processes, bench, tune (and on Ray)."""
     print("\n| what | workers | speed | speed-up | efficiency |\n|---|---|---|---|---|")
     loops = loop_rates(counts, repeats)
@@ -241,18 +241,18 @@ def worker_rows(
     procs = process_rates(counts, repeats)
     for n in counts:
         print(row(f"loop, B = {PROCESS_BATCH}, processes", n, procs[n], procs[1], "ticks/s",
-                  True))  # fmt: skip
+                  True))
     root = Path(tempfile.mkdtemp(prefix="scaling-"))
     try:
         for suite in suites:
             wall(bench_job(suite, root, "--workers", "1"))  # its kernels compiled and cached
             benches = median_walls({n: bench_job(suite, root, "--workers", str(n))
-                                    for n in counts}, wall_repeats)  # fmt: skip
+                                    for n in counts}, wall_repeats)
             for n in counts:
                 print(row(f"bench {suite}", n, benches[n], benches[1], "s", False))
         wall(tune_job((4, 1), workers=1))  # its kernels cached
         tunes = median_walls({n: tune_job(budget, workers=n) for n in counts},
-                             wall_repeats)  # fmt: skip
+                             wall_repeats)
         for n in counts:
             print(row("tune 003", n, tunes[n], tunes[1], "s", False))
         if ray:

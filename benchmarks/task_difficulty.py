@@ -45,7 +45,7 @@ def sweep(env_id: str, seed: int = 0) -> dict[str, object]:
     task = gym.make(env_id).unwrapped.task  # the env's step limit, reward range and scenario
     actions = np.repeat(np.asarray(ACTIONS)[:, None], task.n_actions, axis=1)
     out = run_policy_batch(env_id, make_policy("constant", action=actions),
-                           num_envs=len(ACTIONS), seed=seed)  # fmt: skip
+                           num_envs=len(ACTIONS), seed=seed)
     floor = task.max_episode_steps * min(task.reward_range[0], 0.0) - task.config.failure_penalty
     return {"returns": out["return"], "failed": out["failed"], "floor": floor, "task": task}
 
@@ -92,9 +92,9 @@ def random_main(ids: list[str], count: int) -> None:
             r, failed, peak, path = res["returns"], res["failed"], res["peak"], res["path"]
             best.append(ACTIONS[int(np.argmax(r))])
             cells = " ".join(f"{x:>9.4g}{'F' if f else ' '}{p * 1e6:>7.1f}"
-                             for x, f, p in zip(r, failed, peak, strict=True))  # fmt: skip
+                             for x, f, p in zip(r, failed, peak, strict=True))
             print(f"  {1000 + k} {path.name:<17} {path.length * 1e3:>5.0f} mm {cells} "
-                  f"best {best[-1]:+.1f}")  # fmt: skip
+                  f"best {best[-1]:+.1f}")
         print(f"  best action per path: {best}")
 
 
@@ -102,14 +102,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ids", nargs="*", default=list(contour_gym.ENV_IDS))
     parser.add_argument("--random", type=int, default=0, metavar="N",
-                        help="sweep N random paths on --ids instead")  # fmt: skip
+                        help="sweep N random paths on --ids instead")
     args = parser.parse_args()
     if args.random:
         random_main(args.ids, args.random)
         return
     head = "returns at a = " + " / ".join(f"{a:+.1f}" for a in ACTIONS)
     print(f"{'id':<34} {head:<58} {'best':>5} {'ones vs best':>12} {'fail margin':>11} "
-          f"{'slow/tol':>8} {'fast/tol':>8} {'s':>5}")  # fmt: skip
+          f"{'slow/tol':>8} {'fast/tol':>8} {'s':>5}")
     for env_id in args.ids:
         start = time.perf_counter()
         res = sweep(env_id)
@@ -123,7 +123,7 @@ def main() -> None:
         if "Feedrate" in env_id:
             slow, fast = feedrate_peaks(res["task"])
         print(f"{env_id:<34} {cells:<58} {ACTIONS[best]:>+5.1f} {worse:>12.1%} {margin:>11.4g} "
-              f"{slow:>8.2f} {fast:>8.2f} {time.perf_counter() - start:>5.0f}")  # fmt: skip
+              f"{slow:>8.2f} {fast:>8.2f} {time.perf_counter() - start:>5.0f}")
     print("F: the episode failed. ones vs best: how much lower the all-ones return is than the "
           "best (CCC ids want >= 25 %, best interior).")
 

@@ -72,7 +72,7 @@ def build(backend: str, config: Any, seed: int) -> tuple[Any, StepTimer]:
         venv = VecNormalize(venv, **config.normalize)
     n_actions = int(np.prod(venv.action_space.shape))
     model = algo_class(config.algo)(env=venv, seed=seed, device="cpu",
-                                    **config.model_kwargs(n_actions))  # fmt: skip
+                                    **config.model_kwargs(n_actions))
     return model, timer
 
 
@@ -142,7 +142,7 @@ def main() -> None:
             rows.append(("PPO, Dict observation", result))
     config = load_config("ppo", args.env, overrides={"n_envs": args.n_envs})
     rows.append(("env only", {b: (env_only(config, b, 4096, args.repeats), 1.0)
-                              for b in ("native", "dummy")}))  # fmt: skip
+                              for b in ("native", "dummy")}))
     print(f"{args.env}, n_envs = {args.n_envs}, medians of {args.repeats} repeats, 1 torch thread")
     print("| algo | native env-steps/s | native env share | DummyVecEnv env-steps/s "
           "| DummyVecEnv env share | native / DummyVecEnv |")

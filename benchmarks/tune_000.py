@@ -26,7 +26,7 @@ UM = 1e6
 def main() -> None:
     print("factors:", {k: f"{v:.4g}" for k, v in tuned_factors_000().items()})
     print(f"{'env':<18}{'policy':<20}{'rig max':>9}{'rig mean':>10}{'ideal max':>11}"
-          f"{'ideal mean':>12}")  # fmt: skip
+          f"{'ideal mean':>12}")
     peak: dict[tuple[str, str, bool], float] = {}
     for env in ENVS:
         for i, name in enumerate(POLICIES):
@@ -37,13 +37,13 @@ def main() -> None:
                 cells += [m["max_contour_error"] * UM, m["mean_contour_error"] * UM]
             label = env.split("/")[1] if i == 0 else ""
             print(f"{label:<18}{name:<20}{cells[0]:>9.2f}{cells[1]:>10.2f}{cells[2]:>11.2f}"
-                  f"{cells[3]:>12.2f}")  # fmt: skip
+                  f"{cells[3]:>12.2f}")
     print("claims (agents.claims.claims_000; max contour error):")
     for ideal in (False, True):
         for c in claims_000(ideal):
             print(f"  {c.scenario:<9} {c.model:<5} {c.comparison:<45} {c.ours * 100:+7.1f} % "
                   f"(000: {c.paper_change * 100:+.1f} %, needs <= {c.need * 100:+.0f} %)  "
-                  f"{c.verdict}")  # fmt: skip
+                  f"{c.verdict}")
 
 if __name__ == "__main__":
     main()

@@ -27,7 +27,7 @@ MM = 1e3
 
 def main() -> None:
     print(f"{'path':<11}{'policy':<14}{'':6}{'P_eps tick':>11}{'P_e tick':>10}"
-          f"{'P_eps 10Hz':>11}{'P_e 10Hz':>10}   (mm)")  # fmt: skip
+          f"{'P_eps 10Hz':>11}{'P_e 10Hz':>10}   (mm)")
     table: dict[tuple[str, str, bool], float] = {}
     for case, (env_id, _) in ENVS.items():
         for name in POLICIES:
@@ -37,13 +37,13 @@ def main() -> None:
                 table[case, name, ideal] = s["p_eps"]
                 print(f"{case:<11}{name:<14}{'ideal' if ideal else 'rig':<6}"
                       f"{m['p_eps'] * MM:>11.4f}{m['p_e'] * MM:>10.4f}"
-                      f"{s['p_eps'] * MM:>11.4f}{s['p_e'] * MM:>10.4f}")  # fmt: skip
+                      f"{s['p_eps'] * MM:>11.4f}{s['p_e'] * MM:>10.4f}")
     print("claims (P_eps at 10 Hz, iabc_acc2pid against no_ccc, i.e. hand-tuned 2PID):")
     for case, (_, claim) in ENVS.items():
         for ideal in (False, True):
             change = table[case, "iabc_acc2pid", ideal] / table[case, "no_ccc", ideal] - 1.0
             print(f"  {case:<11}{'ideal' if ideal else 'rig':<6}{change * 100:+7.1f} % "
-                  f"(003: {claim * 100:+.1f} %)")  # fmt: skip
+                  f"(003: {claim * 100:+.1f} %)")
 
 
 if __name__ == "__main__":

@@ -116,7 +116,7 @@ def carve(typingctx, buf, offset, shape):
     table is trusted. The view shares ``buf``'s owner (none for a borrowed blob).
     """
     if not (isinstance(buf, types.Array) and buf.ndim == 1 and isinstance(shape, types.UniTuple)
-            and isinstance(shape.dtype, types.Integer)):  # fmt: skip
+            and isinstance(shape.dtype, types.Integer)):
         return None
     nd = shape.count
     ret = types.Array(buf.dtype, nd, "C", readonly=not buf.mutable)
@@ -126,9 +126,9 @@ def carve(typingctx, buf, offset, shape):
         out = context.make_array(ret)(context, builder)
         intp = context.get_value_type(types.intp)
         dims = [builder.sext(d, intp) if d.type.width < intp.width else d
-                for d in cgutils.unpack_tuple(builder, args[2], nd)]  # fmt: skip
+                for d in cgutils.unpack_tuple(builder, args[2], nd)]
         itemsize = context.get_constant(types.intp, context.get_abi_sizeof(
-            context.get_data_type(buf.dtype)))  # fmt: skip
+            context.get_data_type(buf.dtype)))
         strides, step = [], itemsize
         for d in reversed(dims):
             strides.insert(0, step)
@@ -138,7 +138,7 @@ def carve(typingctx, buf, offset, shape):
             out, data=builder.gep(src.data, [start]), shape=cgutils.pack_array(builder, dims),
             strides=cgutils.pack_array(builder, strides), itemsize=itemsize,
             meminfo=src.meminfo, parent=cgutils.get_null_value(src.parent.type),
-        )  # fmt: skip
+        )
         return impl_ret_borrowed(context, builder, ret, out._getvalue())
 
     return ret(buf, offset, shape), codegen

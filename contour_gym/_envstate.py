@@ -20,7 +20,7 @@ ENV_FLOATS = (
     "action", "skip", "g_max", "g_log", "lookahead", "eps_prev", "s_before", "obs", "ref",
     "vel", "raw", "reward", "terminated", "truncated", "failure", "comp", "weights", "steps",
     "ret", "track", "feedrate", "nominal", "f_nom", "n_max", "peak", "windows", "prior",
-)  # fmt: skip
+)
 # nominal: each member's progress scale (its nominal feedrate x decision time, m); f_nom: its
 # nominal feedrate (reference velocity scale, m/s); n_max: its step limit (members run their
 # own paths); peak: the episode's peak true contour error so far, m (the ``record`` component);
@@ -34,7 +34,7 @@ ENV_CONFIG = Schema(
     observation=1.0, f_max=1.0, horizon=0.02, progress_obs=0.0, target=0.0, t_lo=0.2,
     t_mid=1.0, t_hi=2.0, lim_a=0.0, lim_reach=0.0, lim_vend=0.0, lim_rend=0.0,
     lim_span=0.0,
-)  # fmt: skip
+)
 OBSERVATIONS = ("v0", "v1")  # ENV_CONFIG.observation is the index: v0 0, v1 1
 OBSERVATION_V0 = 0.0
 EC = ENV_CONFIG.col

@@ -46,12 +46,12 @@ class Scenario:
         return Interpolator(
             self.feedrate if feedrate is None else feedrate, p.accel, p.jerk, p.max_feedrate,
             p.rapid_rate, p.time_constant,
-        )  # fmt: skip
+        )
 
     def loop(
         self, *, batch_size: int = 1, ccc_gains: Any = None, record: bool = False,
         ccc_weights: Any = None, threads: int | None = 1, **kwargs: Any,
-    ) -> ServoLoop:  # fmt: skip
+    ) -> ServoLoop:
         """A :class:`ServoLoop` of this scenario; ``kwargs`` are loop options overriding ours.
 
         ``ccc_weights`` None: the preset's; ``threads``: :class:`ServoLoop`'s. The CCC law's
@@ -60,7 +60,7 @@ class Scenario:
         options = _merged_controller(
             self.options["axis_controller"], self.options.get("controller_options") or {},
             {**self.options, **kwargs}, kwargs,
-        )  # fmt: skip
+        )
         options["ccc_law_params"] = machine_law_params(
             self.preset, options.get("ccc_law", "pid"), options.get("ccc_law_params"))
         loop = ServoLoop(
@@ -68,7 +68,7 @@ class Scenario:
             batch_size=batch_size, ccc_gains=ccc_gains, record=record,
             ccc_weights=self.preset.ccc_weights if ccc_weights is None else ccc_weights,
             threads=threads, **options,
-        )  # fmt: skip
+        )
         if self.feed_override != 1.0:
             loop.set_feed_override(self.feed_override)
         return loop
@@ -113,7 +113,7 @@ def _on_machine(path: Path, preset: Preset) -> Path:
             f"path {path.name!r} is {path.dim}-D but plant {preset.name!r} draws {dim}-D contours"
         )
     rapid = preset.rapid_rate or (preset.max_feedrate if math.isfinite(preset.max_feedrate)
-                                  else 10.0 * preset.feedrate)  # fmt: skip
+                                  else 10.0 * preset.feedrate)
     return for_machine(dim, rapid_rate=rapid)
 
 
@@ -282,7 +282,7 @@ def simulate(
 def _outcome(loop: ServoLoop) -> dict[str, float]:
     # failed, its reason's code (ServoLoop.failure_reason) and finished, of member 0
     return {"failed": float(loop.failed[0]), "failure_reason": float(loop.failure_reason[0]),
-            "finished": float(loop.done[0])}  # fmt: skip
+            "finished": float(loop.done[0])}
 
 
 def run_trace(
@@ -296,7 +296,7 @@ def run_trace(
 def run_scenario(
     scenario: Scenario, ccc_gains: object = None, seed: int = 0, *, record: bool = False,
     max_time: float | None = None, **options: Any,
-) -> ServoLoop:  # fmt: skip
+) -> ServoLoop:
     """Run one member of ``scenario`` from ``seed`` to its end; returns the finished loop.
 
     ``options`` override the scenario's loop options; ``loop.metrics()`` holds the run's

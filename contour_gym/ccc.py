@@ -174,7 +174,7 @@ class CCCLaw:
         ):
             raise ValueError(f"CCC law {self.name!r}: release_integral bleeds state column "
                              f"{integral}, 'integral', but the law's state starts "
-                             f"{self.state.names[:1]}")  # fmt: skip
+                             f"{self.state.names[:1]}")
 
     def params_for(
         self, machine: Any, given: Mapping[str, float], set_on: Any = None
@@ -197,7 +197,7 @@ class CCCLaw:
         if self.units is None or self.home is None:
             if set_on is not None:
                 raise ValueError(f"CCC law {self.name!r} has no machine units: its parameters "
-                                 "cannot carry from the machine they were set on")  # fmt: skip
+                                 "cannot carry from the machine they were set on")
             return out
         if set_on is None and all(k in out for k in names):
             return out  # every value given for this machine: no unit needed
@@ -221,7 +221,7 @@ class CCCLaw:
         if bad:
             raise ValueError(f"CCC law {self.name!r}: units {bad} on machine "
                              f"{getattr(machine, 'name', machine)!r} must be "
-                             f"{'>= 0' if zero else 'positive'} and finite")  # fmt: skip
+                             f"{'>= 0' if zero else 'positive'} and finite")
         return units
 
     def table(self) -> np.ndarray:

@@ -282,7 +282,7 @@ def build_program(
         np.ascontiguousarray(feed, dtype=float), np.ascontiguousarray(flags, dtype=float),
         vcap, vj, np.ascontiguousarray(stop, dtype=float),
         np.ascontiguousarray(np.round(dwell_s / ts), dtype=float), nominal,
-    )  # fmt: skip
+    )
 
 
 def _tolerances(mode: str, tol: Array, path_tolerance: float | None, n: int) -> Array:
@@ -308,7 +308,7 @@ def _stops(path: Path, mode: str, stop: NDArray[Any], dwell_s: Array) -> NDArray
 
 
 def _speed_limits(path: Path, mode: str, tolerance: Array, accel: float
-                  ) -> tuple[Array, Array, Array]:  # fmt: skip
+                  ) -> tuple[Array, Array, Array]:
     """Curvature caps and junction limits before the backward pass, and segment lengths.
 
     Under ``"none"`` nothing limits the speed but the path end and the stops.

@@ -127,7 +127,7 @@ def _gantry_rows() -> list[BaselineRow]:
                 f"003-{case}-{key}", "003", f"{case} 2PID, {what} ({table})", figure, "mm",
                 spec["plant"], spec["path"], metric, spec["options"], experiment=True,
                 band=("factor", 2.0), note=_003_NOTE,
-            ))  # fmt: skip
+            ))
     return rows
 
 
@@ -196,7 +196,7 @@ def fidelity_table(rows: tuple[BaselineRow, ...] = ROWS, seed: int = 0) -> list[
         out.append({
             "row": row, "ideal": ideal, "rig": rig, "ratio": ours / row.figure,
             "verdict": row.verdict(ours),
-        })  # fmt: skip
+        })
     return out
 
 

@@ -175,7 +175,7 @@ def _xy_dc_servo() -> Preset:
         "resolution not published: chosen), one-tick computation delay, no measurement noise "
         "(a digital encoder only quantises). The rig does not reach 000's experimental "
         "0.115 mm: the unmodelled friction and backlash of the real table are not published.",
-    )  # fmt: skip
+    )
     kp = gains[0].kp
     return Preset(
         "xy_dc_servo", "000", stage, gains, CCCGains(kp=kp, ki=kp * 20.0, kd=0.0),
@@ -188,7 +188,7 @@ def _xy_dc_servo() -> Preset:
         "axes gave a median 203 and 282 um peak on 8 random paths, at 0.2 m/s^2 96 um). "
         "Estimator: 000's exact line/arc error (its free curves use two_circle). "
         "Tolerance: 000 gives none; TOLERANCE_RULE on the 50.6 um baseline peak.",
-    )  # fmt: skip
+    )
 
 
 def _xyz_pmlsm() -> Preset:
@@ -211,7 +211,7 @@ def _xyz_pmlsm() -> Preset:
         "8/6/4 N s/m, K = 30 N/A, u_max 10 A, random + 1 Hz sinusoidal disturbance of 2 N "
         "(chosen). Loop bandwidths 150/130/110 rad/s (chosen mismatch). Rig: 1 um linear "
         "encoders (chosen), one-tick computation delay.",
-    )  # fmt: skip
+    )
     kp = gains[0].kp
     return Preset(
         "xyz_pmlsm", "001", stage, gains, CCCGains(kp=kp, ki=kp * 10.0),
@@ -223,7 +223,7 @@ def _xyz_pmlsm() -> Preset:
         "Hsu). Tolerance: 001 gives none; TOLERANCE_RULE on the 19.3 um baseline peak. 001's "
         "PID-CCC row (max 122.2, mean 17.7, RMS 24.6, unit not printed) is not reproduced: "
         "its machine and controller tables were lost (see the fidelity table).",
-    )  # fmt: skip
+    )
 
 
 def _lugre_linear_motor() -> Preset:
@@ -246,7 +246,7 @@ def _lugre_linear_motor() -> Preset:
         "bandwidths 80/60 rad/s (chosen; the mismatch is 002 section 4.2's subject). Rig: "
         "0.1 um linear encoders (chosen for 002's um-level precision platform), one-tick "
         "computation delay.",
-    )  # fmt: skip
+    )
     return Preset(
         "lugre_linear_motor", "002", stage, gains, CCCGains(kp=1.0, ki=10.0),
         path="bspline_complex", feedrate=1.4 / 60.0, accel=0.5, max_feedrate=0.2,
@@ -259,7 +259,7 @@ def _lugre_linear_motor() -> Preset:
         "4.3 superimposes the CCC's correction on the commanded position (pre-compensation); "
         "its gains are dimensionless here (kp 1, ki 10/s: the control-injection gains of "
         "the other presets, kp_axis (1, 10/s), divided by the axis kp; chosen).",
-    )  # fmt: skip
+    )
 
 
 def _gantry_axis(
@@ -278,7 +278,7 @@ def _gantry_axis(
         name, mass=mass, damping=b_m * mass, force_constant=k_m * mass, u_max=10.0,
         friction=StribeckFriction(fc=0.5 * h, fs=0.7 * h, vs=0.01, delta=2.0),
         ripple=ripple, encoder_resolution=enc,
-    )  # fmt: skip
+    )
 
 
 # 003 section 6.3's hand-tuned 2PID: (Kp, TI, TD, alpha, beta) per axis x, y1, y2. Kp is read
@@ -317,7 +317,7 @@ def _xyy_gantry() -> Preset:
         "(published). Masses 4/2/2 kg, the split of H into Stribeck friction and six ripple "
         "harmonics, 32 mm pole pitch and u_max 10 V (a +-10 V DAC) are chosen. Rig: the "
         "published encoders, one-tick computation delay.",
-    )  # fmt: skip
+    )
     weights = tuple((kx * 1e3, ky * 1e3, 0.0) for kx, ky in GANTRY_COMPENSATORS)
     return Preset(
         "xyy_gantry", "003", stage, gains, CCCGains(kp=1.0),
@@ -342,7 +342,7 @@ def _xyy_gantry() -> Preset:
         "the x and y2 loops lag nearly in phase, so their errors (within 30 % of table 2) are "
         "mostly tangential; the paper's contour errors need a coupling the identified model "
         "does not carry.",
-    )  # fmt: skip
+    )
 
 
 def _xy_servo_coulomb() -> Preset:
@@ -354,7 +354,7 @@ def _xy_servo_coulomb() -> Preset:
             u_max=10.0, current_tau=5e-4, encoder_resolution=1e-6,
         )
         for n, j, b, fc in (("x", 0.0103, 0.0336, 0.2), ("y", 0.012, 0.0308, 0.31))
-    )  # fmt: skip
+    )
     per_m = counts / lead
     gains = tuple(PIDGains(kp=kp * per_m, kd=0.02 * per_m) for kp in (5.5, 4.95))
     axes = _with_travel(axes, (-150.0, 150.0), (-150.0, 150.0))
@@ -372,7 +372,7 @@ def _xy_servo_coulomb() -> Preset:
         "Ts 1 ms chosen; the disturbance is unpublished and left out. Rig: 1 um encoder "
         "(chosen), one-tick computation delay. In-position band 2 um (chosen: below 004's "
         "4.5 um bound, so that a block after an exact stop starts within it).",
-    )  # fmt: skip
+    )
     kp = 0.1 * gains[0].kp  # 004 has no CCC: a tenth of the axis kp is stable on its rig
     return Preset(
         "xy_servo_coulomb", "004", stage, gains, CCCGains(kp=kp, ki=kp * 10.0),
@@ -390,7 +390,7 @@ def _xy_servo_coulomb() -> Preset:
         "bound of 4.5 um cannot be held through a 90 degree turn at speed). Estimator: 004's "
         "variable window; tolerances 5.0 um (circle) and 4.5 um (corner) are 004's error "
         "bounds.",
-    )  # fmt: skip
+    )
 
 
 @dataclass(frozen=True)

@@ -167,7 +167,7 @@ def part_figure(
     n = path.table.n_segments
     cutting = np.asarray(getattr(path, "cutting", np.ones(n, dtype=bool)), dtype=bool)
     drawn = {label: _cutting_strokes(path, tr, cutting, axes, offset, member)
-             for label, tr in runs.items()}  # fmt: skip
+             for label, tr in runs.items()}
     top = max((float(err.max()) for _, err in drawn.values() if err.size), default=0.0)
     norm = Normalize(0.0, top if top > 0.0 else 1.0)
     idle = _idle_points(path, cutting) * 1e3
@@ -184,7 +184,7 @@ def part_figure(
         _mark_worst(ax, strokes, err)
         ax.autoscale_view()
         ax.set(xlabel="x (mm)", ylabel="y (mm)", title=f"{title or path.name}: {label}",
-               aspect="equal")  # fmt: skip
+               aspect="equal")
         ax.grid(alpha=0.3)
     if drawn:
         fig.colorbar(lines, ax=list(panels), label="|contour error| (um)")
@@ -196,7 +196,7 @@ def part_figure(
 def _cutting_strokes(
     path: Path, trace: Trace, cutting: NDArray[np.bool_], axes: tuple[int, ...],
     offset: tuple[float, ...], member: int,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(N, 2, 2) x-y strokes between consecutive ticks on cutting moves (m), and their error (um).
 
     A stroke's error is the larger |contour error| of its two ticks (over contours).
@@ -206,7 +206,7 @@ def _cutting_strokes(
     t = path.table
     seg = np.clip(np.searchsorted(t.s0, foot, side="right") - 1, 0, t.n_segments - 1)
     ref = np.clip(np.searchsorted(t.s0, trace.s[member][live], side="left") - 1, 0,
-                  t.n_segments - 1)  # fmt: skip
+                  t.n_segments - 1)
     cut = cutting[seg] & cutting[ref]
     err = np.abs(trace.eps[member][live]).max(axis=1) * 1e6
     both = cut[:-1] & cut[1:]
@@ -226,7 +226,7 @@ def _mark_worst(ax: Axes, strokes: NDArray[np.float64], err: NDArray[np.float64]
 
 
 def _idle_points(path: Path, cutting: NDArray[np.bool_], per_segment: int = 48
-                 ) -> NDArray[np.float64]:  # fmt: skip
+                 ) -> NDArray[np.float64]:
     """x-y points along the non-cutting segments (m); a NaN row ends each unbroken run."""
     idle = np.flatnonzero(~cutting)
     s0 = path.table.s0

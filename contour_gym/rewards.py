@@ -110,7 +110,7 @@ def ccc_reward(comp, w):
     """``-(w_contour contour + w_chatter chatter + w_record record)`` (module docstring)."""
     c = _CW
     return -(w[c.contour] * comp[RC.contour] + w[c.chatter] * comp[RC.chatter]
-             + w[c.record] * comp[RC.record])  # fmt: skip
+             + w[c.record] * comp[RC.record])
 
 
 FEEDRATE_WEIGHTS = Schema(
@@ -145,7 +145,7 @@ CCC = register_reward(
         doc="mean contour error in tolerances plus 10 x the normalised control variation: a "
         "CCC that removes 1 tolerance of error may add 0.1 of u_max of chattering per tick",
     )
-)  # fmt: skip
+)
 FEEDRATE = register_reward(
     CompiledReward(
         "feedrate", FEEDRATE_WEIGHTS, feedrate_reward,
@@ -156,7 +156,7 @@ FEEDRATE = register_reward(
         "vertex of Feedrate-Corner-v0) out-scored the nominal one that keeps it "
         "(benchmarks/task_difficulty.py)",
     )
-)  # fmt: skip
+)
 
 
 def component_bounds(hard_over_tol: float, max_progress: float) -> tuple[Array, Array]:

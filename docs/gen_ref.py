@@ -114,7 +114,7 @@ def preset_notes() -> str:
     lines = ["", "## Each preset, as registered", "",
              "Generated at build time from `contour_gym.presets.get_preset(name)`: the paper, "
              "the axes, the servo period, the scenario, and the notes saying which numbers are "
-             "published and which are chosen.", ""]  # fmt: skip
+             "published and which are chosen.", ""]
     for name in PRESETS.names():
         preset = get_preset(name)
         stage = preset.stage
@@ -125,7 +125,7 @@ def preset_notes() -> str:
             f"`{preset.path}`; estimator `{preset.estimator}`; tolerance "
             f"{preset.tolerance * 1e6:.1f} um.", "",
             f"*Machine:* {stage.notes}", "", f"*Scenario:* {preset.notes}", "",
-        ]  # fmt: skip
+        ]
     return "\n".join(lines) + "\n"
 
 

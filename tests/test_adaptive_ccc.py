@@ -34,7 +34,7 @@ BASE = (KP0, 0.2 * KI0, 0.0)
 # de), fast rates so that every gain's weights reach their bounds within TICKS, a Ki bound
 # beyond its base and Kd from 0, so that Ki and Kd are clipped at 0 on some ticks
 BOLD = {"k_e": 3.0 / 4e-6, "k_de": 3.0 / 2e-3, "gamma_p": 1e15, "gamma_i": 1e19,
-        "gamma_d": 1e12, "dkp_max": 0.5 * KP0, "dki_max": 0.5 * KI0, "dkd_max": 5.0}  # fmt: skip
+        "gamma_d": 1e12, "dkp_max": 0.5 * KP0, "dki_max": 0.5 * KI0, "dkd_max": 5.0}
 ZERO_RATES = {"gamma_p": 0.0, "gamma_i": 0.0, "gamma_d": 0.0}
 GAINS = ("kp", "ki", "kd")
 N_RULES = L.N_RULES_001
@@ -93,7 +93,7 @@ def reference_law(
         phi = np.array([e[k], integral + e[k] * ts, de[k]])
         out[k] = gains[k] @ phi
         theta = np.clip(theta + ts * gamma[:, None] * e[k] * phi[:, None] * xi[k], -bound[:, None],
-                        bound[:, None])  # fmt: skip
+                        bound[:, None])
         trail[k] = theta
         integral += e[k] * ts
     return out, gains, trail
@@ -115,7 +115,7 @@ def test_the_law_is_registered_with_named_state_and_its_basis_table() -> None:
     x = np.random.default_rng(5).uniform(-3.5, 3.5, (500, 2))
     x[:3] = [[-3.0, 3.0], [0.0, 0.0], [9.0, -9.0]]
     np.testing.assert_array_equal(_basis_from_table(table, x),
-                                  F.basis(F.adaptive_fuzzy_001(5), x))  # fmt: skip
+                                  F.basis(F.adaptive_fuzzy_001(5), x))
     assert (F.initial_theta(F.adaptive_fuzzy_001(5)) == 0.0).all()  # theta starts at 0
 
 
@@ -140,7 +140,7 @@ def test_the_compiled_law_equals_numpy_on_the_recorded_error() -> None:
         np.testing.assert_allclose(out[:, i], ref, rtol=1e-11, atol=1e-11 * np.abs(ref).max())
         for j in range(3):
             np.testing.assert_allclose(theta[:, i, j], trail[:, j], rtol=1e-11,
-                                       atol=1e-11 * bound[j])  # fmt: skip
+                                       atol=1e-11 * bound[j])
     assert np.ptp(eps) > 4e-6  # the errors cover the basis, not just its middle
     # the run exercises the bounds and the clip of the gains at 0
     assert (np.abs(theta) == bound[None, None, :, None]).any(axis=(0, 1, 3)).all()
@@ -270,5 +270,5 @@ def test_the_defaults_follow_each_machine_by_001s_rule() -> None:
                 "dki_max": ki0 / 2.0, "dkd_max": 6.0 * kp0 * ts,
                 "gamma_p": kp0 / 4.0 / (10.0 * tol * tol),
                 "gamma_i": ki0 / 2.0 / (tol * tol * kp0 / ki0) if ki0 else 0.0,
-                "gamma_d": 6.0 * kp0 * ts / (0.03 * tol * count / ts)}  # fmt: skip
+                "gamma_d": 6.0 * kp0 * ts / (0.03 * tol * count / ts)}
         assert {k: row[k] for k in want} == pytest.approx(want, rel=1e-12), plant

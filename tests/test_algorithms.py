@@ -26,7 +26,7 @@ def test_a_registered_algorithm_trains_by_name_and_a_missing_package_says_how_to
 
     register_algorithm(Algorithm("my_a2c", "stable_baselines3", "A2C", off_policy=False))
     register_algorithm(Algorithm("absent", "no_such_rl_package", "X", off_policy=False,
-                                 install="pip install no-such-rl-package"))  # fmt: skip
+                                 install="pip install no-such-rl-package"))
     try:
         assert algo_class("my_a2c") is stable_baselines3.A2C
         with pytest.raises(ValueError, match="pip install no-such-rl-package"):
@@ -46,7 +46,7 @@ def _small_lstm(num_envs):
     env = gym.make_vec("contour_gym/CCC-Circle-v0", num_envs=num_envs, decision_ticks=100)
     flat = gym.wrappers.FlattenObservation(gym.make("contour_gym/CCC-Circle-v0"))
     model = contrib.RecurrentPPO("MlpLstmPolicy", flat, n_steps=8, batch_size=16, seed=0,
-                                 policy_kwargs={"lstm_hidden_size": 8}, device="cpu")  # fmt: skip
+                                 policy_kwargs={"lstm_hidden_size": 8}, device="cpu")
     return env, model
 
 

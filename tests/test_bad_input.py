@@ -28,7 +28,7 @@ def _finished(folder: Path) -> bytes:
     "extra",
     [[], ["--population", "0"], ["--iterations", "0"], ["--population", "3", "--seed", "2"],
      ["--optimizer", "no_such_optimizer"]],
-)  # fmt: skip
+)
 def test_tune_never_replaces_a_finished_result(tmp_path: Path, capsys, extra: list[str]) -> None:
     before = _finished(tmp_path / "run")
     code = main(["tune", CIRCLE, "--out", str(tmp_path / "run"), "--quiet", *extra])
@@ -89,7 +89,7 @@ def test_gcode_numbers_are_ascii(digit: str) -> None:
 def test_every_estimator_rejects_a_misspelt_option(name: str) -> None:
     with pytest.raises(ValueError, match="half_widht"):
         contour_gym.simulate(plant="xy_dc_servo", estimator=name,
-                             estimator_options={"half_widht": 2})  # fmt: skip
+                             estimator_options={"half_widht": 2})
 
 
 def test_a_run_cut_off_by_its_time_cap_is_a_failure_with_its_reason(tmp_path: Path, capsys) -> None:
@@ -121,7 +121,7 @@ def test_a_vector_env_takes_a_list_of_seeds() -> None:
         np.testing.assert_array_equal(listed[key], ranged[key])
     venv.reset(seed=[5, None])
     for bad, match in (([1, 2, 3], "2 seeds"), ([1, -2], "non-negative"), (1.5, "non-negative"),
-                       (["a", 1], "non-negative")):  # fmt: skip
+                       (["a", 1], "non-negative")):
         with pytest.raises(ValueError, match=match):
             venv.reset(seed=bad)
 
@@ -132,7 +132,7 @@ def test_axis_gains_as_mappings_or_a_named_error() -> None:
     from contour_gym.servo import PIDGains
 
     typed = contour_gym.simulate(plant={"preset": "xy_dc_servo",
-                                        "axis_gains": [PIDGains(**g) for g in gains]})  # fmt: skip
+                                        "axis_gains": [PIDGains(**g) for g in gains]})
     assert as_dicts == typed
     for bad, match in (([{"kp": 1.0, "kq": 2.0}] * 2, r"axis_gains\[0\] needs kp"),
                        ([{"ki": 1.0}] * 2, "needs kp"), ([1.0, 2.0], "must be a PIDGains")):
@@ -144,11 +144,11 @@ def test_an_unknown_policy_kwargs_key_is_named_before_any_run_folder() -> None:
     from agents.rl.config import check_block
 
     block = {"n_timesteps": 1000, "policy": "MultiInputPolicy",
-             "policy_kwargs": {"net_arch": [8], "net_archh": [8]}}  # fmt: skip
+             "policy_kwargs": {"net_arch": [8], "net_archh": [8]}}
     with pytest.raises(ValueError, match="policy_kwargs: unknown argument.*'net_archh'"):
         check_block("ppo", "contour_gym/CCC-v0", block, "ppo.yml")
     check_block("ppo", "contour_gym/CCC-v0", {**block, "policy_kwargs": {"net_arch": [8]}},
-                "ppo.yml")  # fmt: skip
+                "ppo.yml")
 
 
 @pytest.mark.parametrize("command", [["bench", "--suite", "tiny", "--quiet"],
@@ -184,7 +184,7 @@ def test_a_run_too_long_for_time_or_memory_is_refused_before_it_starts() -> None
 
 
 @pytest.mark.parametrize("preset", ["xy_dc_servo", "xyz_pmlsm", "lugre_linear_motor",
-                                    "xyy_gantry", "xy_servo_coulomb"])  # fmt: skip
+                                    "xyy_gantry", "xy_servo_coulomb"])
 def test_every_preset_has_travel_and_refuses_a_path_beyond_it(preset: str) -> None:
     from contour_gym.presets import get_preset
 
@@ -200,9 +200,9 @@ def test_every_preset_has_travel_and_refuses_a_path_beyond_it(preset: str) -> No
     [("G1 X10 Y0 F600\nG1 X99999999999\n", 2, "x"),
      ("G1 X10 F600\nG1 Y10\nG2 X10 Y-170 R-90\n", 3, "y"),
      ("G1 X0 Y0 F600\nG0 X-160\n", 2, "x")],
-)  # fmt: skip
+)
 def test_a_program_beyond_the_travel_names_its_line_and_axis(program: str, line: int,
-                                                             axis: str) -> None:  # fmt: skip
+                                                             axis: str) -> None:
     with pytest.raises(ValueError, match=rf"G-code line {line}: the path reaches {axis} ="):
         contour_gym.simulate(plant="xy_dc_servo", path=from_gcode(program))
 
@@ -234,10 +234,10 @@ def test_a_tune_run_killed_mid_way_restarts_to_the_same_result(tmp_path: Path) -
 def test_train_with_a_misspelt_policy_kwargs_key_makes_no_run_folder(tmp_path: Path, capsys):
     config = tmp_path / "ppo.yml"
     config.write_text("contour_gym/CCC-v0:\n  n_timesteps: 64\n  policy: MultiInputPolicy\n"
-                      "  policy_kwargs: {net_archh: [8]}\n")  # fmt: skip
+                      "  policy_kwargs: {net_archh: [8]}\n")
     runs = tmp_path / "runs"
     code = main(["train", "contour_gym/CCC-v0", "--config", str(config), "--out", str(runs),
-                 "--quiet"])  # fmt: skip
+                 "--quiet"])
     assert code == 2 and "net_archh" in capsys.readouterr().err
     assert not runs.exists()
 
@@ -258,7 +258,7 @@ def test_a_full_disk_is_one_line_naming_the_file(tmp_path: Path, monkeypatch, ca
     monkeypatch.setattr(tune_module, "_write_json", full)
     out = tmp_path / "run"
     assert main(["tune", CIRCLE, "--population", "2", "--iterations", "1", "--out", str(out),
-                 "--quiet"]) == 1  # fmt: skip
+                 "--quiet"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1] == f"contour-gym: error: {out / 'result.json'}: No space left on device"
 
@@ -270,7 +270,7 @@ def _killed_when(code: str, ready, timeout: float = 300.0) -> None:
     import time
 
     proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)  # fmt: skip
+                            stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + timeout
     try:
         while not ready():
@@ -301,10 +301,10 @@ def test_train_killed_by_sigkill_resumes_from_its_checkpoint(tmp_path: Path) -> 
     from agents.rl.train import algo_class, latest_checkpoint, train
 
     tiny = {"n_envs": 4, "env_kwargs": {"decision_ticks": 50}, "policy_kwargs": {"net_arch": [8]},
-            "n_steps": 32, "batch_size": 64, "n_epochs": 1}  # fmt: skip
+            "n_steps": 32, "batch_size": 64, "n_epochs": 1}
     code = (f"from agents.rl.train import train; train('contour_gym/CCC-Circle-v0', 'ppo', 4096, "
             f"out_dir={str(tmp_path)!r}, progress=False, eval_episodes=1, eval_every=4096, "
-            f"checkpoint_every=128, **{tiny!r})")  # fmt: skip
+            f"checkpoint_every=128, **{tiny!r})")
     _killed_when(code, lambda: any(tmp_path.rglob("model_256_steps.zip")))
     run = next(p for p in tmp_path.iterdir() if p.is_dir())
     assert not (run / MODEL_FILE).exists() and latest_checkpoint(run) is not None
@@ -321,10 +321,10 @@ def test_train_killed_by_sigkill_resumes_from_its_checkpoint(tmp_path: Path) -> 
      ("algo: ppo\nenv_id: contour_gym/CCC-v0\nseed: 0\ntotal_timesteps: 64\n",
       "contour_gym/CCC-v0: {n_timesteps: 64, policy: MultiInputPolicy}\n", b"PK\x03\x04cut",
       r"model_32_steps\.zip .* cannot be loaded")],
-)  # fmt: skip
+)
 def test_resuming_a_damaged_run_names_the_file(tmp_path: Path, capsys, args_yml: str,
                                                config_yml: str, checkpoint: bytes | None,
-                                               match: str) -> None:  # fmt: skip
+                                               match: str) -> None:
     run = tmp_path / "run"
     run.mkdir()
     (run / "args.yml").write_text(args_yml)
@@ -348,7 +348,7 @@ def test_train_shipped_resumes_an_unfinished_run_and_exports_a_finished_one(
     run = tmp_path / "runs" / name / run_name(entry["env_id"], entry["algo"], entry.get("seed", 0))
     (run / "checkpoints").mkdir(parents=True)
     (run / "args.yml").write_text(f"algo: {entry['algo']}\nenv_id: {entry['env_id']}\nseed: 0\n"
-                                  "total_timesteps: 128\n")  # fmt: skip
+                                  "total_timesteps: 128\n")
     (run / "checkpoints" / f"model_{steps}_steps.zip").write_bytes(b"")
     calls: list[object] = []
     monkeypatch.setattr(ts, "train", lambda *a, **k: calls.append(k.get("resume")) or run)

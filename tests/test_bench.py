@@ -21,9 +21,9 @@ from agents.suites import load_suite
 from contour_gym.envs.registration import SCENARIOS
 
 TINY_CELLS = [("000-circle", "no_ccc"), ("000-circle", "pid_ccc"),
-              ("004-corner", "constant_feedrate"), ("004-corner", "cnc_g64")]  # fmt: skip
+              ("004-corner", "constant_feedrate"), ("004-corner", "cnc_g64")]
 METRICS = ("max_contour_error_um", "mean_contour_error_um", "rms_contour_error_um",
-           "max_tracking_error_um", "cycle_time_s", "chattering")  # fmt: skip
+           "max_tracking_error_um", "cycle_time_s", "chattering")
 SUITE = """\
 policies:
   no_ccc:
@@ -186,7 +186,7 @@ def _bad(tmp_path, text):
      r"scenarios\.000-circle\.env_kwargs: decision_ticks must be a positive int, got 'ten'"),
     (SUITE + "    plant: {preset: xy_dc_servo, stage: {mas: 1}}\n",
      r"scenarios\.000-circle\.plant: unknown field\(s\) \['mas'\] of plant\.stage"),
-])  # fmt: skip
+])
 def test_bad_input_is_refused_naming_file_and_key_before_any_work(
     tmp_path, counted, text, message
 ):
@@ -210,7 +210,7 @@ def test_the_default_suite_covers_every_paper_scenario_and_reference_policy():
         "contour_gym/CCC-v0", "contour_gym/Feedrate-v0"}  # the generic ids
     assert {sc.env_id for sc in suite.scenarios} == papers
     ran = {s.policies[label].target for s in (suite, general) for sc in s.scenarios
-           for label in sc.policies}  # fmt: skip
+           for label in sc.policies}
     assert ran == set(available())
     assert {label for label in available() if label.endswith("_general")} <= {
         general.policies[label].target for sc in general.scenarios for label in sc.policies}
@@ -282,7 +282,7 @@ def test_a_missing_controller_class_is_refused(tmp_path):
     path = _bad(tmp_path, SUITE.replace("  pid_ccc:", mine))
     try:
         with pytest.raises(ValueError, match=r"policies\.pid_ccc: module 'bench_user_empty' has "
-                                             r"no class 'Nope'"):  # fmt: skip
+                                             r"no class 'Nope'"):
             load_suite(path)
     finally:
         sys.modules.pop("bench_user_empty", None)
@@ -364,7 +364,7 @@ def test_a_pooled_env_keeps_no_record_after_a_cell(tmp_path):
     scenario = suite.scenarios[0]
     pool, fresh = bench.EnvPool(), []
     cells = [bench.evaluate_cell(scenario, suite.policies[label], pool)
-             for label in ("no_ccc", "pid_ccc", "no_ccc")]  # fmt: skip
+             for label in ("no_ccc", "pid_ccc", "no_ccc")]
     env = pool.any_env()
     assert env.unwrapped.task.loop.trace().x.shape[1] == 0
     for label in ("no_ccc", "pid_ccc"):
@@ -373,7 +373,7 @@ def test_a_pooled_env_keeps_no_record_after_a_cell(tmp_path):
         assert got.trace.x.shape[0] == 1 and got.trace.x.base is None
         for name in ("t", "x", "eps", "u"):
             assert np.array_equal(getattr(got.trace, name), getattr(want.trace, name),
-                                  equal_nan=True), name  # fmt: skip
+                                  equal_nan=True), name
         assert got.episodes == want.episodes
     pool.close()
 
@@ -390,7 +390,7 @@ def test_an_agent_s_row_does_not_depend_on_the_cpu_s_instruction_set(tmp_path):
     suite = tmp_path / "agent.yaml"
     suite.write_text("seeds: 1\npolicies:\n  ppo_feedrate_corner:\n  constant_feedrate:\n"
                      "scenarios:\n  004-corner:\n    env: contour_gym/Feedrate-Corner-v0\n"
-                     "    baseline: constant_feedrate\n")  # fmt: skip
+                     "    baseline: constant_feedrate\n")
     tables = []
     for isa in (None, "AVX2"):
         env = {k: v for k, v in os.environ.items() if not k.startswith("MKL_")}
@@ -398,7 +398,7 @@ def test_an_agent_s_row_does_not_depend_on_the_cpu_s_instruction_set(tmp_path):
         out = tmp_path / f"run-{isa}"
         done = subprocess.run([sys.executable, "-m", "agents.cli", "bench", "--suite", str(suite),
                                "--out", str(out), "--workers", "1", "--quiet"],
-                              env=env, capture_output=True, text=True, timeout=600)  # fmt: skip
+                              env=env, capture_output=True, text=True, timeout=600)
         assert done.returncode == 0, done.stderr
         tables.append((out / "results.csv").read_text())
     assert "ppo_feedrate_corner" in tables[0] and tables[0] == tables[1]
@@ -415,5 +415,5 @@ def test_importing_agents_sets_mkl_s_mode_unless_torch_is_loaded(first, mode):
     env = {k: v for k, v in os.environ.items() if k != "MKL_CBWR"}
     code = f"import {first}, agents, os; print(repr(os.environ['MKL_CBWR']))"
     done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
-                          timeout=300, check=True)  # fmt: skip
+                          timeout=300, check=True)
     assert done.stdout.strip() == repr(mode)

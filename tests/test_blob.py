@@ -44,7 +44,7 @@ def test_pickled_blob_views_alias_the_new_buffer():
 def _all_views(buf, lay):  # type: ignore[no-untyped-def]
     return (view1(buf, lay, 0).copy(), view2(buf, lay, 1).copy(), view3(buf, lay, 2).copy(),
             rows2(buf, lay, 3).copy(), rows3(buf, lay, 3).copy(), flat(buf, lay, 2).copy(),
-            view2(buf, lay, 4).copy())  # fmt: skip
+            view2(buf, lay, 4).copy())
 
 
 def test_carved_views_equal_numpy_views_of_every_shape():
@@ -53,6 +53,6 @@ def test_carved_views_equal_numpy_views_of_every_shape():
     v = blob.views
     got = _all_views(blob.buffer, blob.layout)
     want = (v["a"], v["b"], v["c"], v["d"].reshape(-1, 2), v["d"].reshape(-1, 3, 2),
-            v["c"].ravel(), v["e"])  # fmt: skip
+            v["c"].ravel(), v["e"])
     for g, w in zip(got, want, strict=True):
         assert g.shape == w.shape and np.array_equal(g, w)

@@ -113,7 +113,7 @@ def first_tick_commands(injection, ccc, offset):
     sc = make_scenario(
         "lugre_linear_motor", line((0.0, 0.0), (0.05, 0.0)), ideal=True,
         estimator="ground_truth", ccc_injection=injection,
-    )  # fmt: skip
+    )
     loop = sc.loop(ccc_gains=ccc, record=True)
     loop.reset(0)
     loop.ax_s[0, 1, ST.x] += offset
@@ -140,7 +140,7 @@ def test_the_two_injection_points_differ_and_match_a_hand_computed_first_tick():
 
 def test_every_preset_defaults_to_its_papers_injection():
     expected = {"xy_dc_servo": "control", "xyz_pmlsm": "control", "xyy_gantry": "control",
-                "lugre_linear_motor": "reference"}  # fmt: skip
+                "lugre_linear_motor": "reference"}
     for name, injection in expected.items():
         assert make_scenario(name).options["ccc_injection"] == injection
 
@@ -150,7 +150,7 @@ def test_every_preset_defaults_to_its_papers_injection():
 
 def test_each_id_runs_its_papers_estimator():
     paper_estimator = {"000": {"exact", "two_circle"}, "001": {"tangent"}, "002": {"frenet"},
-                       "003": {"angle"}, "004": {"window"}}  # fmt: skip
+                       "003": {"angle"}, "004": {"window"}}
     for row in scenario_table():
         paper = get_preset(row["plant"]).paper
         assert row["estimator"] in paper_estimator[paper], row

@@ -31,7 +31,7 @@ BASE = (KP0, KI0, 2e-3 * KP0)  # a derivative too, so that every term is exercis
 # inputs spanning the surface on the circle's start (errors of a few um, encoder steps in
 # de) and factors large enough that Kp and Kd are clipped at 0 on some ticks
 BOLD = {"k_e": 3.0 / 4e-6, "k_de": 3.0 / 2e-3, "k_pf": 0.6 * KP0, "k_if": 0.5 * KI0,
-        "k_df": 2e-3 * KP0}  # fmt: skip
+        "k_df": 2e-3 * KP0}
 
 
 def make_loop(law: str, params: dict[str, float], batch: int = 1, **kw: object) -> ServoLoop:
@@ -148,7 +148,7 @@ def test_the_default_factors_follow_each_machine_by_000s_rule() -> None:
 def test_given_factors_stand_or_carry_from_the_machine_they_were_set_on() -> None:
     given = {"k_e": 2e5, "k_de": 500.0, "k_pf": 700.0, "k_if": 9000.0, "k_df": 3.0}
     assert law_row("lugre_linear_motor", ccc_law_params=given) == pytest.approx(
-        {**law_row("lugre_linear_motor"), **given}, rel=0)  # fmt: skip
+        {**law_row("lugre_linear_motor"), **given}, rel=0)
     carried = {**given, "machine": "xy_dc_servo"}
     assert {k: law_row("xy_dc_servo", ccc_law_params=carried)[k] for k in FACTORS} == given
     target = make_scenario("lugre_linear_motor").preset

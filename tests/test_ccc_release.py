@@ -53,7 +53,7 @@ def test_an_integrating_ccc_comes_in_position_with_a_nearest_point_estimator(pol
     path = from_gcode(PART.read_text(), name="part_2d")
     m = run_policy({"id": "contour_gym/CCC-v1", "plant": "lugre_linear_motor", "path": path,
                     "estimator": "ground_truth", "path_tolerance": 1.29e-5},
-                   make(policy))  # fmt: skip
+                   make(policy))
     assert m["finished"] and not m["failed"]
     assert m["max_contour_error"] < 100e-6
 
@@ -75,7 +75,7 @@ def test_a_ccc_on_the_nearest_point_is_not_drawn_back_along_a_reversed_leg(
     # off the reference's leg (176 degrees) or failing in position (179) until the law stood
     # aside while its foot retraced a leg running against the reference (contour_gym.ccc)
     sc = make_scenario("lugre_linear_motor", polyline(_zigzag(turn, rotate)),
-                       estimator="ground_truth")  # fmt: skip
+                       estimator="ground_truth")
     peaks, lags = [], []
     for gains in (None, sc.preset.ccc_gains.as_tuple()):
         m, tr = run_trace(sc, gains)

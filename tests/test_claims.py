@@ -58,18 +58,18 @@ def test_004_fuzzy_feedrate_against_the_fastest_constant_on_a_coarse_search() ->
 
 def test_optimizer_claim_reports_medians_of_each_seed_on_a_short_budget() -> None:
     claim, runs = optimizer_claim("000", "000_circle", "improved_pso", "pso", [0, 1],
-                                  population=6, iterations=2)  # fmt: skip
+                                  population=6, iterations=2)
     assert set(runs) == {"improved_pso", "pso"}
     assert all(len(v) == 2 and all(math.isfinite(f) and f > 0 for f in v) for v in runs.values())
     assert claim.paper_change is None and math.isfinite(claim.ours)
     again, runs2 = optimizer_claim("000", "000_circle", "improved_pso", "pso", [0, 1],
-                                   population=6, iterations=2)  # fmt: skip
+                                   population=6, iterations=2)
     assert runs2 == runs and again == claim  # same seeds, same result
 
 
 def test_iabc_against_abc_on_protocol_003_on_a_short_budget() -> None:
     claim, runs = optimizer_claim("003", "003", "improved_abc", "abc", [0], population=4,
-                                  iterations=1)  # fmt: skip
+                                  iterations=1)
     assert set(runs) == {"improved_abc", "abc"}
     assert all(math.isfinite(v[0]) and v[0] > 0 for v in runs.values())
     assert claim.paper == "003" and math.isfinite(claim.ours)

@@ -11,7 +11,7 @@ from agents.cli import _parser, main, read_part, scenario_of
 
 CORPUS = pathlib.Path(__file__).parent / "data" / "gcode"
 ROWS = ("max |contour error| (um)", "mean |contour error| (um)", "RMS contour error (um)",
-        "cycle time (s)")  # fmt: skip
+        "cycle time (s)")
 SQUARE = """G21 G90 G17
 G0 X0 Y0
 G1 X20 F1200
@@ -59,7 +59,7 @@ def test_a_lower_feed_override_takes_longer(tmp_path, capsys):
     times = []
     for override in ("1.0", "0.5"):
         args = ["simulate", "--gcode", str(part), "--feedrate-override", override,
-                "--out", str(tmp_path / f"square_{override}.png"), "--dpi", "40"]  # fmt: skip
+                "--out", str(tmp_path / f"square_{override}.png"), "--dpi", "40"]
         assert main(args) == 0
         times.append(_table_row(capsys.readouterr().out, "cycle time (s)"))
     full, half = times
@@ -109,11 +109,11 @@ def test_work_offsets_and_tool_lengths_are_given_in_mm(tmp_path):
     args = _parser().parse_args([
         "simulate", "--gcode", str(part), "--work-offset", "g55=100,50,-20",
         "--tool-length", "2=30",
-    ])  # fmt: skip
+    ])
     path = read_part(args)
     assert path.point(path.length) == pytest.approx([0.11, 0.05, -0.02 + 0.03])
     for bad in (["--work-offset", "G60=1,2"], ["--work-offset", "G54=1"],
-                ["--tool-length", "0=5"], ["--tool-length", "1"]):  # fmt: skip
+                ["--tool-length", "0=5"], ["--tool-length", "1"]):
         with pytest.raises(SystemExit):
             _parser().parse_args(["simulate", *bad])
 

@@ -38,7 +38,7 @@ def test_a_fresh_cache_simulate_compiles_within_its_budget(tmp_path: Path) -> No
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"), CONTOUR_GYM_BACKGROUND="0")
     command = [sys.executable, "-c", SIMULATE, str(tmp_path / "plot.png")]
     done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=1800,
-                          check=False)  # fmt: skip
+                          check=False)
     assert done.returncode == 0, done.stderr[-3000:]
     found = json.loads(done.stdout.strip().splitlines()[-1])
     assert found["code"] == 0

@@ -52,7 +52,7 @@ REFERENCE: list[tuple[str, dict[str, Any], tuple[float, float, float, float]]] =
      (6.304622790221803e-05, 2.541940272040297e-07, 1.8055772003461538e-06, 31.897)),
     ("xy_servo_coulomb", {"estimator": "ground_truth", "axis_controller": "two_dof_pid"},
      (4.518664599818421e-06, 1.1562384780636127e-06, 1.3964752655256486e-06, 2.612)),
-]  # fmt: skip
+]
 
 
 def _run(preset: str, options: dict[str, Any]) -> tuple[float, ...]:
@@ -63,7 +63,7 @@ def _run(preset: str, options: dict[str, Any]) -> tuple[float, ...]:
 
 @pytest.mark.parametrize(("preset", "options", "expected"), REFERENCE,
                          ids=[f"{p}-{'-'.join(map(str, o.values())) or 'own'}"
-                              for p, o, _ in REFERENCE])  # fmt: skip
+                              for p, o, _ in REFERENCE])
 def test_results_equal_the_previous_release(
     preset: str, options: dict[str, Any], expected: tuple[float, ...]
 ) -> None:

@@ -40,7 +40,7 @@ def _public_modules_by_rule(root):
         for path in (root / package).rglob("*.py"):
             rel = path.relative_to(root)
             if not all((root / rel.parents[i] / "__init__.py").exists()
-                       for i in range(len(rel.parents) - 1)):  # fmt: skip
+                       for i in range(len(rel.parents) - 1)):
                 continue  # not in a package (a folder without __init__.py)
             parts = list(rel.with_suffix("").parts)
             if parts[-1] == "__init__":
@@ -64,12 +64,12 @@ def test_the_module_walker_follows_the_rule(tmp_path):
     files = ["contour_gym/__init__.py", "contour_gym/a.py", "contour_gym/_b.py",
              "contour_gym/sub/__init__.py", "contour_gym/sub/c.py", "contour_gym/_p/__init__.py",
              "contour_gym/_p/d.py", "contour_gym/loose/e.py", "agents/__init__.py",
-             "agents/tune/__init__.py", "agents/tune/_impl.py"]  # fmt: skip
+             "agents/tune/__init__.py", "agents/tune/_impl.py"]
     for f in files:
         (tmp_path / f).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / f).write_text('"""Doc."""\n')
     expected = ["agents", "agents.tune", "contour_gym", "contour_gym.a", "contour_gym.sub",
-                "contour_gym.sub.c"]  # fmt: skip
+                "contour_gym.sub.c"]
     assert gen_ref.public_modules(tmp_path) == expected
     assert sorted(_public_modules_by_rule(tmp_path)) == expected
 

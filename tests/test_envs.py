@@ -129,7 +129,7 @@ def test_vector_env_equals_loop_of_single_envs_bit_for_bit(single, vector, kw):
 
 def test_a_target_override_action_moves_the_override_toward_its_target():
     env = FeedrateEnv(path="circle", feedrate_range=(0.05, 2.0), decision_ticks=10,
-                      feedrate_target=(0.05, 0.3, 1.2), max_feedrate_change=0.1)  # fmt: skip
+                      feedrate_target=(0.05, 0.3, 1.2), max_feedrate_change=0.1)
     obs, _ = env.reset(seed=0)
     assert obs["feedrate"][0] == 1.0  # the scenario's override until the first decision
     override = None  # which takes its target at once: the axes are still at rest
@@ -163,7 +163,7 @@ def _limit_prior(env: FeedrateEnv, limit: tuple[float, ...]) -> tuple[float, boo
 
 
 def _follow_the_limit(env: FeedrateEnv, limit: tuple[float, ...], actions: Any, goal: Any,
-                      dovr: float) -> tuple[list[float], int, bool]:  # fmt: skip
+                      dovr: float) -> tuple[list[float], int, bool]:
     # step env (reset) with actions[k] until its end, checking that the override moves toward
     # goal(prior, action) by at most dovr a step (taken at once on the first); the priors seen,
     # the steps near the end and whether the episode terminated
@@ -186,10 +186,10 @@ def test_a_feedrate_limit_sets_the_zero_actions_target_from_the_curvature_ahead(
     limit = (0.05, 0.005, 0.02, 0.01)  # a_c, reach, v_end, end_reach
     env = FeedrateEnv(path="random", feedrate_range=(0.05, 2.0), decision_ticks=10,
                       feedrate_target=(0.05, 0.6, 1.2), feedrate_limit=limit,
-                      max_feedrate_change=0.1)  # fmt: skip
+                      max_feedrate_change=0.1)
     env.reset(seed=7017)  # a rose, its tight curve on the way
     priors, near_end, terminated = _follow_the_limit(env, limit, np.zeros(20000),
-                                                     lambda prior, a: prior, 0.1)  # fmt: skip
+                                                     lambda prior, a: prior, 0.1)
     assert terminated and near_end > 10  # the whole path, its last 10 mm included
     assert min(priors) < 0.15 < 0.25 < max(priors)  # slows for the rose's tight curve
     bad = r"feedrate_limit must be \(a_c, reach\) or \(a_c, reach, v_end, end_reach\) > 0"
@@ -199,7 +199,7 @@ def test_a_feedrate_limit_sets_the_zero_actions_target_from_the_curvature_ahead(
                           ({"feedrate_target": (0.2, 0.3, 1.2),
                             "feedrate_limit": (0.05, 0.005, 0.02)}, bad),
                           ({"feedrate_target": (0.2, 0.3, 1.2),
-                            "feedrate_limit": (0.05, 0.005, -0.02, 0.01)}, bad)]:  # fmt: skip
+                            "feedrate_limit": (0.05, 0.005, -0.02, 0.01)}, bad)]:
         with pytest.raises(ValueError, match=match):
             FeedrateEnv(**kwargs)
 
@@ -208,18 +208,18 @@ def test_limit_span_scales_the_action_around_the_limit_by_the_same_factor_up_and
     limit, span = (0.05, 0.005, 0.02, 0.01), 2.0
     env = FeedrateEnv(path="random", feedrate_range=(0.05, 2.0), decision_ticks=10,
                       feedrate_target=(0.05, 0.6, 1.2), feedrate_limit=limit,
-                      limit_span=span, max_feedrate_change=0.1)  # fmt: skip
+                      limit_span=span, max_feedrate_change=0.1)
     env.reset(seed=7009)
     actions = np.random.default_rng(0).uniform(-1.5, 1.5, 20000)  # out-of-range ones clipped
     _, near_end, terminated = _follow_the_limit(
         env, limit, actions, lambda prior, a: float(np.clip(prior * span ** np.clip(a, -1, 1),
-                                                            0.05, 1.2)), 0.1)  # fmt: skip
+                                                            0.05, 1.2)), 0.1)
     assert terminated and near_end > 10
     for kwargs, match in [({"limit_span": 2.0}, "give feedrate_limit too"),
                           ({"limit_span": 1.0, "feedrate_limit": (0.05, 0.005)}, "> 1, got 1.0"),
                           ({"limit_span": True, "feedrate_limit": (0.05, 0.005)}, "got True"),
                           ({"limit_span": float("nan"), "feedrate_limit": (0.05, 0.005)},
-                           "got nan")]:  # fmt: skip
+                           "got nan")]:
         with pytest.raises(ValueError, match=match):
             FeedrateEnv(feedrate_target=(0.2, 0.3, 1.2), **kwargs)
 

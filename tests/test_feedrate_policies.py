@@ -47,7 +47,7 @@ def test_available_lists_the_reference_policies_sorted_and_make_builds_them():
     ("params", "match"),
     [({"gain": 0.0}, "gain"), ({"e_gain": 0.0}, "e_gain"), ({"de_gain": np.nan}, "de_gain"),
      ({"unit": "mm"}, "'mm'"), ({"gane": 1.0}, "gane")],
-)  # fmt: skip
+)
 def test_fuzzy_feedrate_names_a_bad_parameter(params, match):
     with pytest.raises(ValueError, match=match):
         make("fuzzy_feedrate", **params)
@@ -94,13 +94,13 @@ def test_fuzzy_feedrate_ignores_the_error_sign_convention_and_picks_the_worst_co
     rng = np.random.default_rng(1)
     e, de = rng.uniform(-1, 1, 32), rng.uniform(-1, 1, 32)
     np.testing.assert_allclose(policy.act(batch_obs(e, de)), policy.act(batch_obs(-e, -de)),
-                               atol=1e-12)  # fmt: skip
+                               atol=1e-12)
     small = e * rng.uniform(-0.9, 0.9, 32)  # |small| < |e|: e drives
     two = batch_obs(np.stack([small, e], 1), np.stack([de, de], 1), n_contours=2)
     np.testing.assert_array_equal(policy.act(two), policy.act(batch_obs(e, de)))
     # large inputs are clipped to the universes: one tolerance
     np.testing.assert_array_equal(policy.act(batch_obs([7.0, -3.0], [-9.0, 4.0])),
-                                  policy.act(batch_obs([1.0, -1.0], [-1.0, 1.0])))  # fmt: skip
+                                  policy.act(batch_obs([1.0, -1.0], [-1.0, 1.0])))
 
 
 def test_predict_on_a_batch_equals_predict_member_by_member_bit_for_bit():
@@ -141,9 +141,9 @@ def test_a_constant_override_below_the_default_floor_builds_its_env_with_its_ran
     assert slow.env_kwargs == {"feedrate_override": 0.05, "feedrate_range": (0.05, 2.0)}
     held = run_policy(CORNER, slow)
     assert held == run_policy(CORNER, make("constant"), feedrate_override=0.05,
-                              feedrate_range=(0.05, 2.0))  # fmt: skip
+                              feedrate_range=(0.05, 2.0))
     assert held["cycle_time"] > run_policy(CORNER, make("constant_feedrate", override=0.2))[
-        "cycle_time"]  # fmt: skip
+        "cycle_time"]
     with pytest.raises(ValueError, match="outside the env's feedrate_range"):
         run_policy(CORNER, make("constant_feedrate", override=0.05))  # the default floor, 0.2
     with pytest.raises(ValueError, match=r"override 0.05 is outside feedrate_range \(0.1, 2.0\)"):
@@ -154,20 +154,20 @@ def test_the_curvature_feed_limit_slows_for_curves_only_and_names_bad_values():
     limit = make("curvature_feed_limit")
     assert limit.env_kwargs == {"feedrate_range": (0.05, 2.0),
                                 "feedrate_target": (0.05, 0.6, 2.0),
-                                "feedrate_limit": (0.05, 0.005, 0.02, 0.01)}  # fmt: skip
+                                "feedrate_limit": (0.05, 0.005, 0.02, 0.01)}
     assert make("curvature_feed_limit", end_speed=None).env_kwargs["feedrate_limit"] == (
-        0.05, 0.005)  # fmt: skip
+        0.05, 0.005)
     assert run_policy(CIRCLE, limit) == run_policy(CIRCLE, make("constant"), **limit.env_kwargs)
     # the circle (r = 20 mm at 53 mm/s programmed): sqrt(0.05 x 0.02) / 0.053 = 0.597 all the
     # way, just under the cap 0.6
     circle = run_policy(CIRCLE, limit)["cycle_time"]
     held = [run_policy(CIRCLE, make("constant_feedrate", override=o))["cycle_time"]
-            for o in (0.6, 0.5)]  # fmt: skip
+            for o in (0.6, 0.5)]
     assert held[0] < circle < held[1]
     for kwargs, match in [({"accel": 0.0}, "accel"), ({"reach": -1.0}, "reach"),
                           ({"cap": 0.04}, r"cap must lie in \(floor, 2\)"),
                           ({"end_speed": 0.0}, "end_speed"), ({"end_reach": -0.01}, "end_reach")
-                          ]:  # fmt: skip
+                          ]:
         with pytest.raises(ValueError, match=match):
             make("curvature_feed_limit", **kwargs)
 
@@ -176,7 +176,7 @@ def test_evaluate_averages_the_episodes_and_takes_a_policy_name():
     out = evaluate("constant_feedrate", {"id": CORNER, "randomize": True}, n_episodes=3, seed=1)
     episodes = out["episodes"]
     assert len(episodes) == 3 and episodes[2] == run_policy(
-        {"id": CORNER, "randomize": True}, make("constant_feedrate"), seed=3)  # fmt: skip
+        {"id": CORNER, "randomize": True}, make("constant_feedrate"), seed=3)
     for key in ("max_contour_error", "cycle_time", "finished", "return", "steps"):
         assert isinstance(out[key], float)
         assert out[key] == pytest.approx(np.mean([float(e[key]) for e in episodes]), rel=1e-12)
@@ -213,7 +213,7 @@ def test_each_feedrate_policy_runs_a_user_path_to_the_end(name, where):
         path = from_gcode(PART)
     else:
         path = parametric(lambda t: np.stack([0.02 * t, 0.0025 * np.sin(2 * np.pi * t)], 1),
-                          0.0, 1.0)  # fmt: skip
+                          0.0, 1.0)
     m = run_policy({"id": "contour_gym/Feedrate-v0", "path": path}, make_policy(name))
     assert m["finished"] and not m["failed"] and not m["truncated"]
     assert np.isfinite(m["max_contour_error"]) and m["cycle_time"] > 0.0

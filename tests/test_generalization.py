@@ -62,7 +62,7 @@ def test_a_suite_runs_a_gcode_part_named_by_its_file(tmp_path):
 @pytest.mark.parametrize(("gcode", "text", "message"), [
     ("parts/none.nc", None, r"scenarios\.000-part\.gcode: .*none\.nc: No such file"),
     ("bad.nc", "G1 X1 F100\nG1 X2 Q7\n", r"scenarios\.000-part\.gcode: .*bad\.nc: line 2: "),
-])  # fmt: skip
+])
 def test_a_bad_part_is_named_with_its_file_and_line(tmp_path, gcode, text, message):
     if text is not None:
         (tmp_path / gcode).write_text(text)
@@ -120,7 +120,7 @@ SUMMARY_SUITE = """\
 
 def _cell(scenario, policy, rows):
     eps = [{"seed": s, "max_contour_error": ce * 1e-6, "cycle_time": t, "tolerance": 5e-6,
-            "failed": False, "finished": True} for s, ce, t in rows]  # fmt: skip
+            "failed": False, "finished": True} for s, ce, t in rows]
     return Cell(scenario, policy, eps)
 
 
@@ -133,7 +133,7 @@ def test_the_path_summary_takes_every_scenario_and_seed_of_a_machine_as_a_path(t
         _cell("000-b", "pid_ccc", [(0, 2.0, 1.0)]),
         _cell("004f-a", "slow", [(1, 3.0, 4.0), (2, 4.0, 5.0)]),
         _cell("004f-a", "fast", [(1, 4.5, 2.0), (2, 9.0, 2.5)]),
-    )}  # fmt: skip
+    )}
     rows = {(r["group"], r["policy"]): r for r in summary_rows(suite, cells)}
     pid = rows[("000", "pid_ccc")]
     assert pid["paths"] == 3
@@ -155,7 +155,7 @@ def test_a_failed_episode_counts_worse_than_a_baseline_that_finished(tmp_path):
         _cell("000-a", "pid_ccc", [(1, 4.0, 1.0), (2, 3.0, math.inf)]),
         _cell("000-b", "no_ccc", [(0, 8.0, math.inf)]),
         _cell("000-b", "pid_ccc", [(0, 9.0, math.inf)]),
-    )}  # fmt: skip
+    )}
     cells[("000-a", "pid_ccc")].episodes[1].update(failed=True, finished=False)
     for cell in (cells[("000-b", "no_ccc")], cells[("000-b", "pid_ccc")]):
         cell.episodes[0].update(failed=True, finished=False)
@@ -206,7 +206,7 @@ def test_tuning_on_random_paths_draws_each_scenarios_path_from_its_seed():
     assert np.array_equal(a.fitness(x), b.fitness(x))
     with pytest.raises(ValueError, match=r"give its int path_seed"):
         bad = {n: {k: v for k, v in kw.items() if k != "path_seed"}
-               for n, kw in _protocol().scenario_kwargs.items()}  # fmt: skip
+               for n, kw in _protocol().scenario_kwargs.items()}
         PopulationObjective(dataclasses.replace(_protocol(), scenario_kwargs=bad))
 
 
@@ -261,10 +261,10 @@ def test_the_generalization_suite_runs_on_a_short_budget(tmp_path):
     assert all(min(sc.seeds) >= 7000 for sc in unseen if sc.name.endswith("-random"))
     keep = {"000-random": ("no_ccc", "pid_ccc", "ppo_000_ccc_general"),
             "004f-random": ("constant_feedrate_0.5", "constant_feedrate_1.0",
-                            "ppo_004_feedrate_general")}  # fmt: skip
+                            "ppo_004_feedrate_general")}
     short = dataclasses.replace(suite, scenarios=tuple(
         dataclasses.replace(sc, seeds=sc.seeds[:1], policies=keep[sc.name])
-        for sc in suite.scenarios if sc.name in keep))  # fmt: skip
+        for sc in suite.scenarios if sc.name in keep))
     result = run_suite(short, tmp_path / "run", progress=False)
     assert len(result.rows) == 6 and all(r["seeds"] == 1 for r in result.rows)
     assert "## Per path, by machine" in result.markdown
@@ -307,4 +307,4 @@ def test_every_scenario_runs_a_shipped_agent_with_the_estimator_it_trained_with(
             checked.add(label)
     assert {"ppo_000_ccc_general", "ppo_000_ccc_general_guarded", "ppo_002_ccc_general",
             "ppo_004_ccc_general", "ppo_004_feedrate_general",
-            "ppo_004_feedrate_general_capped"} <= checked  # fmt: skip
+            "ppo_004_feedrate_general_capped"} <= checked

@@ -18,7 +18,7 @@ from agents.policies import make_policy
 from agents.rl.guard import CappedFeedrate, CornerGuard
 
 POLYLINES = {"id": "contour_gym/CCC-v1", "plant": "xy_dc_servo", "estimator": "two_circle",
-             "path": "random", "path_options": {"family": "polyline"}}  # fmt: skip
+             "path": "random", "path_options": {"family": "polyline"}}
 
 
 def _expected_guarded(corners, curvatures, guard):
@@ -102,7 +102,7 @@ def test_the_guard_runs_on_a_single_env_a_user_made():
     ({"hold": -1}, "hold"), ({"hold": 2.5}, "hold"), ({"agent": "no_such_agent"}, "no_such_agent"),
     ({"curvature": 0.0}, "curvature"), ({"curvature": "tight"}, "curvature"),
     ({"curvature": math.nan}, "curvature"),
-])  # fmt: skip
+])
 def test_the_guard_refuses_bad_settings_naming_them(kwargs, named):
     with pytest.raises(ValueError, match=named):
         CornerGuard(**{"agent": "no_ccc", **kwargs})

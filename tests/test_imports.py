@@ -157,7 +157,7 @@ def circles(graph: dict[str, set[str]]) -> dict[frozenset[str], list[str]]:
 
 def test_the_reader_resolves_imports_as_stated(tmp_path):
     modules = {"p": tmp_path / "p/__init__.py", "p.a": tmp_path / "p/a.py",
-               "p.s": tmp_path / "p/s/__init__.py", "p.s.b": tmp_path / "p/s/b.py"}  # fmt: skip
+               "p.s": tmp_path / "p/s/__init__.py", "p.s.b": tmp_path / "p/s/b.py"}
     for path in modules.values():
         path.parent.mkdir(parents=True, exist_ok=True)
     modules["p.s.b"].write_text(
@@ -166,11 +166,11 @@ def test_the_reader_resolves_imports_as_stated(tmp_path):
     )
     assert _edges("p.s.b", modules["p.s.b"], modules) == {"p.a", "p.s.b", "p.s"}
     modules["p.s"].write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
-                              "    from .b import y\n")  # fmt: skip
+                              "    from .b import y\n")
     assert _edges("p.s", modules["p.s"], modules) == {"p.s.b"}
     graph = {"a": {"b"}, "b": {"c", "a"}, "c": {"a", "d"}, "d": set(), "e": {"e"}}
     assert circles(graph) == {frozenset("abc"): ["a -> b -> a", "c -> a -> b -> c"],
-                              frozenset("e"): ["e -> e"]}  # fmt: skip
+                              frozenset("e"): ["e -> e"]}
 
 
 def test_no_import_circle():

@@ -31,7 +31,7 @@ OPEN = {"contour_gym.loop", "contour_gym.loop.member", "contour_gym.loop.threads
 def _files() -> list[pathlib.Path]:
     inside = ROOT / "contour_gym" / "loop"
     return [p for d in OUTSIDE for p in sorted((ROOT / d).rglob("*.py"))
-            if inside not in p.parents]  # fmt: skip
+            if inside not in p.parents]
 
 
 def _imported(tree: ast.AST) -> list[tuple[int, str]]:
@@ -45,7 +45,7 @@ def _imported(tree: ast.AST) -> list[tuple[int, str]]:
             out += [(node.lineno, n) for n in names[:1] if n.startswith("contour_gym.loop")]
         elif isinstance(node, ast.Import):
             out += [(node.lineno, a.name) for a in node.names
-                    if a.name.startswith("contour_gym.loop")]  # fmt: skip
+                    if a.name.startswith("contour_gym.loop")]
     return out
 
 
@@ -73,7 +73,7 @@ def test_no_module_outside_the_loop_reads_its_arrays() -> None:
     for path in _files():
         for node in ast.walk(ast.parse(path.read_text())):
             if (isinstance(node, ast.Attribute) and node.attr in internal
-                    and _owner(node.value).endswith("loop")):  # fmt: skip
+                    and _owner(node.value).endswith("loop")):
                 found.append(f"{path.relative_to(ROOT)}:{node.lineno} reads loop.{node.attr}")
     assert found == [], "\n".join(found)
 
@@ -82,7 +82,7 @@ def test_the_check_finds_a_read_it_should() -> None:
     # the attribute rule on a made-up module: the reads the boundary forbids are found
     tree = ast.parse("def f(loop, env):\n    return loop.acc_c[0], env.loop.ip_p, env.done\n")
     reads = [n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute)
-             and n.attr in set(FLOAT_NAMES) and _owner(n.value).endswith("loop")]  # fmt: skip
+             and n.attr in set(FLOAT_NAMES) and _owner(n.value).endswith("loop")]
     assert sorted(reads) == ["acc_c", "ip_p"]
 
 

@@ -22,7 +22,7 @@ PRESET = "xy_dc_servo"
 SHORT = {"length": (0.015, 0.03)}  # short paths: short episodes
 # the rig with encoder noise: each member's noise stream must follow it onto its own path
 NOISY = {"preset": PRESET, "stage": {"axes": {"x": {"noise_std": 2e-7},
-                                              "y": {"noise_std": 2e-7}}}}  # fmt: skip
+                                              "y": {"noise_std": 2e-7}}}}
 
 
 def _paths() -> tuple[Path, Path]:
@@ -65,7 +65,7 @@ def test_members_on_different_paths_equal_single_loops_bit_for_bit():
         n = tr.t.shape[0]
         for field in ("s", "v", "r", "x", "u", "eps", "eps_est"):
             np.testing.assert_array_equal(getattr(trace, field)[i, :n], getattr(tr, field)[0],
-                                          err_msg=field)  # fmt: skip
+                                          err_msg=field)
         assert np.all(np.isnan(trace.x[i, n:]))  # nothing recorded after its end
     assert pair.planned_time() == max(pair.planned_time(member=m) for m in (0, 1, 2))
 
@@ -148,7 +148,7 @@ def test_single_env_on_random_paths():
 def test_vector_env_members_equal_single_envs_on_random_paths():
     n, steps = 3, 40
     kw = {"path": "random", "path_options": {**SHORT, "family": "polyline"},
-          "decision_ticks": 100}  # fmt: skip
+          "decision_ticks": 100}
     venv: VectorEnv = gym.make_vec("contour_gym/CCC-v0", num_envs=n, **kw)
     singles = [gym.make("contour_gym/CCC-v0", **kw).unwrapped for _ in range(n)]
     rng = np.random.default_rng(1)
@@ -177,7 +177,7 @@ def test_vector_env_members_equal_single_envs_on_random_paths():
 
 def test_keep_paths_restarts_ended_members_on_their_paths_and_leaves_first_episodes_alone():
     kw = {"path": "random", "path_options": {**SHORT, "family": "polyline"},
-          "decision_ticks": 100}  # fmt: skip
+          "decision_ticks": 100}
     runs = {}
     for keep in (False, True, None):  # None: keep_paths, then a full reset without it
         venv: VectorEnv = gym.make_vec("contour_gym/CCC-v0", num_envs=2, **kw)
@@ -222,7 +222,7 @@ def test_feedrate_env_random_paths_are_programmed_within_the_default_range():
     ({"path": "random", "path_options": {"rng": 1, "dim": 2}}, r"\['dim', 'rng'\]"),
     ({"path": "circle_r10", "path_options": {"length": 0.1}}, "path='random'"),
     ({"path": "random", "laps": 2}, "laps"),
-])  # fmt: skip
+])
 def test_bad_path_options_are_refused(kwargs: dict[str, Any], match: str):
     with pytest.raises(ValueError, match=match):
         gym.make("contour_gym/CCC-v0", **kwargs)

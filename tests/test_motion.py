@@ -103,10 +103,10 @@ def test_jerk_limited_moves_keep_jerk_and_junction_speeds(seed):
     path = polyline(pts)
     interp = Interpolator(float(rng.uniform(0.02, 0.2)), accel=float(rng.choice([0.5, 2.0])),
                           jerk=float(rng.choice([5.0, 20.0, 100.0])),
-                          time_constant=float(rng.choice([0.0, 0.1])))  # fmt: skip
+                          time_constant=float(rng.choice([0.0, 0.1])))
     mode = ("G61", "G64")[seed % 2]
     s, v, a, done = profile(path.length, interp, ts, path=path, path_control=mode,
-                            changes={300: interp.feedrate * rng.uniform(0.5, 1.5)})  # fmt: skip
+                            changes={300: interp.feedrate * rng.uniform(0.5, 1.5)})
     assert done >= 0 and s[-1] == path.length and v[-1] == 0.0
     assert np.max(np.abs(np.diff(np.concatenate([[0.0], a])))) <= interp.jerk * ts * (1 + 1e-9)
     vj = build_program(path, interp, ts, path_control=mode).vj
@@ -155,7 +155,7 @@ def test_a_time_constant_brakes_at_the_feed_it_cruised_at_when_the_feed_drops():
     # the override falls mid-move: the deceleration keeps the rate of the feed it left
     T, ts = 0.1, 1e-3
     _, v, a, _ = profile(0.2, Interpolator(0.04, accel=10.0, time_constant=T), ts,
-                         changes={600: 0.01})  # fmt: skip
+                         changes={600: 0.01})
     assert a[601] == pytest.approx(-0.04 / T, rel=1e-9)
     assert v[700] == pytest.approx(0.01)
 
@@ -186,7 +186,7 @@ def test_curvature_caps_sample_each_segment_as_one_by_one():
     path = random_path(np.random.default_rng(5), "rose")
     t = path.table
     one_by_one = [np.max(path.curvature(a + np.linspace(0.0, n, 9)))
-                  for a, n in zip(t.s0[:-1], np.diff(t.s0), strict=True)]  # fmt: skip
+                  for a, n in zip(t.s0[:-1], np.diff(t.s0), strict=True)]
     assert np.array_equal(_max_curvature(path), one_by_one)
 
 
@@ -225,7 +225,7 @@ def test_a_time_constant_keeps_its_braking_rate_while_the_override_falls():
     T, ts, feed = 0.1, 1e-3, 0.04
     changes = {k: feed * max(0.2, 1.0 - 0.004 * (k - 1180)) for k in range(1180, 3000)}
     s, v, a, done = profile(0.05, Interpolator(feed, accel=10.0, time_constant=T), ts,
-                            changes=changes)  # fmt: skip
+                            changes=changes)
     assert done >= 0 and s[-1] == pytest.approx(0.05, abs=1e-12) and v[-1] == 0.0
     assert np.max(np.abs(np.diff(v))) / ts <= feed / T * (1 + 1e-9)
 
@@ -273,7 +273,7 @@ def test_a_feedrate_task_s_reference_never_brakes_harder_than_its_time_constant(
 
     policy = make("constant", action=[action])
     venv = make_vector_env("contour_gym/Feedrate-v1", policy, num_envs=8, record=True,
-                           path="random")  # fmt: skip
+                           path="random")
     out, _ = run_episodes(venv, policy, seed=1000)
     loop = venv.unwrapped.task.loop
     p = loop.ip_p

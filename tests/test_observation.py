@@ -20,7 +20,7 @@ def test_v1_ids_observe_the_geometry_ahead_and_no_progress():
     env, obs = _first_obs("contour_gym/CCC-Circle-v1")
     assert "progress" not in obs and "reference_velocity" not in obs
     assert set(obs) == {"contour_error", "contour_error_change", "tracking_error", "speed",
-                        "curvature", "turning", "corner", "path_end", "gains"}  # fmt: skip
+                        "curvature", "turning", "corner", "path_end", "gains"}
     preview = env.unwrapped.config.preview
     # 000's circle of radius 10 mm: curvature 100 1/m, observed x 1 cm = 1, everywhere ahead
     np.testing.assert_allclose(obs["curvature"], 1.0, rtol=1e-5)
@@ -57,13 +57,13 @@ def test_progress_is_an_option_and_v0_keeps_its_keys():
     assert obs["progress"].shape == (1,) and list(env.task.observe(0))[-1] == "gains"
     _, v0 = _first_obs("contour_gym/CCC-Circle-v0")
     assert set(v0) == {"contour_error", "contour_error_change", "tracking_error",
-                       "reference_velocity", "curvature", "progress", "gains"}  # fmt: skip
+                       "reference_velocity", "curvature", "progress", "gains"}
 
 
 def test_curvature_windows_see_the_peak_curvature_ahead():
     edges = (0.0, 0.001, 0.002, 0.005, 0.01)
     env = gym.make("contour_gym/Feedrate-v1", path="random", curvature_windows=edges,
-                   decision_ticks=20)  # fmt: skip
+                   decision_ticks=20)
     obs, _ = env.reset(seed=7009)  # a rose with a 0.31 mm radius on its way
     assert obs["curvature_peak"].shape == (4,) and list(obs)[-1] == "feedrate"
     path = env.unwrapped.task.loop.paths[0]
@@ -91,7 +91,7 @@ def test_curvature_windows_see_the_peak_curvature_ahead():
     ({"curvature_windows": (0.001,)}, r"curvature_windows must be .* got \(0.001,\)"),
     ({"curvature_windows": (0.0, 0.01), "observation": "v0"}, "a v1 observation option"),
     ({"curvature_windows": (0.0, math.nan)}, "curvature_windows"),
-])  # fmt: skip
+])
 def test_bad_observation_arguments_are_named(kwargs, match):
     with pytest.raises(ValueError, match=match):
         CCCEnv(**kwargs)

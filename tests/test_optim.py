@@ -220,7 +220,7 @@ def test_start_points_open_generation_zero_and_the_result_is_never_worse(name: s
 def test_bad_start_points_are_named(x0: Any, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         minimize("improved_pso", sphere, [[0.0, 1.0]] * 3, population=8, iterations=2, seed=0,
-                 x0=x0)  # fmt: skip
+                 x0=x0)
 
 
 @pytest.mark.parametrize("name", NAMES)

@@ -44,7 +44,7 @@ ENV, STEPS = "contour_gym/CCC-Circle-v0", 1000  # two 1000-step runs (seeds 0, 1
 def episodes(folder: Path) -> dict[str, Any]:
     # every cell's episodes (their metrics), by file: what must not depend on where they ran
     return {str(f.relative_to(folder)): json.loads(f.read_text())["episodes"]
-            for f in sorted((folder / "cells").glob("*/*.json"))}  # fmt: skip
+            for f in sorted((folder / "cells").glob("*/*.json"))}
 
 
 def weights(run: Path) -> str:
@@ -115,9 +115,9 @@ def test_a_loop_on_the_default_threads_chooses_and_equals_one_thread_bit_for_bit
     out = []
     for threads in (1, None):
         loop = sc.loop(batch_size=batch, ccc_gains=sc.preset.ccc_gains.as_tuple(),
-                       threads=threads)  # fmt: skip
+                       threads=threads)
         loop.set_ccc_gains(np.linspace(0.5, 2.0, batch)[:, None, None]
-                           * sc.preset.ccc_gains.as_tuple())  # fmt: skip
+                           * sc.preset.ccc_gains.as_tuple())
         loop.reset(7)
         for _ in range(2 * TRIALS + 3):
             loop.step(40)
@@ -133,7 +133,7 @@ def test_a_vector_env_on_threads_equals_one_thread_bit_for_bit(env_id: str) -> N
     for threads in (1, 2, None):  # None: the default's threads on trial, then chosen
         env = gym.make_vec(env_id, num_envs=2 * MIN_MEMBERS_PER_THREAD,
                            vectorization_mode="vector_entry_point", num_threads=threads,
-                           path="random", decision_ticks=20, max_episode_steps=15)  # fmt: skip
+                           path="random", decision_ticks=20, max_episode_steps=15)
         rng = np.random.default_rng(3)
         obs, _ = env.reset(seed=11)
         steps = [obs]
@@ -174,7 +174,7 @@ def fresh_python(code: str) -> str:
     imported torch.
     """
     done = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parent.parent,
-                          capture_output=True, text=True)  # fmt: skip
+                          capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     return done.stdout
 
@@ -193,7 +193,7 @@ def test_a_fresh_process_forks_its_workers_and_their_bench_equals_one_process(
             "with Processes(2) as where:\n"
             "    print(len(set(dict(where.map(pid, range(6))).values())))\n"
             f"run_suite({SUITE!r}, {str(tmp_path / 'f')!r}, progress=False, workers=2)\n"
-            "print(start_method())\n")  # fmt: skip
+            "print(start_method())\n")
     assert fresh_python(code).split() == ["2", "fork"]  # two processes took units; still forkable
     assert episodes(tmp_path / "f") == local_bench
 
@@ -216,7 +216,7 @@ def test_workers_keep_the_commands_warning_filters(
 ) -> None:
     # the tiny suite runs -v0 ids, whose deprecation the CLI silences: in its workers too
     assert main(["bench", "--suite", SUITE, "--workers", "2", "--quiet",
-                 "--out", str(tmp_path / "b")]) == 0  # fmt: skip
+                 "--out", str(tmp_path / "b")]) == 0
     assert "out of date" not in capfd.readouterr().err
 
 
@@ -240,7 +240,7 @@ def test_a_worker_ends_when_its_parent_is_killed() -> None:
     # an out-of-memory kill of a command's process left its worker waiting for ever
     code = ("import os, time\nfrom agents.parallel import Processes\nwhere = Processes(2)\n"
             "where.warm()\nprint(where._executor().submit(os.getpid).result(), flush=True)\n"
-            "time.sleep(120)\n")  # fmt: skip
+            "time.sleep(120)\n")
     parent = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
     try:
         assert parent.stdout is not None
@@ -310,7 +310,7 @@ def _blas_threads(_: int) -> tuple[int, tuple[int, ...]]:
 
     time.sleep(0.2)  # long enough for both processes to take units
     return os.getpid(), tuple(p["num_threads"] for p in threadpool_info()
-                              if p["user_api"] == "blas")  # fmt: skip
+                              if p["user_api"] == "blas")
 
 
 def test_torch_imported_inside_a_unit_runs_on_one_thread_until_the_section_ends() -> None:
@@ -336,7 +336,7 @@ def test_seeds_train_in_parallel_with_the_weights_of_one_at_a_time(
     assert weights(parallel_runs[1]) == weights(alone[0])
     assert weights(parallel_runs[0]) != weights(parallel_runs[1])
     again = run_trials(trials(ENV, ["ppo"], [0, 1], {}, parallel_runs[0].parent, STEPS),
-                       workers=2)  # finished runs are not trained again  # fmt: skip
+                       workers=2)  # finished runs are not trained again
     assert [weights(r) for r in again] == [weights(r) for r in parallel_runs]
 
 
@@ -349,7 +349,7 @@ def test_seeds_train_on_forked_workers_with_the_weights_of_spawned_ones(
             "from agents.rl.sweep import run_trials, trials\n"
             "assert start_method() == 'fork', start_method()\n"
             f"run_trials(trials({ENV!r}, ['ppo'], [0, 1], {{}}, {str(tmp_path)!r}, {STEPS}),"
-            " workers=2)\n")  # fmt: skip
+            " workers=2)\n")
     fresh_python(code)
     forked = sorted(tmp_path.glob("*/model.zip"))
     assert [f.parent.name for f in forked] == [r.name for r in parallel_runs]
@@ -375,9 +375,9 @@ def test_the_train_command_reads_seeds_algorithms_and_sweeps(
     args = _parser().parse_args(["train", ENV, "--seeds", "0,1", "--algo", "ppo,sac",
                                  "--sweep", "learning_rate=1e-4,3e-4", "--workers", "2"])
     assert (args.seeds, args.algo, args.sweep, args.workers) == (
-        [0, 1], ["ppo", "sac"], ["learning_rate=1e-4,3e-4"], 2)  # fmt: skip
+        [0, 1], ["ppo", "sac"], ["learning_rate=1e-4,3e-4"], 2)
     for bad in (["--seeds", "0,x"], ["--algo", "ppo,nope"], ["--workers", "0"],
-                ["--seed", "1", "--seeds", "2,3"]):  # fmt: skip
+                ["--seed", "1", "--seeds", "2,3"]):
         with pytest.raises(SystemExit):
             _parser().parse_args(["train", ENV, *bad])
     assert "nope" in capsys.readouterr().err
@@ -405,7 +405,7 @@ def test_without_ray_every_command_says_how_to_install_it(
                  ["tune", "003", "--ray", "auto", "--population", "4", "--iterations", "1",
                   "--out", str(tmp_path / "t")],
                  ["train", "contour_gym/CCC-Circle-v0", "--ray", "auto", "--out",
-                  str(tmp_path / "r")]):  # fmt: skip
+                  str(tmp_path / "r")]):
         assert main(argv) == 2
         assert RAY_HINT in capsys.readouterr().err
 
@@ -461,7 +461,7 @@ def test_bench_tune_and_training_on_a_two_node_cluster_equal_a_local_run(
         run_suite(SUITE, tmp_path / "ray", progress=False, ray=cluster.address)
         remote_tune = tune(**protocol, ray=cluster.address)
         remote_runs = run_trials(trials(ENV, ["ppo"], [0, 1], {}, tmp_path / "runs", STEPS),
-                                 ray=cluster.address)  # fmt: skip
+                                 ray=cluster.address)
     assert episodes(tmp_path / "ray") == local_bench
     suite = load_suite(SUITE)  # each scenario's plots, drawn on the nodes and written here
     assert sorted(p.name for p in (tmp_path / "ray" / "plots").iterdir()) == sorted(

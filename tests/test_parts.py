@@ -14,7 +14,7 @@ XY, XYZ = "xy_servo_coulomb", "xyz_pmlsm"
 # Z-only moves are non-cutting), except the one with arcs in the XZ and YZ planes
 MACHINES = {"linuxcnc_pocket.ngc": (XY, XYZ), "grbl_engrave.gcode": (XY, XYZ),
             "cam_bracket.nc": (XY, XYZ), "fanuc_plate.nc": (XY, XYZ), "part_2d.ngc": (XY, XYZ),
-            "arcs_3axis.ngc": (XYZ,)}  # fmt: skip
+            "arcs_3axis.ngc": (XYZ,)}
 
 
 @pytest.mark.parametrize(
@@ -41,7 +41,7 @@ def _square(mode, feed=3000):
 
 def test_exact_stop_is_slower_and_more_accurate_than_blending():
     runs = {mode: simulate(plant=XY, path=_square(mode)) for mode in
-            ("G61", "G64 P0.01", "G64 P0.05")}  # fmt: skip
+            ("G61", "G64 P0.01", "G64 P0.05")}
     cycle = [runs[k]["cycle_time"] for k in ("G61", "G64 P0.01", "G64 P0.05")]
     peak = [runs[k]["max_contour_error"] for k in ("G61", "G64 P0.01", "G64 P0.05")]
     assert cycle[0] > cycle[1] > cycle[2], cycle

@@ -542,7 +542,7 @@ def test_arc_centre_modes_and_planes():
     for code in ("G2", "G3"):
         r_form = cgp.from_gcode(f"G18 {code} X10 Z10 R10 F100")
         ik_form = cgp.from_gcode(f"G18 {code} X10 Z10 F100 "
-                                 + ("K10" if code == "G2" else "I10 K0"))  # fmt: skip
+                                 + ("K10" if code == "G2" else "I10 K0"))
         np.testing.assert_allclose(r_form.table.data, ik_form.table.data, atol=1e-15)
     yz = cgp.from_gcode("G19 G2 Y20 Z0 J10 K0 F100")
     np.testing.assert_allclose(yz.point(yz.length / 2), [0.0, 0.01, 0.01], atol=1e-15)

@@ -25,9 +25,9 @@ def test_the_registry_makes_fresh_policies_and_names_what_it_rejects():
     a, b = make_policy("cnc_lookahead"), make_policy("cnc_lookahead")
     assert isinstance(a, CNCLookahead) and a is not b
     assert a.env_kwargs == {"path_control": "G64", "path_tolerance": DEFAULT_TOLERANCE,
-                            "feedrate_override": 1.0}  # fmt: skip
+                            "feedrate_override": 1.0}
     assert make_policy("cnc_lookahead", mode="G61").env_kwargs == {
-        "path_control": "G61", "feedrate_override": 1.0}  # fmt: skip
+        "path_control": "G61", "feedrate_override": 1.0}
     with pytest.raises(ValueError, match="'no_such_policy'.*cnc_lookahead"):
         make_policy("no_such_policy")
     with pytest.raises(ValueError, match=r"\['tol'\].*accepted: tolerance, mode"):
@@ -130,7 +130,7 @@ def test_run_policy_is_deterministic_and_members_equal_single_runs():
 @pytest.mark.parametrize("make_env", [
     lambda: gym.make("contour_gym/Feedrate-Corner-v0"),
     lambda: gym.make_vec("contour_gym/Feedrate-Corner-v0", num_envs=2),
-], ids=["single", "vector"])  # fmt: skip
+], ids=["single", "vector"])
 def test_evaluate_takes_an_env_instance_as_sb3_does(make_env):
     """An env the user made gives what the id gives: episode i seeded seed + i, bit for bit
     (three episodes: a single env one by one, a vector env of two in two rounds)."""

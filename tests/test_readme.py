@@ -55,7 +55,7 @@ def clean_registries():
     from agents.rl.algorithms import ALGORITHMS
 
     for registry, name in ((PRESETS, "my_mill"), (ESTIMATORS, "toy_tangent"),
-                           (TASKS, "kp_only"), (ALGORITHMS, "my_a2c")):  # fmt: skip
+                           (TASKS, "kp_only"), (ALGORITHMS, "my_a2c")):
         if name in registry:
             registry.unregister(name)
 
@@ -105,7 +105,7 @@ def _check_registrations(namespace):
         assert m["finished"] == 1.0 and 0 < m["max_contour_error"] < 1e-3
     if "toy_foot" in namespace:  # the estimator it registers runs
         a = simulate(plant="xy_dc_servo", estimator="toy_tangent",
-                     estimator_options={"bias": 2e-6}, ccc_gains=(2e3, 2e4, 0.0))  # fmt: skip
+                     estimator_options={"bias": 2e-6}, ccc_gains=(2e3, 2e4, 0.0))
         assert np.isfinite(a["max_contour_error"])
     if "KpEnv" in namespace:  # the task it registers makes an env of its spaces
         env = namespace["KpEnv"]()

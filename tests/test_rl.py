@@ -37,13 +37,13 @@ CCC = "contour_gym/CCC-Circle-v0"
 TINY = {"n_envs": 4, "env_kwargs": {"decision_ticks": 50}, "policy_kwargs": {"net_arch": [16]}}
 TINY_PPO = {**TINY, "n_steps": 32, "batch_size": 64, "n_epochs": 2}
 TINY_SAC = {**TINY, "learning_starts": 32, "batch_size": 32, "buffer_size": 2000,
-            "gradient_steps": 1}  # fmt: skip
+            "gradient_steps": 1}
 
 
 def _tiny(tmp_path, algo="ppo", steps=256, seed=0, **kw):
     extra = {**(TINY_PPO if algo == "ppo" else TINY_SAC), "eval_every": steps, **kw}
     return train(CCC, algo, steps, seed=seed, out_dir=tmp_path, progress=False,
-                 eval_episodes=2, **extra)  # fmt: skip
+                 eval_episodes=2, **extra)
 
 
 @pytest.mark.parametrize(
@@ -78,7 +78,7 @@ def test_adapter_equals_dummy_vec_env_of_single_envs(env_id, kwargs, steps):
             ended["truncated" if d["TimeLimit.truncated"] else "terminated"] += 1
             for key in d["terminal_observation"]:
                 np.testing.assert_array_equal(a["terminal_observation"][key],
-                                              d["terminal_observation"][key])  # fmt: skip
+                                              d["terminal_observation"][key])
             assert a["metrics"] == d["metrics"]
             assert a["failure"] == d["failure"]
         assert [i["TimeLimit.truncated"] for i in infos_a] == [
@@ -94,7 +94,7 @@ def test_flattened_adapter_equals_flatten_observation_of_single_envs():
     n, kwargs = 3, {"decision_ticks": 250, "randomize": True}
     native = make_native_vec_env(CCC, n, flatten=True, **kwargs)
     dummy = DummyVecEnv([lambda: gym.wrappers.FlattenObservation(gym.make(CCC, **kwargs))
-                         for _ in range(n)])  # fmt: skip
+                         for _ in range(n)])
     assert native.observation_space == dummy.observation_space
     for venv in (native, dummy):
         venv.seed(5)
@@ -111,7 +111,7 @@ def test_flattened_adapter_equals_flatten_observation_of_single_envs():
         for i in np.flatnonzero(done_d):
             ends += 1
             np.testing.assert_array_equal(infos_a[i]["terminal_observation"],
-                                          infos_d[i]["terminal_observation"])  # fmt: skip
+                                          infos_d[i]["terminal_observation"])
     assert ends >= n
 
 
@@ -126,7 +126,7 @@ def test_a_flat_agent_acts_on_dict_observations(tmp_path):
     agent = SavedAgent(export_agent(run, tmp_path / "flat_agent", "test"))
     assert agent.model.observation_space.shape == (14,)
     venv = gym.make_vec(CCC, num_envs=2, vectorization_mode="vector_entry_point",
-                        decision_ticks=50)  # fmt: skip
+                        decision_ticks=50)
     agent.reset(venv)
     obs, _ = venv.reset(seed=0)
     batch, _ = agent.predict(obs)
@@ -269,9 +269,9 @@ def test_rl_zoo3_trains_from_the_shipped_yaml(tmp_path):
     pytest.importorskip("rl_zoo3", reason="rl_zoo3 is not installed (pip install '.[zoo]')")
     command = [sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", CCC,
                "--gym-packages", "contour_gym", "--conf-file", "configs/rl/ppo.yml",
-               "-n", "300", "-f", str(tmp_path), "--seed", "0"]  # fmt: skip
+               "-n", "300", "-f", str(tmp_path), "--seed", "0"]
     done = subprocess.run(command, cwd=REPO, capture_output=True, text=True, env=os.environ,
-                          timeout=600)  # fmt: skip
+                          timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     models = list(tmp_path.rglob("*.zip"))
     assert models, done.stdout[-2000:]
@@ -290,7 +290,7 @@ def test_saved_agent_loads_by_path_and_predicts_single_and_batched(agent_dir):
     # its training env's kwargs, with the observation of its id (v0 here)
     assert agent.env_id == CCC and agent.env_kwargs == {"decision_ticks": 50, "observation": "v0"}
     venv = gym.make_vec(CCC, num_envs=3, vectorization_mode="vector_entry_point",
-                        **agent.env_kwargs)  # fmt: skip
+                        **agent.env_kwargs)
     agent.reset(venv)
     obs, _ = venv.reset(seed=0)
     batch, _ = agent.predict(obs)
@@ -305,14 +305,14 @@ def test_a_saved_agent_acts_on_each_member_as_it_does_alone(agent_dir):
     """torch rounds a batch's products by its size; the agent acts row by row (by_rows)."""
     agent = SavedAgent(agent_dir)
     venv = gym.make_vec(CCC, num_envs=7, vectorization_mode="vector_entry_point",
-                        **agent.env_kwargs)  # fmt: skip
+                        **agent.env_kwargs)
     agent.reset(venv)
     obs, _ = venv.reset(seed=0)
     obs = {k: v * np.random.default_rng(1).uniform(0.5, 2.0, v.shape) for k, v in obs.items()}
     batch = agent.act(obs)
     for i in range(7):
         np.testing.assert_array_equal(agent.act({k: v[i : i + 1] for k, v in obs.items()})[0],
-                                      batch[i])  # fmt: skip
+                                      batch[i])
     kwargs = {"id": CCC, **agent.env_kwargs, "randomize": True}
     together = evaluate(agent, kwargs, n_episodes=3, seed=4)["episodes"]
     assert together == [run_policy(kwargs, agent, seed=4 + i) for i in range(3)]
@@ -325,7 +325,7 @@ def test_a_saved_agent_runs_on_a_users_env_instance(agent_dir):
     env = gym.make(CCC, **agent.env_kwargs)
     mine = evaluate(agent, env, n_episodes=2, seed=4)["episodes"]
     assert mine == evaluate(agent, {"id": CCC, **agent.env_kwargs}, n_episodes=2,
-                            seed=4)["episodes"]  # fmt: skip
+                            seed=4)["episodes"]
     env.close()
 
 
@@ -350,7 +350,7 @@ def test_saved_agent_acts_as_the_fully_loaded_model(agent_dir):
     for name, tensor in full.policy.state_dict().items():
         assert torch.equal(agent.model.policy.state_dict()[name], tensor), name
     venv = gym.make_vec(CCC, num_envs=2, vectorization_mode="vector_entry_point",
-                        **agent.env_kwargs)  # fmt: skip
+                        **agent.env_kwargs)
     plain = SB3Policy(full, agent.normalizer, agent.env_kwargs)
     agent.reset(venv)
     plain.reset(venv)
@@ -372,7 +372,7 @@ def _models():
     feed = gym.make("contour_gym/Feedrate-Corner-v0")
     yield "ppo_dict", algo_class("ppo")("MultiInputPolicy", feed, device="cpu", seed=0)
     yield "ppo_gsde", algo_class("ppo")("MultiInputPolicy", feed, use_sde=True, device="cpu",
-                                        seed=0)  # fmt: skip
+                                        seed=0)
     yield "a2c", algo_class("a2c")("MultiInputPolicy", feed, device="cpu", seed=0)
     yield "sac", algo_class("sac")("MultiInputPolicy", feed, device="cpu", seed=0)
 
@@ -401,7 +401,7 @@ def test_a_policy_given_a_new_model_checks_envs_against_the_new_one(agent_dir):
     env = gym.make(CCC, **agent.env_kwargs)
     plain.reset(env)  # fits: the agent's own training env
     other = algo_class("ppo")("MultiInputPolicy", gym.make("contour_gym/Feedrate-Corner-v0"),
-                              device="cpu")  # fmt: skip
+                              device="cpu")
     plain.model = other  # a model of another observation: the checks read it afresh
     with pytest.raises(ValueError, match="observes"):
         plain.reset(env)
@@ -412,7 +412,7 @@ def test_an_agent_not_read_yet_reads_its_model_after_pickling(agent_dir):
     agent = SavedAgent(agent_dir)
     copy = pickle.loads(pickle.dumps(agent))
     venv = gym.make_vec(CCC, num_envs=2, vectorization_mode="vector_entry_point",
-                        **agent.env_kwargs)  # fmt: skip
+                        **agent.env_kwargs)
     agent.reset(venv)
     copy.reset(venv)
     obs, _ = venv.reset(seed=2)
@@ -426,7 +426,7 @@ def test_an_agent_reads_its_model_when_first_needed_without_torch_dynamo(agent_d
             f"agent = SavedAgent({str(agent_dir)!r}); print('torch' in sys.modules); "
             "agent.model; print('torch' in sys.modules, 'torch._dynamo' in sys.modules)")
     done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
-                          text=True, check=True)  # fmt: skip
+                          text=True, check=True)
     assert done.stdout.split() == ["False", "True", "False"]
 
 
@@ -478,14 +478,14 @@ def test_every_shipped_agent_loads_by_name_and_runs_a_user_path(name):
     agent = policies.make(name)
     meta = yaml.safe_load((REPO / "agents" / "trained" / name / "meta.yaml").read_text())
     curve = parametric(lambda t: np.stack([0.02 * t, 0.0025 * np.sin(2 * np.pi * t)], 1),
-                       0.0, 1.0)  # fmt: skip
+                       0.0, 1.0)
     if "Feedrate" in meta["env_id"]:
         spec = {"id": "contour_gym/Feedrate-v0", "plant": "xy_servo_coulomb",
-                "path": from_gcode(USER_PART)}  # fmt: skip
+                "path": from_gcode(USER_PART)}
     else:
         kw = agent.env_kwargs  # an agent acts with the estimator it trained with
         spec = {"id": "contour_gym/CCC-v0", "plant": kw.get("plant", "xy_dc_servo"),
-                "path": curve, "estimator": kw.get("estimator", "two_circle")}  # fmt: skip
+                "path": curve, "estimator": kw.get("estimator", "two_circle")}
     m = run_policy(spec, agent)
     assert m["finished"] and not m["failed"] and not m["truncated"]
     assert np.isfinite(m["max_contour_error"])
@@ -496,7 +496,7 @@ def test_an_agent_trained_flat_on_random_paths_acts_on_the_v1_observation(tmp_pa
     observation (issue 26), single and batched."""
     run = train("contour_gym/CCC-Circle-v1", "ppo", 128, seed=0, out_dir=tmp_path,
                 progress=False, eval_episodes=2, eval_every=128,
-                **{**TINY_PPO, "env_kwargs": {"decision_ticks": 50, "path": "random"}})  # fmt: skip
+                **{**TINY_PPO, "env_kwargs": {"decision_ticks": 50, "path": "random"}})
     agent = SavedAgent(export_agent(run, tmp_path / "general", "test"))
     # it keeps its interface (the v1 observation), not its world of paths
     assert agent.env_kwargs == {"decision_ticks": 50, "observation": "v1"}

@@ -151,7 +151,7 @@ def test_ideal_reproduces_the_old_simulate_numbers_up_to_the_arrival(label):
     tr = loop.trace()
     upto = slice(0, int(loop.ip_s[0, 3]) + 1)  # ticks until the reference reached the end
     m = metrics_from_sums(sums_from_trace(tr.eps[:, upto], tr.r[:, upto] - tr.x[:, upto],
-                                          tr.u[:, upto]), 0.0)  # fmt: skip
+                                          tr.u[:, upto]), 0.0)
     got = (m["max_contour_error"][0], m["mean_contour_error"][0], m["rms_contour_error"][0])
     np.testing.assert_allclose(got, BEFORE[label], rtol=1e-9)
     assert loop.ip_s[0, 3] == 1999

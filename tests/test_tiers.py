@@ -58,7 +58,7 @@ def test_a_detached_worker_takes_a_request(
     monkeypatch.setenv(tiers.BACKGROUND, "1")
     request = _pickled(loop, jit.generated_dir())
     assert tiers._detach("_own_main", str(request), "own_test", "a test's kernel",
-                          env={precompile.IN_WORKER: tiers.OWN_WORKER})  # fmt: skip
+                          env={precompile.IN_WORKER: tiers.OWN_WORKER})
     deadline = time.monotonic() + 120.0
     while request.exists() and time.monotonic() < deadline:
         time.sleep(0.2)
@@ -73,7 +73,7 @@ def test_a_background_process_ends_when_its_cache_folder_is_gone(tmp_path: Path)
     folder = tmp_path / "generated"
     folder.mkdir()
     code = (f"from contour_gym.jit import tiers; tiers._watch({str(folder)!r}); "
-            "import time; time.sleep(120)")  # fmt: skip
+            "import time; time.sleep(120)")
     process = subprocess.Popen([sys.executable, "-c", code])
     try:
         time.sleep(3.0)  # imported and watching
@@ -104,7 +104,7 @@ def _module(folder: Path, name: str, compiled: bool) -> types.ModuleType:
 )
 def test_choose_policy(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, own_compiled: bool,
                        builtins_done: bool, worker: str | None, picked: str,
-                       later: list[str]) -> None:  # fmt: skip
+                       later: list[str]) -> None:
     asked: list[str] = []
     monkeypatch.setattr(tiers, "_compile_own_later", lambda owner: asked.append("own"))
     monkeypatch.setattr(tiers, "_compile_builtins_later", lambda w: asked.append(f"builtins {w}"))

@@ -40,7 +40,7 @@ TURN170 = "G1 F600 X20\nG1 X0 Y3.5\n"
 
 def _star() -> str:
     pts = [(20 * math.cos(math.pi / 2 + k * 4 * math.pi / 5),
-            20 * math.sin(math.pi / 2 + k * 4 * math.pi / 5)) for k in range(6)]  # fmt: skip
+            20 * math.sin(math.pi / 2 + k * 4 * math.pi / 5)) for k in range(6)]
     lines = [f"G0 X{pts[0][0]:.4f} Y{pts[0][1]:.4f}", f"G1 F1200 X{pts[1][0]:.4f} Y{pts[1][1]:.4f}"]
     return "\n".join(lines + [f"X{x:.4f} Y{y:.4f}" for x, y in pts[2:]]) + "\n"
 
@@ -217,9 +217,9 @@ def programs(draw) -> str:
 # CI draws the same examples every run (derandomize); HYPOTHESIS_PROFILE=thorough draws new
 # ones and more of them
 settings.register_profile("ci", max_examples=8, derandomize=True, deadline=None,
-                          suppress_health_check=[HealthCheck.too_slow])  # fmt: skip
+                          suppress_health_check=[HealthCheck.too_slow])
 settings.register_profile("thorough", max_examples=200, deadline=None,
-                          suppress_health_check=[HealthCheck.too_slow])  # fmt: skip
+                          suppress_health_check=[HealthCheck.too_slow])
 PROFILE = os.environ.get("HYPOTHESIS_PROFILE", "ci")
 
 

@@ -176,7 +176,7 @@ def test_the_schedules_are_the_swarms() -> None:
 def test_the_cli_runs_a_tiny_budget(tmp_path, capsys) -> None:
     out = tmp_path / "run"
     argv = ["tune", CIRCLE, "--optimizer", "pso", "--population", "4", "--iterations", "2",
-            "--seed", "1", "--out", str(out), "--quiet"]  # fmt: skip
+            "--seed", "1", "--out", str(out), "--quiet"]
     assert main(argv) == 0
     text = capsys.readouterr().out
     assert "k_if = " in text and f"results written to {out}" in text
@@ -190,7 +190,7 @@ def test_the_cli_runs_a_tiny_budget(tmp_path, capsys) -> None:
 @pytest.mark.parametrize(("argv", "message"), [
     (["tune", "nope"], "unknown tuning protocol 'nope'; accepted: 000"),
     (["tune", CIRCLE, "--optimizer", "nope"], "unknown optimizer 'nope'; accepted: abc, cma"),
-])  # fmt: skip
+])
 def test_the_cli_names_the_accepted_ones(argv, message, capsys) -> None:
     assert main(argv) == 2
     assert message in capsys.readouterr().err
@@ -248,7 +248,7 @@ def test_a_protocol_started_at_the_reference_never_returns_worse(tmp_path, capsy
     two = general.scenarios[:2]
     kwargs = {name: general.scenario_kwargs[name] for name in two}
     plain = replace(general, name="000_general_two", scenarios=two, scenario_kwargs=kwargs,
-                    start_at_reference=False)  # fmt: skip
+                    start_at_reference=False)
     ref = general.reference_point()
     reference = PopulationObjective(plain).fitness([plain.reference_row()])[0]
     lost = tune(plain, seed=0, population=4, iterations=1, progress=False)
@@ -256,7 +256,7 @@ def test_a_protocol_started_at_the_reference_never_returns_worse(tmp_path, capsy
     register_protocol(replace(plain, name="test_started", start_at_reference=True))
     try:
         assert main(["tune", "test_started", "--population", "4", "--iterations", "1",
-                     "--out", str(tmp_path), "--quiet"]) == 0  # fmt: skip
+                     "--out", str(tmp_path), "--quiet"]) == 0
     finally:
         PROTOCOLS.unregister("test_started")
     assert "(the start point, the untuned law: no candidate beat it)" in capsys.readouterr().out

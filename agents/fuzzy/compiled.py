@@ -202,7 +202,7 @@ def _surface_digest(compiled: CompiledMamdani) -> str:
     digest = hashlib.sha256(_code_digest().encode())
     i, o = compiled.inputs, compiled.outputs
     parts = (i.mf, i.meta, i.support, o.mf, o.meta, o.support, compiled.ant, compiled.cons,
-             np.array([compiled.system.surface_points]))  # fmt: skip
+             np.array([compiled.system.surface_points]))
     for part in parts:
         digest.update(f"{part.dtype}{part.shape}".encode())
         digest.update(np.ascontiguousarray(part).tobytes())

@@ -143,7 +143,7 @@ class Problem:
     def __init__(
         self, objective: Objective, bounds: ArrayLike, keep_population: bool,
         x0: ArrayLike | None = None,
-    ) -> None:  # fmt: skip
+    ) -> None:
         if not callable(objective):
             raise ValueError(f"objective must be callable, got {objective!r}")
         self.low, self.high = check_bounds(bounds)
@@ -301,7 +301,7 @@ def run(
     problem = Problem(objective, bounds, keep_population, x0)
     if problem.starts.shape[0] > population:
         raise ValueError(f"x0 has {problem.starts.shape[0]} points, more than the population "
-                         f"{population}")  # fmt: skip
+                         f"{population}")
     core(problem, make_rng(seed), population, iterations)
     return problem.result(name)
 

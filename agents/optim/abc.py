@@ -302,7 +302,7 @@ def abc(
     """
     core = partial(_colony, move=_karaboga_move, selection=abc_probabilities, limit=_limit(limit))
     return run("abc", core, objective, bounds, population, iterations, seed,
-               keep_population, 4, x0=x0)  # fmt: skip
+               keep_population, 4, x0=x0)
 
 
 def improved_abc(
@@ -360,7 +360,7 @@ def improved_abc(
     move = partial(iabc_move, etas=etas)
     core = partial(_colony, move=move, selection=iabc_probabilities, limit=_limit(limit))
     return run("improved_abc", core, objective, bounds, population, iterations, seed,
-               keep_population, 4, x0=x0)  # fmt: skip
+               keep_population, 4, x0=x0)
 
 
 __all__ = [

@@ -283,7 +283,7 @@ def improved_foa(
         radius, l_max, a, rate, (q1, q2, a_con), delta, p_mutation, cauchy_scale
     )
     return run("improved_foa", core, objective, bounds, population, iterations, seed,
-               keep_population, 2, x0=x0)  # fmt: skip
+               keep_population, 2, x0=x0)
 
 
 @dataclass(frozen=True)
@@ -302,7 +302,7 @@ class _ImprovedFlight:
     def checked(
         cls, radius: float, l_max: float, a: float, rate: float, q: tuple[float, float, float],
         delta: float, p_mutation: float, cauchy_scale: float,
-    ) -> _ImprovedFlight:  # fmt: skip
+    ) -> _ImprovedFlight:
         """The options of :func:`improved_foa`, checked (ValueError naming a bad one).
 
         ``q`` is ``(q1, q2, A_con)``.

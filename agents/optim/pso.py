@@ -240,7 +240,7 @@ def improved_pso(
     schedule = _improved_schedule(w_start, w_end, alpha, beta, c_start, c_end, t_ref)
     core = partial(_swarm, schedule=schedule, v_max=positive(v_max, "v_max"))
     return run("improved_pso", core, objective, bounds, population, iterations, seed,
-               keep_population, x0=x0)  # fmt: skip
+               keep_population, x0=x0)
 
 
 _COEFFICIENTS: dict[str, Callable[..., tuple[float, float, float]]] = {
@@ -252,7 +252,7 @@ _COEFFICIENTS: dict[str, Callable[..., tuple[float, float, float]]] = {
 def _improved_schedule(
     w_start: float, w_end: float, alpha: float, beta: float, c_start: float, c_end: float,
     t_ref: float,
-) -> Schedule:  # fmt: skip
+) -> Schedule:
     """:func:`improved_coefficients` with checked options (ValueError naming a bad one)."""
     w0, w1 = finite(w_start, "w_start"), finite(w_end, "w_end")
     if w0 <= w1:

@@ -79,7 +79,7 @@ def de(
         recombination=in_range(recombination, "recombination", 0.0, 1.0),
     )
     return run("de", core, objective, bounds, population, iterations, seed,
-               keep_population, 5, x0=x0)  # fmt: skip
+               keep_population, 5, x0=x0)
 
 
 def _de(
@@ -169,7 +169,7 @@ def cma(
         boundary=choice(boundary, "boundary", _BOUNDARIES),
     )
     return run("cma", core, objective, bounds, population, iterations, seed,
-               keep_population, 2, x0=x0)  # fmt: skip
+               keep_population, 2, x0=x0)
 
 
 # cma's BoundaryHandler classes by name

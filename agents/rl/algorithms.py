@@ -54,7 +54,7 @@ class Algorithm:
             module = importlib.import_module(self.module)
         except ImportError as exc:
             raise ValueError(f"RL algorithm {self.name!r} needs {self.module} ({exc}); "
-                             f"install it with: {self.install}") from exc  # fmt: skip
+                             f"install it with: {self.install}") from exc
         return getattr(module, self.class_name)
 
 
@@ -88,5 +88,5 @@ for _algo in (
     Algorithm("crossq", _CONTRIB, "CrossQ", off_policy=True, install=_CONTRIB_INSTALL),
     Algorithm("ppo_lstm", _CONTRIB, "RecurrentPPO", off_policy=False, recurrent=True,
               install=_CONTRIB_INSTALL),
-):  # fmt: skip
+):
     register_algorithm(_algo)

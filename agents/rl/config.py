@@ -46,7 +46,7 @@ SCHEDULE_KEYS = ("learning_rate", "clip_range", "clip_range_vf")
 RESERVED = frozenset({
     "env", "seed", "verbose", "tensorboard_log", "device", "_init_setup_model", "action_noise",
     "replay_buffer_class", "rollout_buffer_class",
-})  # fmt: skip
+})
 _LIN = re.compile(r"lin_([0-9.eE+-]+)")
 
 
@@ -112,7 +112,7 @@ class RunConfig:
         from stable_baselines3.common.utils import LinearSchedule
 
         zoo = {"n_envs", "n_timesteps", "normalize", "env_wrapper", "env_kwargs", "noise_type",
-               "noise_std"}  # fmt: skip
+               "noise_std"}
         # copies: SB3 writes into policy_kwargs (e.g. use_sde)
         out = {k: copy.deepcopy(v) for k, v in self.block.items() if k not in zoo}
         for key in SCHEDULE_KEYS:
@@ -177,7 +177,7 @@ def load_config(
         raise ValueError(f"{path}: must map env ids to mappings of hyperparameters")
     if env_id not in data:
         raise ValueError(f"{path}: no block for env id {env_id!r}; configured: "
-                         f"{', '.join(map(str, data))}")  # fmt: skip
+                         f"{', '.join(map(str, data))}")
     block = dict(data[env_id])
     check_block(algo, env_id, block, str(path))
     if overrides:
@@ -215,7 +215,7 @@ def check_block(
         else:
             accepted = sorted(set(checks) | (set(params) - RESERVED - {"self"}))
             raise ValueError(f"{where}: unknown key {key!r} for {algo}; accepted: "
-                             f"{', '.join(accepted)}")  # fmt: skip
+                             f"{', '.join(accepted)}")
         if problem:
             raise ValueError(f"{where}: {key}: {problem}, got {value!r}")
     policy = getattr(cls, "policy_aliases", {}).get(block.get("policy"))
@@ -245,10 +245,10 @@ def _zoo_checks(algo: str, cls: Any) -> dict[str, Check]:
         else "must be a mapping of env keyword arguments",
         "policy_kwargs": lambda v: "" if v is None or _is_str_mapping(v)
         else "must be a mapping (e.g. {net_arch: [64, 64]}), not a string to eval",
-    }  # fmt: skip
+    }
     if algorithm(algo).off_policy:
         checks["noise_type"] = lambda v: "" if v is None or v in NOISE_TYPES \
-            else f"must be one of {', '.join(NOISE_TYPES)}"  # fmt: skip
+            else f"must be one of {', '.join(NOISE_TYPES)}"
         checks["noise_std"] = lambda v: "" if _is_float(v) and v >= 0 else "must be a number >= 0"
     return checks
 
@@ -260,7 +260,7 @@ def _check_policy_kwargs(policy: type, kwargs: Mapping[str, Any]) -> str:
     if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
         return ""
     own = [k for k in params if k not in ("self", "observation_space", "action_space",
-                                          "lr_schedule")]  # fmt: skip
+                                          "lr_schedule")]
     unknown = sorted(set(kwargs) - set(own))
     if unknown:
         return (f"unknown argument(s) {', '.join(map(repr, unknown))} of {policy.__name__} "
@@ -306,14 +306,14 @@ def _fits(value: Any, ann: Any) -> bool:
     simple: dict[Any, Callable[[Any], bool]] = {
         bool: lambda v: isinstance(v, bool), int: _is_int, float: _is_float,
         str: lambda v: isinstance(v, str), dict: _is_str_mapping,
-    }  # fmt: skip
+    }
     if ann in simple:
         return simple[ann](value)
     if origin is dict:
         return _is_str_mapping(value)
     if origin is tuple:
         return (isinstance(value, (list, tuple)) and len(value) == len(args)
-                and all(_fits(v, a) for v, a in zip(value, args, strict=True)))  # fmt: skip
+                and all(_fits(v, a) for v, a in zip(value, args, strict=True)))
     if origin is list:
         return isinstance(value, list) and all(_fits(v, args[0]) for v in value)
     return False

@@ -69,7 +69,7 @@ class CornerGuard(Policy):
 
     def __init__(self, agent: str = "ppo_000_ccc_general", near: float = 0.002,
                  angle: float = math.radians(85.0), hold: int = 20,
-                 curvature: float = 5000.0) -> None:  # fmt: skip
+                 curvature: float = 5000.0) -> None:
         self.near = positive(near, "near")
         self.curvature = positive_or_inf(curvature, "curvature")
         if not 0.0 < finite(angle, "angle") <= math.pi:
@@ -97,7 +97,7 @@ class CornerGuard(Policy):
         config = getattr(getattr(env, "unwrapped", None), "config", None)
         if config is None or config.observation != "v1":
             raise ValueError(f"corner_guard needs a contour_gym env of the v1 observation, "
-                             f"got {env!r}")  # fmt: skip
+                             f"got {env!r}")
         self._horizon = float(max(config.preview))
         self._within = np.array([True, *(d <= self.near for d in config.preview)])
         self.agent.reset(env)
@@ -108,17 +108,17 @@ class CornerGuard(Policy):
         """The agent's actions; the PID CCC's near a sharp corner or near-cusp, or just past one."""
         if math.isnan(self._horizon):
             raise ValueError("corner_guard reads the env's preview horizon at reset(env): "
-                             "call it first")  # fmt: skip
+                             "call it first")
         if "corner" not in obs:
             raise ValueError(f"corner_guard acts on the v1 Dict observation (its 'corner' key), "
-                             f"got keys {sorted(obs)}")  # fmt: skip
+                             f"got keys {sorted(obs)}")
         actions = np.array(self.agent.act(obs), dtype=np.float64)
         n = batch_size(obs)
         if self._left is None or self._was_near is None or self._left.shape[0] != n:
             self._left, self._was_near = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool)
         corner = np.asarray(obs["corner"], dtype=np.float64)
         near = (corner[:, 0] * self._horizon < self.near) & (
-            np.abs(corner[:, 1]) * math.pi > self.angle)  # fmt: skip
+            np.abs(corner[:, 1]) * math.pi > self.angle)
         if math.isfinite(self.curvature):
             curvature = np.asarray(obs["curvature"], dtype=np.float64)[:, self._within]
             kappa = np.abs(curvature) / CURVATURE_SCALE

@@ -27,4 +27,4 @@ def flatten_obs(obs: Mapping[str, Any], keys: Sequence[str], batch: int | None) 
     """
     shape = (-1,) if batch is None else (batch, -1)
     return np.concatenate([np.asarray(obs[k], dtype=np.float32).reshape(shape) for k in keys],
-                          axis=-1)  # fmt: skip
+                          axis=-1)

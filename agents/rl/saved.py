@@ -179,10 +179,10 @@ class SB3Policy(Policy):
             fits = self._shapes == theirs
         if not fits:
             raise ValueError(f"agent {self.label!r} observes {self._observes()}, which does not "
-                             f"fit the env's observation space {theirs}")  # fmt: skip
+                             f"fit the env's observation space {theirs}")
         if self.model.action_space.shape != act_space.shape:
             raise ValueError(f"agent {self.label!r} acts with shape {self.model.action_space.shape}"
-                             f", the env with {act_space.shape}")  # fmt: skip
+                             f", the env with {act_space.shape}")
 
     def act(self, obs: Observation) -> Actions:
         """Actions ``(B, n)`` for a batch of observations (every value ``(B, ...)``).
@@ -195,7 +195,7 @@ class SB3Policy(Policy):
             return self._mean_actions(self._normalized(obs))
         starts = np.full(n, self._state is None) if self.recurrent else None
         actions, state = by_rows(self.model, self._normalized(obs), n, self._state, starts,
-                                 self.deterministic)  # fmt: skip
+                                 self.deterministic)
         if self.recurrent:
             self._state = state
         return actions
@@ -226,10 +226,10 @@ class SB3Policy(Policy):
             fits = single or all(given[k][1:] == shapes[k] for k in shapes)
         if not fits:
             raise ValueError(f"agent {self.label!r} observes {self._observes()} (or a batch), "
-                             f"got {given}")  # fmt: skip
+                             f"got {given}")
         batch = {k: np.asarray(v)[None] for k, v in obs.items()} if single else dict(obs)
         actions, state = by_rows(self.model, self._normalized(batch), batch_size(batch), state,
-                                 episode_start, deterministic)  # fmt: skip
+                                 episode_start, deterministic)
         return (actions[0] if single else actions), state
 
     def _normalized(self, obs: Observation) -> Any:
@@ -256,7 +256,7 @@ def row(batch: Any, i: int) -> Any:
 def by_rows(
     model: Any, batch: Any, n: int, state: Any = None, starts: Any = None,
     deterministic: bool = True,
-) -> tuple[Actions, Any]:  # fmt: skip
+) -> tuple[Actions, Any]:
     """``model.predict`` on each of the ``n`` rows of ``batch`` alone: actions ``(n, ...)``.
 
     torch's matrix products round differently for different numbers of rows (float32), and a
@@ -279,13 +279,13 @@ def by_rows(
         mine = None if state is None else tuple(np.array(h[:, i : i + 1]) for h in state)
         start = None if starts is None else np.asarray(starts)[i : i + 1]
         action, after = model.predict(row(batch, i), state=mine, episode_start=start,
-                                      deterministic=deterministic)  # fmt: skip
+                                      deterministic=deterministic)
         actions.append(np.asarray(action, dtype=np.float64))
         states.append(after)
     joined = None
     if states and states[0] is not None:
         joined = tuple(np.concatenate([s[j] for s in states], axis=1)
-                       for j in range(len(states[0])))  # fmt: skip
+                       for j in range(len(states[0])))
     return np.concatenate(actions), joined
 
 
@@ -314,10 +314,10 @@ def mean_actions(model: Any) -> Callable[[Any], Actions] | None:
     gaussian = (DiagGaussianDistribution, StateDependentNoiseDistribution)
     if not isinstance(policy, ActorCriticPolicy) or any(
             getattr(type(policy), m) is not getattr(ActorCriticPolicy, m)
-            for m in ("predict", "_predict", "get_distribution")):  # fmt: skip
+            for m in ("predict", "_predict", "get_distribution")):
         return None  # an off-policy actor, or a policy that acts its own way
     if (not isinstance(policy.action_dist, gaussian) or policy.squash_output
-            or not isinstance(policy.action_space, gym.spaces.Box)):  # fmt: skip
+            or not isinstance(policy.action_space, gym.spaces.Box)):
         return None
     import torch
 
@@ -388,13 +388,13 @@ class SavedAgent(SB3Policy):
             raise ValueError(f"agent {folder.name!r}: model file {model_path} is missing")
         self._algo = algorithm(self.meta["algo"])
         super().__init__(UNREAD, None, self._interface(), folder.name, deterministic,
-                         self._algo.recurrent)  # fmt: skip
+                         self._algo.recurrent)
 
     def _read(self) -> None:
         """Read the model (loaded to act) and its normalizer: when first needed (class doc)."""
         model, stats = self.folder / MODEL_FILE, self.folder / STATS_FILE
         self._model, self._normalizer = _loaded(self._algo, model, _stamp(model), stats,
-                                                _stamp(stats))  # fmt: skip
+                                                _stamp(stats))
         limit_new_torch()  # torch may have been imported just now, inside a unit
 
     def _interface(self) -> dict[str, Any]:
@@ -489,7 +489,7 @@ def read_meta(folder: Path) -> dict[str, Any]:
         raise ValueError(f"agent {folder.name!r}: meta file {path} is missing")
     meta = yaml.safe_load(path.read_text(encoding="utf-8"))
     if not isinstance(meta, dict) or not all(isinstance(meta.get(k), str) for k in
-                                              ("algo", "env_id")):  # fmt: skip
+                                              ("algo", "env_id")):
         raise ValueError(f"{path}: must be a mapping with 'algo' and 'env_id' strings")
     if not isinstance(meta.get("env_kwargs") or {}, dict):
         raise ValueError(f"{path}: env_kwargs must be a mapping")

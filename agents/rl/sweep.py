@@ -89,7 +89,7 @@ def trials(
     env_id: str, algos: Sequence[str], seeds: Sequence[int], grid: Mapping[str, Sequence[Any]],
     out_dir: str | Path = "runs", timesteps: int | None = None,
     config_file: str | Path | None = None,
-) -> list[Trial]:  # fmt: skip
+) -> list[Trial]:
     """Every combination of algorithm, swept values and seed (in that nesting order).
 
     A combination of swept values trains under ``<out_dir>/<key=value,...>``.
@@ -130,7 +130,7 @@ def run_trial(trial: Trial) -> str:
         (run / "args.yml").unlink()
     return str(train(trial.env_id, trial.algo, trial.timesteps, seed=trial.seed,
                      out_dir=trial.out_dir, config_file=trial.config_file, progress=False,
-                     **trial.overrides))  # fmt: skip
+                     **trial.overrides))
 
 
 def run_trials(
@@ -170,7 +170,7 @@ def _ray_tune(todo: Sequence[Trial], address: str, workers: int | None) -> list[
                 name="sweep", storage_path=str(storage), verbose=0,
                 failure_config=tune.FailureConfig(max_failures=RAY_RETRIES),
             ),
-        )  # fmt: skip
+        )
         grid = tuner.fit()
         results = [grid[i] for i in range(len(grid))]
         errors = [r.error for r in results if r.error is not None]

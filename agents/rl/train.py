@@ -64,11 +64,11 @@ from agents.rl.vec_env import make_native_vec_env
 
 EVAL_SEED = 1_000_000  # eval member i is seeded EVAL_SEED + seed + i (apart from training's)
 EVAL_COLUMNS = ("timesteps", "max_contour_error_um", "mean_contour_error_um", "cycle_time_s",
-                "failures", "mean_return", "wall_time_s")  # fmt: skip
+                "failures", "mean_return", "wall_time_s")
 EVAL_LABELS = {"max_contour_error_um": "max |contour error| (um), mean",
                "mean_contour_error_um": "mean |contour error| (um), mean",
                "cycle_time_s": "cycle time (s), mean", "failures": "failed episodes (fraction)",
-               "mean_return": "return, mean"}  # fmt: skip
+               "mean_return": "return, mean"}
 _CHECKPOINT = re.compile(r"model_(\d+)_steps\.zip")
 
 
@@ -130,7 +130,7 @@ def train(
     config = load_config(algo, env_id, config_file, {**overrides, **given})
     args = _new_run_args(config, env_id, algo, seed, eval_every, eval_episodes, checkpoint_every)
     run = _new_run_folder(Path(out_dir) / run_name(env_id, algo, seed), config, args,
-                          command or _call_repr(args, config_file, overrides))  # fmt: skip
+                          command or _call_repr(args, config_file, overrides))
     _set_threads(torch_threads)
     model = _new_model(config, algo, seed, run)
     _learn(model, run, config, args, args["total_timesteps"], progress)
@@ -140,7 +140,7 @@ def train(
 def _new_run_args(
     config: RunConfig, env_id: str, algo: str, seed: int, eval_every: int | None,
     eval_episodes: int, checkpoint_every: int | None,
-) -> dict[str, Any]:  # fmt: skip
+) -> dict[str, Any]:
     """A new run's ``args.yml`` content (without its command), every value checked."""
     steps = config.n_timesteps
     return {
@@ -149,7 +149,7 @@ def _new_run_args(
         "eval_every": _positive(eval_every or max(steps // 10, 1), "eval_every"),
         "eval_episodes": _positive(eval_episodes, "eval_episodes"),
         "checkpoint_every": _positive(checkpoint_every or max(steps // 5, 1), "checkpoint_every"),
-    }  # fmt: skip
+    }
 
 
 def _new_run_folder(run: Path, config: RunConfig, args: dict[str, Any], command: str) -> Path:
@@ -160,7 +160,7 @@ def _new_run_folder(run: Path, config: RunConfig, args: dict[str, Any], command:
     """
     if (run / "args.yml").exists():
         raise ValueError(f"run folder {run} exists; resume it (resume={str(run)!r}) or choose "
-                         "another out_dir or seed")  # fmt: skip
+                         "another out_dir or seed")
     run.mkdir(parents=True, exist_ok=True)
     args["command"] = command
     (run / "config.yml").write_text(dump_block(config), encoding="utf-8")
@@ -173,7 +173,7 @@ def _new_model(config: RunConfig, algo: str, seed: int, run: Path) -> Any:
     venv = make_training_env(config, seed)
     cls = algo_class(algo)
     return cls(env=venv, seed=seed, verbose=0, tensorboard_log=str(run / "tensorboard"),
-               device="cpu", **config.model_kwargs(_n_actions(venv)))  # fmt: skip
+               device="cpu", **config.model_kwargs(_n_actions(venv)))
 
 
 def _resume(run: Path, total_timesteps: int | None, progress: bool, threads: int) -> Path:
@@ -193,10 +193,10 @@ def _resume(run: Path, total_timesteps: int | None, progress: bool, threads: int
     try:
         model = load_checkpoint(run, config, checkpoint, args["seed"])
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile,
-            pickle.UnpicklingError) as exc:  # fmt: skip
+            pickle.UnpicklingError) as exc:
         raise ValueError(f"cannot resume {run}: {checkpoint} (or its statistics or buffer) "
                          f"cannot be loaded ({exc}); remove it to resume from the checkpoint "
-                         "before") from None  # fmt: skip
+                         "before") from None
     _learn(model, run, config, args, _positive(total, "total_timesteps"), progress)
     return run
 
@@ -229,7 +229,7 @@ def make_training_env(config: RunConfig, seed: int, venv_stats: Path | None = No
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     native = make_native_vec_env(config.env_id, config.n_envs, flatten=flattens(config),
-                                 **config.env_kwargs)  # fmt: skip
+                                 **config.env_kwargs)
     venv: Any = VecMonitor(native)
     venv.seed(seed)
     normalize = config.normalize
@@ -253,7 +253,7 @@ def flattens(config: RunConfig) -> bool:
     raise ValueError(f"{config.source}: {config.env_id}: env_wrapper: contour-gym trains on the "
                      f"native vector env, which flattens the observation itself "
                      f"({FLATTEN_WRAPPER}) and takes no other single-env wrapper (rl_zoo3 "
-                     f"does); got {wrapper!r}")  # fmt: skip
+                     f"does); got {wrapper!r}")
 
 
 def _n_actions(venv: Any) -> int:
@@ -261,7 +261,7 @@ def _n_actions(venv: Any) -> int:
 
 
 def _learn(model: Any, run: Path, config: RunConfig, args: dict[str, Any], total: int,
-           progress: bool) -> None:  # fmt: skip
+           progress: bool) -> None:
     remaining = total - model.num_timesteps
     evals = EvalCurve(run, config, args["seed"], args["eval_every"], args["eval_episodes"])
     saver = Checkpoints(run, args["checkpoint_every"])
@@ -270,7 +270,7 @@ def _learn(model: Any, run: Path, config: RunConfig, args: dict[str, Any], total
     try:
         if remaining > 0:
             model.learn(remaining, callback=callbacks, reset_num_timesteps=False,
-                        tb_log_name=config.algo)  # fmt: skip
+                        tb_log_name=config.algo)
         evals.evaluate(model)  # the curve's last point, at the final step count
     except KeyboardInterrupt:
         save_checkpoint(model, run)
@@ -344,7 +344,7 @@ def _steps(checkpoint: Path) -> int:
 def latest_checkpoint(run: Path) -> Path | None:
     """The checkpoint with the most steps in ``run/checkpoints`` (None: there is none)."""
     found = [(int(m.group(1)), p) for p in (run / "checkpoints").glob("model_*_steps.zip")
-             if (m := _CHECKPOINT.fullmatch(p.name))]  # fmt: skip
+             if (m := _CHECKPOINT.fullmatch(p.name))]
     return max(found)[1] if found else None
 
 
@@ -357,7 +357,7 @@ def load_checkpoint(run: Path, config: RunConfig, checkpoint: Path, seed: int) -
     stats = checkpoint.with_name(f"vecnormalize_{steps}_steps.pkl")
     venv = make_training_env(config, seed + steps, stats if stats.is_file() else None)
     model = algo_class(config.algo).load(checkpoint, env=venv, device="cpu",
-                                         tensorboard_log=str(run / "tensorboard"))  # fmt: skip
+                                         tensorboard_log=str(run / "tensorboard"))
     model.set_random_seed(seed + steps)
     buffer = checkpoint.with_name(f"replay_buffer_{steps}_steps.pkl")
     if algorithm(config.algo).off_policy and buffer.is_file():
@@ -426,11 +426,11 @@ class EvalCurve(BaseCallback):
 
     def _row(self, model: Any) -> dict[str, float]:
         policy = SB3Policy(model, model.get_vec_normalize_env(), self.config.env_kwargs,
-                           label=f"{self.config.algo} at {model.num_timesteps} steps")  # fmt: skip
+                           label=f"{self.config.algo} at {model.num_timesteps} steps")
         # the training env less its randomisation: random paths stay random, the reward its own
         kwargs = {k: v for k, v in self.config.env_kwargs.items() if k != "randomize"}
         out = run_policy_batch({"id": self.config.env_id, **kwargs}, policy,
-                               num_envs=self.episodes, seed=EVAL_SEED + self.seed)  # fmt: skip
+                               num_envs=self.episodes, seed=EVAL_SEED + self.seed)
         return {
             "timesteps": model.num_timesteps,
             "max_contour_error_um": float(np.mean(out["max_contour_error"])) * 1e6,
@@ -451,7 +451,7 @@ class ProgressBar(BaseCallback):
         super().__init__()
         self.evals, self.shown = evals, start
         self.bar = tqdm(total=total, initial=start, unit="step", file=sys.stderr,
-                        dynamic_ncols=True, smoothing=0.1)  # fmt: skip
+                        dynamic_ncols=True, smoothing=0.1)
 
     def _on_step(self) -> bool:
         self.bar.update(self.num_timesteps - self.shown)
@@ -469,7 +469,7 @@ def format_eval(row: Mapping[str, float]) -> str:
     """One line of an evaluation row (um, s)."""
     return (f"eval@{int(row['timesteps'])}: max {row['max_contour_error_um']:.3g} um, "
             f"mean {row['mean_contour_error_um']:.3g} um, cycle {row['cycle_time_s']:.3g} s, "
-            f"fail {row['failures']:.0%}, return {row['mean_return']:.4g}")  # fmt: skip
+            f"fail {row['failures']:.0%}, return {row['mean_return']:.4g}")
 
 
 def read_curve(path: Path) -> list[dict[str, float]]:

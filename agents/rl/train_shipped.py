@@ -74,13 +74,13 @@ def load_shipped(path: str | Path | None = None) -> dict[str, dict[str, Any]]:
             kind = ENTRY_KEYS.get(key)
             if kind is None:
                 raise ValueError(f"{file}: {name}: unknown key {key!r}; accepted: "
-                                 f"{', '.join(ENTRY_KEYS)}")  # fmt: skip
+                                 f"{', '.join(ENTRY_KEYS)}")
             if not isinstance(value, kind) or isinstance(value, bool):
                 raise ValueError(f"{file}: {name}: {key} must be a {kind.__name__}, got {value!r}")
         missing = [k for k in ("algo", "env_id") if k not in entry]
         if missing or entry["algo"] not in ALGORITHMS:
             raise ValueError(f"{file}: {name}: needs algo (one of {', '.join(ALGORITHMS)}) and "
-                             f"env_id, got {entry}")  # fmt: skip
+                             f"env_id, got {entry}")
     return data
 
 
@@ -115,14 +115,14 @@ def train_shipped(
         run = train(entry["env_id"], entry["algo"], entry.get("timesteps"),
                     seed=entry.get("seed", 0), out_dir=folder, progress=progress,
                     eval_episodes=entry.get("eval_episodes", 4), command=command,
-                    **overrides)  # fmt: skip
+                    **overrides)
     elif not finished(run):  # an interrupted or killed run: on from its last checkpoint
         run = train(resume=run, progress=progress)
     return export_agent(run, dest, command, entry.get("act_env_kwargs"))
 
 
 def export_agent(run: Path, dest: Path, command: str,
-                 act_env_kwargs: Mapping[str, Any] | None = None) -> Path:  # fmt: skip
+                 act_env_kwargs: Mapping[str, Any] | None = None) -> Path:
     """Copy a finished run's model and statistics into the agent folder ``dest`` with a meta file.
 
     Args:
@@ -155,7 +155,7 @@ def export_agent(run: Path, dest: Path, command: str,
             "env_kwargs": {**trained, **(act_env_kwargs or {})}, "seed": args["seed"],
             "total_timesteps": args["total_timesteps"], "command": command,
             "selected_evaluation": selected,
-            "last_evaluation": curve[-1] if curve else None}  # fmt: skip
+            "last_evaluation": curve[-1] if curve else None}
     if act_env_kwargs:
         meta["trained_env_kwargs"] = copy.deepcopy(trained)  # no YAML anchors
     text = yaml.safe_dump(meta, sort_keys=False)
@@ -173,13 +173,13 @@ def _copy_atomically(src: Path, target: Path) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m agents.rl.train_shipped NAME [NAME ...]``."""
     parser = argparse.ArgumentParser(prog="python -m agents.rl.train_shipped",
-                                     description=__doc__.splitlines()[0])  # fmt: skip
+                                     description=__doc__.splitlines()[0])
     parser.add_argument("names", nargs="*", metavar="NAME", help="agents of shipped.yml")
     parser.add_argument("--list", action="store_true", help="list the shipped agents")
     parser.add_argument("--runs", default="runs/shipped", help="parent of the run folders")
     parser.add_argument("--dest", default=str(TRAINED_DIR), help="parent of the agent folders")
     parser.add_argument("--overwrite", action="store_true",
-                        help="replace agents already trained in --dest")  # fmt: skip
+                        help="replace agents already trained in --dest")
     args = parser.parse_args(argv)
     if args.list or not args.names:
         for name, entry in load_shipped().items():

@@ -123,7 +123,7 @@ class NativeVecEnv(VecEnv):
                     infos[i].update(member_info(info, i))
                 last = {k: v[i].copy() for k, v in obs.items()}
                 infos[i]["terminal_observation"] = (
-                    flatten_obs(last, self.keys, None) if self.flatten else last)  # fmt: skip
+                    flatten_obs(last, self.keys, None) if self.flatten else last)
             obs, _ = self.venv.reset(options={"reset_mask": done})
         return self._observed(obs), reward.astype(np.float32), done, infos
 
@@ -168,13 +168,13 @@ class NativeVecEnv(VecEnv):
     def _every_member(self, indices: VecEnvIndices, what: str) -> None:
         if sorted(self._get_indices(indices)) != list(range(self.num_envs)):
             raise ValueError(f"{what} acts on every member of the native vector env at once; "
-                             f"got indices {indices!r}")  # fmt: skip
+                             f"got indices {indices!r}")
 
     def _shared_options(self) -> dict[str, Any]:
         first = self._options[0]
         if any(o != first for o in self._options):
             raise ValueError("the members of a native vector env share one reset's options, "
-                             f"got {self._options}")  # fmt: skip
+                             f"got {self._options}")
         return first
 
 
@@ -197,7 +197,7 @@ def _item(value: Any) -> Any:
 def make_native_vec_env(
     env_id: str, n_envs: int, *, full_info: bool = False, flatten: bool = False,
     **env_kwargs: Any,
-) -> NativeVecEnv:  # fmt: skip
+) -> NativeVecEnv:
     """A :class:`NativeVecEnv` of ``n_envs`` members of a registered id.
 
     Args:
@@ -208,5 +208,5 @@ def make_native_vec_env(
         **env_kwargs: The env's keyword arguments.
     """
     venv = gym.make_vec(env_id, num_envs=n_envs, vectorization_mode="vector_entry_point",
-                        **env_kwargs)  # fmt: skip
+                        **env_kwargs)
     return NativeVecEnv(venv, full_info=full_info, flatten=flatten)

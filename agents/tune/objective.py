@@ -77,7 +77,7 @@ def _case(
     if config.random_paths:
         if not isinstance(path_seed, int) or isinstance(path_seed, bool):
             raise ValueError(f"scenario {name!r} runs a random path: give its int path_seed, "
-                             f"got {path_seed!r}")  # fmt: skip
+                             f"got {path_seed!r}")
         rng = member_rngs(path_seed, 1)[0]  # the path env.reset(seed=path_seed) runs
         scenario = config.random_scenario(rng, TASKS.get("ccc"), as_reset=True)
     else:
@@ -169,7 +169,7 @@ class PopulationObjective:
     def __init__(
         self, protocol: str | Protocol, ideal: bool = False, workers: int | None = None,
         ray: str | None = None,
-    ) -> None:  # fmt: skip
+    ) -> None:
         self.protocol = get_protocol(protocol)
         self.ideal = bool(ideal)
         self.workers = available_cpus() if workers is None else workers
@@ -177,10 +177,10 @@ class PopulationObjective:
             raise ValueError(f"workers must be an int >= 1, got {workers!r}")
         proto = self.protocol
         self.cases = tuple(_case(e, proto.ccc_law, self.ideal, proto.scenario_kwargs.get(e))
-                           for e in proto.scenarios)  # fmt: skip
+                           for e in proto.scenarios)
         terms = FITNESS_TERMS.get(proto.fitness, lambda sc: 1)
         self.penalty = PENALTY_HARD_LIMITS * max(c.hard_limit * terms(c.scenario)
-                                                 for c in self.cases)  # fmt: skip
+                                                 for c in self.cases)
         self._set = SETTERS[proto.setter]
         self._fitness = FITNESSES[self.protocol.fitness]
         self._loops: dict[int, list[ServoLoop]] = {}  # slice -> each scenario's loop
@@ -216,7 +216,7 @@ class PopulationObjective:
         except (OSError, ValueError, KeyError):
             return
         if x.ndim != 2 or x.shape[1] != len(self.protocol.params) or fit.shape[1:] != (
-                len(self.cases),):  # fmt: skip
+                len(self.cases),):
             return
         for row, f, bad in zip(x, fit, failed, strict=True):
             self._memo.add(np.ascontiguousarray(row, dtype=np.float64).tobytes(), row, f, bad)
@@ -296,7 +296,7 @@ class PopulationObjective:
                 self._memo.add(key, x[r], *results[key])
         cols = [results[key] if key in results else self._memo[key] for key in keys]
         return (np.stack([c[0] for c in cols], axis=1),
-                np.stack([c[1] for c in cols], axis=1))  # fmt: skip
+                np.stack([c[1] for c in cols], axis=1))
 
     def _simulate(self, x: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
         """:meth:`evaluate` without the memo: every row of ``x`` is simulated."""
@@ -353,7 +353,7 @@ class PopulationObjective:
                 slices[j].append(int(r))
                 load[j] += pred[i, r]
             units += [(rate[i] * load[j], i, j, np.array(sorted(rows), dtype=np.intp))
-                      for j, rows in enumerate(slices) if rows]  # fmt: skip
+                      for j, rows in enumerate(slices) if rows]
         units.sort(key=lambda u: -u[0])
         return [(i, j, rows) for _, i, j, rows in units]
 
@@ -380,7 +380,7 @@ class PopulationObjective:
             self._run(case, loop, x)
             out.append({**{k: v[:n] for k, v in loop.metrics().items()},
                         "failed": loop.failed[:n].astype(float),
-                        "finished": loop.done[:n].astype(float)})  # fmt: skip
+                        "finished": loop.done[:n].astype(float)})
         return out
 
     def _loops_for(self, n: int, part: int = 0) -> list[ServoLoop]:
@@ -416,7 +416,7 @@ class PopulationObjective:
         f = self._fitness(metrics)
         failed = (~loop.done[:n] | ~np.isfinite(f)
                   | ~(metrics["max_contour_error"] <= case.hard_limit)
-                  | ~(metrics["chattering"] <= case.chatter_cap))  # fmt: skip
+                  | ~(metrics["chattering"] <= case.chatter_cap))
         return f, failed | ~(f < self.penalty)
 
 
@@ -438,7 +438,7 @@ class RemoteSlices:
     def __call__(self, x: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
         """What :meth:`PopulationObjective._simulate` returns for ``x``, run on the actors."""
         slices = [rows for rows in np.array_split(np.arange(x.shape[0]), len(self._actors))
-                  if rows.size]  # fmt: skip
+                  if rows.size]
         refs = [a.simulate.remote(x[rows]) for a, rows in zip(self._actors, slices, strict=False)]
         parts = self._ray.get(refs)
         fit = np.concatenate([p[0] for p in parts], axis=1)

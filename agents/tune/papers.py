@@ -87,11 +87,11 @@ _DOC_000 = (
 register_protocol(Protocol(
     "000", fuzzy_pid_000_params(), tuple(_PATHS_000.values()),
     doc=_DOC_000 + ", averaged over the circle, 'infinity' and trident",
-))  # fmt: skip
+))
 for _path, _env_id in _PATHS_000.items():
     register_protocol(Protocol(
         f"000_{_path}", fuzzy_pid_000_params(), (_env_id,), doc=_DOC_000 + f", {_path} only",
-    ))  # fmt: skip
+    ))
 
 # the random paths of protocol 000_general: four of each family of random_path (the first four
 # seeds from 100 whose path, the one env.reset(seed=s) runs, is of that family), so that every
@@ -125,7 +125,7 @@ register_protocol(Protocol(
     "did not help: on 24 validation paths it lost on 7 where the 24-path factors then lost on 5 (8 "
     "since their re-tuning after an interpolator fix). Before that, the mean "
     "max error over 8 paths lost on 2 of 12 random paths by up to 5.5 %)",
-))  # fmt: skip
+))
 
 
 def acc2pid_003_params() -> tuple[TuneParam, ...]:
@@ -168,7 +168,7 @@ def acc2pid_003_params() -> tuple[TuneParam, ...]:
         ]
     per_mm = 1e3
     for name, (lo, hi) in zip(ACC2PID_COMPENSATORS, ((0.01, 0.31), (0.0001, 0.0031)) * 2,
-                              strict=True):  # fmt: skip
+                              strict=True):
         out.append(TuneParam(name, lo * per_mm, hi * per_mm, unit="V/m"))
     params = tuple(out)
     hand = acc2pid_hand_tuned(preset)
@@ -216,11 +216,11 @@ _ACC2PID_003: dict[str, Any] = {
 register_protocol(Protocol(
     "003", acc2pid_003_params(), tuple(_PATHS_003.values()), scenario_kwargs=_WINDOW_003,
     doc=_DOC_003 + ", averaged over the dual circle and the dual three-leaf", **_ACC2PID_003,
-))  # fmt: skip
+))
 for _path, _env_id in _PATHS_003.items():
     register_protocol(Protocol(
         f"003_{_path}", acc2pid_003_params(), (_env_id,),
         scenario_kwargs={_env_id: _WINDOW_003[_env_id]}, doc=_DOC_003 + f", {_path} only",
         **_ACC2PID_003,
-    ))  # fmt: skip
+    ))
 

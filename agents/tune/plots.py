@@ -29,7 +29,7 @@ def write_plots(result: TuneResult, folder: str | os.PathLike[str]) -> list[Path
     ax = fig.add_subplot()
     ax.plot(gens, np.asarray(result.history) * 1e6, drawstyle="steps-post")
     ax.set(xlabel="generation", ylabel=f"best fitness ({result.settings['fitness']}, um)",
-           title=f"tune {result.protocol}: {result.optimizer}, seed {result.seed}")  # fmt: skip
+           title=f"tune {result.protocol}: {result.optimizer}, seed {result.seed}")
     ax.grid(True, alpha=0.3)
     written = [folder / "convergence.png"]
     fig.savefig(written[0], dpi=120)
@@ -41,7 +41,7 @@ def write_plots(result: TuneResult, folder: str | os.PathLike[str]) -> list[Path
         for j, label in enumerate(("w", "c1", "c2")):
             ax.plot(np.arange(1, len(arr) + 1), arr[:, j], label=label)
         ax.set(xlabel="generation", ylabel="coefficient",
-               title=f"{result.optimizer}: inertia weight and learning factors")  # fmt: skip
+               title=f"{result.optimizer}: inertia weight and learning factors")
         ax.legend()
         ax.grid(True, alpha=0.3)
         written.append(folder / "schedules.png")

@@ -51,7 +51,7 @@ class TuneParam:
     def __post_init__(self) -> None:
         if not (math.isfinite(self.low) and math.isfinite(self.high) and self.low < self.high):
             raise ValueError(f"parameter {self.name!r} needs finite low < high, got "
-                             f"[{self.low!r}, {self.high!r}]")  # fmt: skip
+                             f"[{self.low!r}, {self.high!r}]")
         if self.log and self.low <= 0.0:
             raise ValueError(f"log-scaled parameter {self.name!r} needs low > 0, got {self.low!r}")
 

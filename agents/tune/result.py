@@ -47,4 +47,4 @@ class TuneResult:
             "fitness_unit": "m", "per_scenario": self.per_scenario, "nfev": self.nfev,
             "wall_time_s": self.wall_time, "settings": self.settings,
             "generations": len(self.history), "history": self.history,
-        }  # fmt: skip
+        }

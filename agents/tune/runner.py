@@ -59,7 +59,7 @@ class _Monitor:
     def __init__(
         self, objective: PopulationObjective, population: int,
         on_generation: Callable[[_Monitor], None], bar: Any,
-    ) -> None:  # fmt: skip
+    ) -> None:
         self.objective, self.population = objective, population
         self.on_generation, self.bar = on_generation, bar
         self.nfev, self.best_f = 0, math.inf
@@ -133,7 +133,7 @@ def tune(
     t = proto.iterations if iterations is None else iterations
     folder = _run_folder(m, t, seed, out, overwrite)
     settings = _settings(proto, name, options, m, t, ideal,
-                         command or _command(proto.name, name, seed, m, t, ideal, out))  # fmt: skip
+                         command or _command(proto.name, name, seed, m, t, ideal, out))
     objective = PopulationObjective(proto, ideal=ideal, workers=workers, ray=ray)
     settings["penalty"] = objective.penalty
     run = _Run(proto, name, seed, settings, folder)
@@ -147,7 +147,7 @@ def tune(
 def _run_folder(
     population: Any, iterations: Any, seed: Any, out: str | os.PathLike[str] | None,
     overwrite: bool,
-) -> Path | None:  # fmt: skip
+) -> Path | None:
     """The run folder (None: write nothing), checked with the budget before anything runs."""
     _check_budget(population, iterations, seed)
     folder = None if out is None else Path(out)
@@ -170,19 +170,19 @@ def _optimizer_options(
         options = proto.optimizer_options if name == proto.optimizer else {}
     if "x0" in options:
         raise ValueError("x0 is not a tuning option: a protocol starts at its untuned law "
-                         "with start_at_reference=True")  # fmt: skip
+                         "with start_at_reference=True")
     accepted = [o for o in options_of(name) if o != "x0"]
     unknown = sorted(set(options) - set(accepted))
     if unknown:
         raise ValueError(f"unknown option(s) {', '.join(unknown)} for {name!r}; accepted: "
-                         f"{', '.join(accepted)}")  # fmt: skip
+                         f"{', '.join(accepted)}")
     return name, options
 
 
 def _settings(
     proto: Protocol, name: str, options: Mapping[str, Any], m: int, t: int, ideal: bool,
     command: str,
-) -> dict[str, Any]:  # fmt: skip
+) -> dict[str, Any]:
     """The run's settings for ``result.json``; the PSO family's schedules checked and recorded."""
     settings: dict[str, Any] = {
         "population": m, "iterations": t, "ideal": bool(ideal), "scenarios": list(proto.scenarios),
@@ -194,7 +194,7 @@ def _settings(
         "optimizer_options": dict(options),
         "start_at_reference": proto.start_at_reference,
         "command": command,
-    }  # fmt: skip
+    }
     if name in PSO_FAMILY:  # checks the budget too, before any simulation
         settings["schedules"] = schedules(name, t, **options).tolist()
     return settings
@@ -206,7 +206,7 @@ class _Run:
     def __init__(
         self, proto: Protocol, name: str, seed: int, settings: dict[str, Any],
         folder: Path | None,
-    ) -> None:  # fmt: skip
+    ) -> None:
         self.proto, self.name, self.seed = proto, name, seed
         self.settings, self.folder = settings, folder
         self.start = time.perf_counter()
@@ -231,7 +231,7 @@ class _Run:
         same = {k: v for k, v in before.get("settings", {}).items() if k != "command"}
         if (before.get("seed"), before.get("optimizer")) == (self.seed, self.name) and same == {
                 k: v for k, v in json.loads(json.dumps(self.settings)).items()
-                if k != "command"}:  # fmt: skip
+                if k != "command"}:
             objective.recall(self.folder / EVALUATIONS)
 
     def save(self, mon: _Monitor, status: str = "running") -> None:
@@ -239,7 +239,7 @@ class _Run:
         if self.folder is not None:
             mon.objective.keep(self.folder / EVALUATIONS)
             data = _partial_json(self.proto, self.name, self.seed, self.settings, mon,
-                                 self.elapsed(), status)  # fmt: skip
+                                 self.elapsed(), status)
             _write_json(self.folder / "result.json", data)
 
     def starts(self) -> dict[str, Any]:
@@ -249,16 +249,16 @@ class _Run:
     def search(
         self, objective: PopulationObjective, m: int, t: int, options: Mapping[str, Any],
         progress: bool,
-    ) -> OptimResult:  # fmt: skip
+    ) -> OptimResult:
         """Run the optimiser; on Ctrl-C or an error save the history so far, then re-raise."""
         from tqdm.auto import tqdm
 
         bar = tqdm(total=m * (t + 1), desc=f"tune {self.proto.name} ({self.name})", unit="cand",
-                   disable=not progress, dynamic_ncols=True)  # fmt: skip
+                   disable=not progress, dynamic_ncols=True)
         monitor = _Monitor(objective, m, self.save, bar)
         try:
             return minimize(self.name, monitor, self.proto.search_bounds, population=m,
-                            iterations=t, seed=self.seed, **options, **self.starts())  # fmt: skip
+                            iterations=t, seed=self.seed, **options, **self.starts())
         except KeyboardInterrupt:
             self.save(monitor, "interrupted")
             raise
@@ -271,7 +271,7 @@ class _Run:
     def finish(self, res: OptimResult, objective: PopulationObjective) -> TuneResult:
         """The :class:`TuneResult`, written to the run folder with its plots."""
         result = _result(self.proto, res, objective, self.seed, self.settings, self.elapsed(),
-                         self.folder)  # fmt: skip
+                         self.folder)
         if self.folder is not None:
             _write_json(self.folder / "result.json", result.to_json())
             write_plots(result, self.folder)
@@ -281,23 +281,23 @@ class _Run:
 def _result(
     proto: Protocol, res: OptimResult, objective: PopulationObjective, seed: int,
     settings: dict[str, Any], wall: float, folder: Path | None,
-) -> TuneResult:  # fmt: skip
+) -> TuneResult:
     best = proto.to_params(res.x)
     per_case, failed = objective.evaluate(best)
     per = {c.name: float(objective.penalty if failed[i, 0] else per_case[i, 0])
-           for i, c in enumerate(objective.cases)}  # fmt: skip
+           for i, c in enumerate(objective.cases)}
     return TuneResult(
         protocol=proto.name, optimizer=res.name, seed=int(seed),
         params={n: float(v) for n, v in zip(proto.names, best[0], strict=True)},
         fitness=float(res.fun), history=[float(h) for h in res.history], per_scenario=per,
         nfev=int(res.nfev), wall_time=float(wall), settings=settings, out=folder,
-    )  # fmt: skip
+    )
 
 
 def _partial_json(
     proto: Protocol, name: str, seed: int, settings: dict[str, Any], mon: _Monitor, wall: float,
     status: str,
-) -> dict[str, Any]:  # fmt: skip
+) -> dict[str, Any]:
     params = None
     if mon.best_z is not None:
         best = proto.to_params(mon.best_z)[0]
@@ -307,15 +307,15 @@ def _partial_json(
         "params": params, "fitness": mon.best_f if math.isfinite(mon.best_f) else None,
         "fitness_unit": "m", "nfev": mon.nfev, "wall_time_s": wall, "settings": settings,
         "generations": len(mon.history), "history": list(mon.history),
-    }  # fmt: skip
+    }
 
 
 def _command(
     proto: str, optimizer: str, seed: int, m: int, t: int, ideal: bool,
     out: str | os.PathLike[str] | None,
-) -> str:  # fmt: skip
+) -> str:
     args = ["contour-gym", "tune", proto, "--optimizer", optimizer, "--seed", str(seed),
-            "--population", str(m), "--iterations", str(t)]  # fmt: skip
+            "--population", str(m), "--iterations", str(t)]
     if ideal:
         args.append("--ideal")
     if out is not None:
@@ -348,10 +348,10 @@ def check_run_folder(folder: Path, overwrite: bool) -> None:
         status = json.loads(target.read_text(encoding="utf-8")).get("status")
     except (OSError, ValueError, AttributeError) as exc:
         raise ValueError(f"{target} cannot be read ({exc}); pass --overwrite to replace it, "
-                         "or choose another --out") from None  # fmt: skip
+                         "or choose another --out") from None
     if status == "complete":
         raise ValueError(f"{target} holds a finished tuning result; pass --overwrite to "
-                         "replace it, or choose another --out")  # fmt: skip
+                         "replace it, or choose another --out")
 
 
 def _write_json(target: Path, data: Mapping[str, Any]) -> None:
@@ -375,5 +375,5 @@ def compare(
         Optimiser -> best fitness per seed, m.
     """
     return {name: [tune(protocol, name, seed=s, progress=False, **kwargs).fitness for s in seeds]
-            for name in optimizers}  # fmt: skip
+            for name in optimizers}
 

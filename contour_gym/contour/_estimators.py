@@ -578,5 +578,5 @@ for _est in (
                      doc="004 sec. 2.2: variable window, two closest reference points"),
     ContourEstimator("iterative", ITERATIVE, foot_iterative,
                      doc="Newton / osculating-circle iteration from the reference"),
-):  # fmt: skip
+):
     register_estimator(_est)

@@ -40,7 +40,7 @@ def eval_path_memo(kind, s0, data, s, hist):
         o = _MEMO + k * _SLOT
         if hist[o] == 1.0 and hist[o + 1] == s and math.copysign(1.0, hist[o + 1]) == sign:
             return (hist[o + 2], hist[o + 3], hist[o + 4], hist[o + 5], hist[o + 6],
-                    hist[o + 7], hist[o + 8], hist[o + 9], hist[o + 10])  # fmt: skip
+                    hist[o + 7], hist[o + 8], hist[o + 9], hist[o + 10])
     r = eval_path(kind, s0, data, s)
     k = int(hist[N_HIST + 1])
     o = _MEMO + k * _SLOT

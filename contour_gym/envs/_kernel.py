@@ -171,10 +171,10 @@ def _observe_general(m, path, env, ec, b, col, s, length, dim):
     col = put(obs, b, col, _curvature(path, s, dim) * CURVATURE_SCALE)
     for i in range(env.lookahead.shape[0]):
         col = put(obs, b, col, _curvature(path, min(s + env.lookahead[i], length), dim)
-                  * CURVATURE_SCALE)  # fmt: skip
+                  * CURVATURE_SCALE)
     for i in range(env.lookahead.shape[0]):
         _, _, _, bx, by, bz, _, _, _ = _point(path.kind, path.s0, path.data,
-                                              min(s + env.lookahead[i], length))  # fmt: skip
+                                              min(s + env.lookahead[i], length))
         col = put(obs, b, col, _turn(ax, ay, az, bx, by, bz, dim) / math.pi)
     horizon = ec[EC.horizon]
     distance, angle = _next_corner(path, s, horizon, dim)
@@ -280,7 +280,7 @@ def _observe(m, path, env, ec, b):
 def _views(
     env_floats, env_layout, floats, float_layout, ints, int_layout, path_kinds, path_floats,
     path_layout, part,
-):  # fmt: skip
+):
     # the loop's views (with part's scratch) and its Members record, the path bank's and the
     # env's arrays, borrowed (the caller keeps the blobs alive: views of a borrowed blob count
     # no references, contour_gym._blob.borrow)
@@ -293,10 +293,10 @@ def _views(
 def observe(
     env_floats, env_layout, floats, float_layout, ints, int_layout, path_kinds, path_floats,
     path_layout, ec, which,
-):  # fmt: skip
+):
     """Write the observation rows of the members ``which`` (after a reset and every step)."""
     _, m, bank, env = _views(env_floats, env_layout, floats, float_layout, ints, int_layout,
-                             path_kinds, path_floats, path_layout, 0)  # fmt: skip
+                             path_kinds, path_floats, path_layout, 0)
     path, carved = member_path(bank, m.path_at, 0), 0
     for b in which:
         path, carved = next_path(bank, m.path_at, path, carved, b)
@@ -324,7 +324,7 @@ def _finish(m, bank, env, ec, lo, hi):
 def env_step(
     env_floats, env_layout, ec, n, k0, config_row, floats, float_layout, ints, int_layout,
     path_kinds, path_floats, path_layout, noise, rec, lo, hi, part,
-):  # fmt: skip
+):
     """One env decision of members ``lo:hi`` in one compiled call: apply actions, run, finish.
 
     The arguments from ``n`` on are the loop's (:meth:`contour_gym.loop.ServoLoop.advance`; passed
@@ -334,7 +334,7 @@ def env_step(
     """
     # the views, made once for the whole decision
     loop, m, bank, env = _views(env_floats, env_layout, floats, float_layout, ints, int_layout,
-                                path_kinds, path_floats, path_layout, part)  # fmt: skip
+                                path_kinds, path_floats, path_layout, part)
     for b in range(env.action.shape[0]):
         for j in range(env.action.shape[1]):
             if not math.isfinite(env.action[b, j]):

@@ -36,7 +36,7 @@ def check_path_options(path: Any, options: Any) -> None:
     unknown = sorted(set(options) - set(PATH_OPTIONS))
     if unknown:
         raise ValueError(f"unknown path_options key(s) {unknown}; accepted: "
-                         f"{', '.join(PATH_OPTIONS)}")  # fmt: skip
+                         f"{', '.join(PATH_OPTIONS)}")
     if options and path != RANDOM:
         raise ValueError(f"path_options apply to path='random', got path={path!r}")
 
@@ -91,7 +91,7 @@ def draw_path(rng: np.random.Generator, stage: Stage, options: Mapping[str, Any]
 
 
 def reset_draws(rng: np.random.Generator, stage: Stage, options: Mapping[str, Any] | None
-                ) -> tuple[int, Any]:  # fmt: skip
+                ) -> tuple[int, Any]:
     """What a member draws from its generator at a reset, after its machine's randomisation.
 
     Its servo loop's seed, then, on random paths (``options`` not None), its path (drawn last,
@@ -106,13 +106,13 @@ def reset_draws(rng: np.random.Generator, stage: Stage, options: Mapping[str, An
 
 # the bit generators a kept draw can rebuild from their state alone
 _NUMPY_BIT_GENERATORS = (np.random.PCG64, np.random.PCG64DXSM, np.random.MT19937,
-                         np.random.Philox, np.random.SFC64)  # fmt: skip
+                         np.random.Philox, np.random.SFC64)
 DRAWS_KEPT = 64  # random paths a process keeps (100-160 kB each for the free-form curves)
 
 
 @functools.lru_cache(maxsize=DRAWS_KEPT)
 def _draw(kind: type, state: bytes, dim: int, options: tuple[tuple[str, Any], ...]
-          ) -> tuple[Any, Mapping[str, Any]]:  # fmt: skip
+          ) -> tuple[Any, Mapping[str, Any]]:
     # the path drawn from a generator in ``state`` and the generator's state after the draw
     rng = np.random.Generator(kind())
     rng.bit_generator.state = pickle.loads(state)

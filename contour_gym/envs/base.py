@@ -49,7 +49,7 @@ def _figure(task: ContourTask, kind: str, member: int = 0) -> NDArray[np.uint8]:
     fig = contour_figure(  # the member's episode under way (or just ended), not earlier ones
         task.loop.paths[member], {kind: task.loop.episode_trace(member)}, axes=contour.axes[:2],
         offset=(contour.offset or (0.0, 0.0))[:2],
-    )  # fmt: skip
+    )
     return figure_to_array(fig)
 
 
@@ -171,9 +171,9 @@ def _reset_mask(options: dict[str, Any] | None, n: int) -> NDArray[np.bool_] | N
     if mask is None:
         return None
     if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (n,)
-            and mask.any()):  # fmt: skip
+            and mask.any()):
         raise ValueError(f"options['reset_mask'] must be a bool array ({n},) with a True, "
-                         f"got {mask!r}")  # fmt: skip
+                         f"got {mask!r}")
     return mask
 
 
@@ -232,7 +232,7 @@ class ContourVectorEnv(GainsMap, VectorEnv):
         self.config = EnvConfig.from_kwargs(kwargs)
         self.num_envs, self.render_mode = num_envs, render_mode
         self.task = ContourTask(self.config, num_envs, self.kind, record=render_mode is not None,
-                                threads=num_threads)  # fmt: skip
+                                threads=num_threads)
         self.max_episode_steps = self.task.max_episode_steps
         self.single_action_space = self.task.action_space()
         self.single_observation_space = self.task.observation_space()
@@ -294,7 +294,7 @@ class ContourVectorEnv(GainsMap, VectorEnv):
         if restart.any():
             idx = np.flatnonzero(restart)
             self.task.reset_members(idx, [self.task.rngs[i] for i in idx],
-                                    keep_paths=self._keep_paths)  # fmt: skip
+                                    keep_paths=self._keep_paths)
         self.task.step(a, restart)
         reward, terminated, truncated, _ = self.task.results()
         self._prev_done = terminated | truncated

@@ -222,11 +222,11 @@ class EnvConfig:
     def _check_target(self, lo: float, hi: float) -> None:
         if self.feedrate_target is not None:
             t_lo, t_mid, t_hi = as_finite_array(self.feedrate_target, "feedrate_target",
-                                                shape=(3,))  # fmt: skip
+                                                shape=(3,))
             if not lo <= t_lo < t_mid < t_hi <= hi:
                 raise ValueError(f"feedrate_target must be (low, mid, high) increasing within "
                                  f"feedrate_range {tuple(self.feedrate_range)!r}, got "
-                                 f"{self.feedrate_target!r}")  # fmt: skip
+                                 f"{self.feedrate_target!r}")
         self._check_span()
         if self.feedrate_limit is None:
             return
@@ -234,10 +234,10 @@ class EnvConfig:
         if limit.shape not in ((2,), (4,)) or np.any(limit <= 0):
             raise ValueError(f"feedrate_limit must be (a_c, reach) or (a_c, reach, v_end, "
                              f"end_reach) > 0, m/s^2, m, m/s and m, got "
-                             f"{self.feedrate_limit!r}")  # fmt: skip
+                             f"{self.feedrate_limit!r}")
         if self.feedrate_target is None:
             raise ValueError("feedrate_limit sets the zero action of feedrate_target: give "
-                             "feedrate_target=(low, mid, high) too")  # fmt: skip
+                             "feedrate_target=(low, mid, high) too")
 
     def _check_span(self) -> None:
         if self.limit_span is None:
@@ -246,7 +246,7 @@ class EnvConfig:
             raise ValueError(f"limit_span must be a finite number > 1, got {self.limit_span!r}")
         if self.feedrate_limit is None:
             raise ValueError("limit_span scales the action around feedrate_limit: give "
-                             "feedrate_limit too")  # fmt: skip
+                             "feedrate_limit too")
 
     def _check_observation(self) -> None:
         choice(self.observation, "observation", OBSERVATIONS)
@@ -260,10 +260,10 @@ class EnvConfig:
             return
         if edges.size < 2 or edges[0] < 0 or np.any(np.diff(edges) <= 0):
             raise ValueError("curvature_windows must be >= 2 increasing arc lengths from >= 0, "
-                             f"m, got {self.curvature_windows!r}")  # fmt: skip
+                             f"m, got {self.curvature_windows!r}")
         if self.observation != "v1":
             raise ValueError(f"curvature_windows is a v1 observation option, got observation="
-                             f"{self.observation!r}")  # fmt: skip
+                             f"{self.observation!r}")
 
     @classmethod
     def from_kwargs(cls, kwargs: dict[str, Any]) -> EnvConfig:
@@ -313,9 +313,9 @@ class EnvConfig:
         options = self.path_options_for(preset, task.path_defaults(preset))
         if as_reset and self.randomization() is not None:
             raise ValueError("as_reset draws the path of an env without randomize; "
-                             f"got randomize={self.randomize!r}")  # fmt: skip
+                             f"got randomize={self.randomize!r}")
         path = reset_draws(rng, preset.stage, options)[1] if as_reset else draw_path(
-            rng, preset.stage, options)  # fmt: skip
+            rng, preset.stage, options)
         return self.scenario(path=path, **task.random_path_control(self.tolerance_for(preset)))
 
     def scenario(self, path: Path | None = None, **defaults: Any) -> Scenario:
@@ -338,7 +338,7 @@ class EnvConfig:
             "settle_time": self.settle_time,
             "estimator_options": self.estimator_options,
             "controller_options": self.controller_options,
-        }  # fmt: skip
+        }
         for key in ("ccc_injection", "estimator", "axis_controller"):  # None: the preset's
             if getattr(self, key) is not None:
                 options[key] = getattr(self, key)
@@ -346,7 +346,7 @@ class EnvConfig:
             self.plant, self.path if path is None else path, self.feedrate,
             feedrate_override=self.feedrate_override,
             laps=self.laps, **options,
-        )  # fmt: skip
+        )
 
     def randomization(self) -> dict[str, Any] | None:
         """The randomisation ranges in force, or None when off."""

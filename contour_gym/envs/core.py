@@ -66,7 +66,7 @@ class ContourTask:
     def __init__(
         self, config: EnvConfig, batch: int, kind: str | Task, record: bool = False,
         threads: int | None = 1,
-    ) -> None:  # fmt: skip
+    ) -> None:
         self.task_kind: Task = task_named(kind)
         self.config, self.batch, self.kind = config, batch, self.task_kind.name
         self.scenario = self._make_scenario()
@@ -81,7 +81,7 @@ class ContourTask:
         self.loop = self.scenario.loop(
             batch_size=batch, ccc_gains=self.task_kind.fixed_ccc_gains(config), record=record,
             ccc_weights=config.ccc_weights, threads=threads,
-        )  # fmt: skip
+        )
         self.ovr_bounds = np.asarray(config.feedrate_range, dtype=float)
         self.gain_map = GainMap.for_env(config, preset, self.g0)
         self.rngs: list[np.random.Generator] = [np.random.default_rng(0)] * batch
@@ -209,7 +209,7 @@ class ContourTask:
             "ret": (b,), "track": (b, self.n_axes), "feedrate": (b,), "nominal": (b,),
             "f_nom": (b,), "n_max": (b,), "peak": (b,),
             "windows": (max(len(self.config.curvature_windows), 1),), "prior": (b,),
-        }  # fmt: skip
+        }
         self._blob = Blob([(name, shapes[name]) for name in ENV_FLOATS])
         self._attach_views()
         v = self._v
@@ -228,7 +228,7 @@ class ContourTask:
             observation=OBSERVATIONS.index(self.config.observation),
             f_max=self._machine_feedrate(), horizon=max(self.config.preview),
             progress_obs=float(self.config.observe_progress), **self._target_columns(),
-        )  # fmt: skip
+        )
         self._leading = (self._blob.buffer, self._blob.layout, self._econfig)  # never move
         self._quiet = contextlib.nullcontext()
         self._member_constants(np.arange(b))
@@ -243,7 +243,7 @@ class ContourTask:
         return {"target": 1.0, "t_lo": t_lo, "t_mid": t_mid, "t_hi": t_hi, "lim_a": float(a_c),
                 "lim_reach": float(reach), "lim_vend": float(v_end),
                 "lim_rend": float(end_reach),
-                "lim_span": float(self.config.limit_span or 0.0)}  # fmt: skip
+                "lim_span": float(self.config.limit_span or 0.0)}
 
     def _machine_feedrate(self) -> float:
         # the machine's feedrate limit (the v1 observation's speed scale); without one, the
@@ -312,18 +312,18 @@ class ContourTask:
     def _observation_sizes(self) -> dict[str, int]:
         # key order is the column order _kernel._observe writes; the task's own key last
         errors = {"contour_error": self.n_contours, "contour_error_change": self.n_contours,
-                  "tracking_error": self.n_axes}  # fmt: skip
+                  "tracking_error": self.n_axes}
         if self.config.observation == "v0":
             middle = {"reference_velocity": self.n_axes,
-                      "curvature": 1 + len(self.config.lookahead), "progress": 1}  # fmt: skip
+                      "curvature": 1 + len(self.config.lookahead), "progress": 1}
         else:
             n = len(self.config.preview)
             windows = max(len(self.config.curvature_windows) - 1, 0)
             middle = {"speed": 3, "curvature": 1 + n, "turning": n, "corner": 2, "path_end": 1,
                       **({"curvature_peak": windows} if windows else {}),
-                      **({"progress": 1} if self.config.observe_progress else {})}  # fmt: skip
+                      **({"progress": 1} if self.config.observe_progress else {})}
         return {**errors, **middle,
-                self.task_kind.tail: self.task_kind.tail_size(self.n_contours)}  # fmt: skip
+                self.task_kind.tail: self.task_kind.tail_size(self.n_contours)}
 
     # ------------------------------------------------------- gains <-> actions
     def action_to_gains(self, action: Array) -> Array:
@@ -361,7 +361,7 @@ class ContourTask:
         self.loop.reset(seeds, members=members)
         v = self._v
         for name in ("eps_prev", "steps", "ret", "reward", "terminated", "truncated", "failure",
-                     "comp", "peak"):  # fmt: skip
+                     "comp", "peak"):
             v[name][members] = 0.0
         self.task_kind.reset(self, members)
         args = (*self._kernel_blobs(), np.asarray(members, dtype=np.int64))
@@ -375,7 +375,7 @@ class ContourTask:
         loop = self.loop
         fb, fl, ib, il = loop.blobs()
         return (self._blob.buffer, self._blob.layout, fb, fl, ib, il, *loop.path_blobs(),
-                self._econfig)  # fmt: skip
+                self._econfig)
 
     def _randomize(self, b: int, rng: np.random.Generator) -> None:
         ranges = self.config.randomization()
@@ -411,7 +411,7 @@ class ContourTask:
         skipped = None if skip is None else np.flatnonzero(skip)
         with self._quiet if self._stepped else self._compiling():
             ran = self.loop.advance(self.config.decision_ticks, skipped, self.kernel.env_step,
-                                    self._leading)  # fmt: skip
+                                    self._leading)
         if not ran:
             raise ValueError(f"actions must be finite, got {actions}")  # nothing was run
         if not self._stepped:  # the env kernel is in numba's cache now
@@ -436,7 +436,7 @@ class ContourTask:
         """Rewards (B,), terminated, truncated and failure (B,) of the last decision (copies)."""
         v = self._v
         return (v["reward"].copy(), v["terminated"] != 0.0, v["truncated"] != 0.0,
-                v["failure"] != 0.0)  # fmt: skip
+                v["failure"] != 0.0)
 
     def member_result(self, b: int) -> tuple[float, bool, bool, bool]:
         """Reward, terminated, truncated and failure of member ``b`` after the last decision."""
@@ -472,7 +472,7 @@ class ContourTask:
             "failure": v["failure"] != 0.0,
             "reward_components": {name: comp[:, j].copy()
                                   for j, name in enumerate(COMPONENTS.names)},
-        }  # fmt: skip
+        }
 
     def _member_info(self, b: int) -> dict[str, Any]:
         """Member ``b``'s per-step info: its arrays, Python floats and bools (as batched)."""
@@ -487,7 +487,7 @@ class ContourTask:
             "failure": bool(v["failure"][b] != 0.0),
             # one schema's names and columns (zip's strict keyword alone cost 2 % of a step)
             "reward_components": dict(zip(COMPONENTS.names, comp.tolist())),  # noqa: B905
-        }  # fmt: skip
+        }
 
     def _member_views(self, b: int) -> tuple[Any, ...]:
         # the arrays member b's info reads, made once (the blobs never move)
@@ -498,7 +498,7 @@ class ContourTask:
         first, n = self._blob.layout[self._blob.index["reward"], 0], self.batch
         outcome = self._blob.buffer[first + b : first + 4 * n : n]
         views = (loop.contour_error[b], loop.contour_error_estimate[b], v["track"][b], loop.s, v,
-                 v["comp"][b], outcome)  # fmt: skip
+                 v["comp"][b], outcome)
         self._info_views[b] = views
         return views
 
@@ -529,7 +529,7 @@ class ContourTask:
         info = _masked(self._step_info(), everyone)
         if ended.any():
             metrics = {k: np.where(ended, val, np.zeros_like(val))
-                       for k, val in self._end_metrics().items()}  # fmt: skip
+                       for k, val in self._end_metrics().items()}
             info["metrics"], info["_metrics"] = _masked(metrics, ended), ended.copy()
         return info
 
@@ -577,7 +577,7 @@ def member_rngs(
     else:
         if len(seed) != count:
             raise ValueError(f"seed must be one int or {count} seeds (one per member), "
-                             f"got {len(seed)}: {seed!r}")  # fmt: skip
+                             f"got {len(seed)}: {seed!r}")
         seeds = [None if s is None else seed_value(s) for s in seed]
     return [seeding.np_random(s)[0] for s in seeds]
 

@@ -44,7 +44,7 @@ SCENARIOS: dict[str, tuple[str, dict[str, Any]]] = {
         {"plant": "xy_servo_coulomb", "path": "corner", "feedrate": 0.048, "path_control": "G61",
          "tolerance": 4.5e-6},
     ),
-}  # fmt: skip
+}
 
 _ENTRY = {
     "CCC": ("contour_gym.envs.ccc:CCCEnv", "contour_gym.envs.ccc:CCCVectorEnv"),
@@ -63,12 +63,12 @@ def register_envs() -> None:
             env_id = f"contour_gym/{name.removesuffix('-v0')}-{version}"
             if env_id not in gym.registry:
                 gym.register(id=env_id, entry_point=single, vector_entry_point=vector,
-                             kwargs={**kwargs, **extra})  # fmt: skip
+                             kwargs={**kwargs, **extra})
 
 
 # every scenario with v0's observation, then with v1's
 ENV_IDS = tuple(f"contour_gym/{name.removesuffix('-v0')}-{version}"
-                for version in ("v0", "v1") for name in SCENARIOS)  # fmt: skip
+                for version in ("v0", "v1") for name in SCENARIOS)
 
 
 def scenario_table() -> list[dict[str, Any]]:
@@ -89,5 +89,5 @@ def scenario_table() -> list[dict[str, Any]]:
             "estimator": sc.options["estimator"], "tolerance": config.tolerance_for(sc.preset),
             "axis_controller": sc.options["axis_controller"],
             "ccc_injection": sc.options["ccc_injection"],
-        })  # fmt: skip
+        })
     return rows

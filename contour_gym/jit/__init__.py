@@ -56,4 +56,4 @@ __all__ = [
     "census", "code_digest", "compiling", "configure", "current_digest", "dispatcher_source",
     "generated_dir", "identity", "is_builtin", "is_generic", "kernel_sources", "mark_compiled",
     "needs_compile", "package_digest", "slot_table", "specialise",
-]  # fmt: skip
+]

@@ -213,7 +213,7 @@ def bind(
         code of each used component, in the order given.
     """
     generic = all(is_builtin(f) for fam, used in uses.items() for c in used
-                  for f in fam.functions(c))  # fmt: skip
+                  for f in fam.functions(c))
     slots: dict[str, Any] = {}
     codes: dict[str, list[int]] = {}
     for fam, used in uses.items():
@@ -224,7 +224,7 @@ def bind(
             slots[slot] = tuple(
                 None if k not in keep else (get(m) if fam.inlined(m) else Called(get(m)))
                 for k, m in enumerate(members)
-            )  # fmt: skip
+            )
     return slots, codes
 
 
@@ -284,7 +284,7 @@ def dispatcher_source(slot: str, codes: Sequence[int], called: frozenset[int] = 
     lines: list[str] = []
     for k in sorted(called):
         lines += ["@numba.njit(cache=True)", f"def {slot}__{k}__call({args}):",
-                  f"    {ret}{slot}__{k}({args})", "", ""]  # fmt: skip
+                  f"    {ret}{slot}__{k}({args})", "", ""]
     lines += ["@numba.njit(cache=True, inline='always')", f"def {slot}(code, {args}):"]
     ordered = sorted(codes)
     for k in ordered:
@@ -320,9 +320,9 @@ def specialise(template: str, slots: Mapping[str, Any]) -> ModuleType:
         if isinstance(v, tuple):
             called = frozenset(i for i, f in enumerate(v) if isinstance(f, Called))
             fns = {i: f.fn if isinstance(f, Called) else f
-                   for i, f in enumerate(v) if f is not None}  # fmt: skip
+                   for i, f in enumerate(v) if f is not None}
             header += [f"# slot {k}[{i}] = {'called ' * (i in called)}{identity(f)}"
-                       for i, f in fns.items()]  # fmt: skip
+                       for i, f in fns.items()]
             bound.update({f"{k}__{i}": f for i, f in fns.items()})
             dispatch.append(dispatcher_source(k, list(fns), called))
         else:

@@ -90,7 +90,7 @@ def package_digest() -> str:
     written if the folder is writable).
     """
     texts = [(path.relative_to(PACKAGE).as_posix(), path.read_text(encoding="utf-8"))
-             for path in kernel_sources()]  # fmt: skip
+             for path in kernel_sources()]
     raw = hashlib.sha1()
     for name, text in texts:
         raw.update(f"{name}\0{len(text)}\0".encode())

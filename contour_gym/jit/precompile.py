@@ -118,7 +118,7 @@ def _spawn(name: str, errors: IO[str]) -> subprocess.Popen[str]:
     return subprocess.Popen(
         [sys.executable, "-c", code, name, WARMUPS.get(name).target], env=env,
         stdout=subprocess.DEVNULL, stderr=errors, text=True,
-    )  # fmt: skip
+    )
 
 
 def compile_builtins(
@@ -186,7 +186,7 @@ def _run_all(todo: list[str], workers: int, progress: bool) -> None:
                     err = handle.read()
                 if proc.returncode != 0 or not _marker(name).exists():
                     raise RuntimeError(f"compiling the {name!r} kernels failed "
-                                       f"(exit code {proc.returncode}):\n{err}")  # fmt: skip
+                                       f"(exit code {proc.returncode}):\n{err}")
                 if bar:
                     bar.finish(name)
             if bar:
@@ -258,7 +258,7 @@ class _Bar:
         about = f"about {expected:.0f} s" if expected < 120 else f"about {expected / 60:.0f} min"
         desc = f"contour-gym: compiling kernels, first run only ({about} on 2 cores)"
         self.bar = tqdm(total=len(todo), unit="group", file=sys.stderr, desc=desc,
-                        bar_format="{desc}: {n}/{total} groups [{elapsed}] {postfix}")  # fmt: skip
+                        bar_format="{desc}: {n}/{total} groups [{elapsed}] {postfix}")
 
     def start(self, name: str) -> None:
         self.running.append(name)
@@ -289,15 +289,15 @@ class _Bar:
 # searches and estimators a kernel calls compile with it, whatever is cached (contour_gym.jit), so
 # only the env step waits: it calls the loop's kernels
 register_warmup(Warmup("loop", "contour_gym.jit.warmups:servo_loop", doc="servo loop",
-                       seconds=41.0))  # fmt: skip
+                       seconds=41.0))
 register_warmup(Warmup("path_api", "contour_gym.jit.warmups:path_api",
-                       doc="path searches for plots", seconds=8.0))  # fmt: skip
+                       doc="path searches for plots", seconds=8.0))
 register_warmup(Warmup("env", "contour_gym.jit.warmups:env_step", after=("loop",),
-                       doc="env step", seconds=20.0))  # fmt: skip
+                       doc="env step", seconds=20.0))
 register_warmup(Warmup("estimators", "contour_gym.jit.warmups:estimators",
-                       doc="estimator API", seconds=13.0))  # fmt: skip
+                       doc="estimator API", seconds=13.0))
 register_warmup(Warmup("axes", "contour_gym.jit.warmups:axes",
-                       doc="axis controllers and single-axis plant", seconds=5.0))  # fmt: skip
+                       doc="axis controllers and single-axis plant", seconds=5.0))
 
 
 def main(name: str, target: str) -> None:

@@ -29,9 +29,9 @@ class _Progress(event.Listener):
         from tqdm.auto import tqdm
 
         desc = (f"contour-gym: compiling {label} "
-                f"(first run only, about {OWN_KERNEL_SECONDS:.0f} s on 2 cores)")  # fmt: skip
+                f"(first run only, about {OWN_KERNEL_SECONDS:.0f} s on 2 cores)")
         self.bar = tqdm(total=None, file=sys.stderr, desc=desc,
-                        bar_format="{desc} [{elapsed}] {postfix}")  # fmt: skip
+                        bar_format="{desc} [{elapsed}] {postfix}")
         self.stop = threading.Event()
         self.thread = threading.Thread(target=self._tick, daemon=True)
         self.thread.start()

@@ -139,14 +139,14 @@ def _detach(
         "import os", "os.nice(19)", "from contour_gym.jit import tiers",
         f"tiers._watch({str(jit.generated_dir())!r})",
         f"with tiers._holding({str(lock)!r}) as held:", f"    tiers.{func}({arg!r}, held)",
-    ])  # fmt: skip
+    ])
     process = subprocess.Popen(
         [sys.executable, "-c", script], env=full, stdin=subprocess.DEVNULL,
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
-    )  # fmt: skip
+    )
     print(f"contour-gym: compiling {what} in the background for the runs that follow "
           f"(pid {process.pid}, low priority; it ends by itself; `kill {process.pid}` stops "
-          f"it, {BACKGROUND}=0 turns this off)", file=sys.stderr, flush=True)  # fmt: skip
+          f"it, {BACKGROUND}=0 turns this off)", file=sys.stderr, flush=True)
     return True
 
 

@@ -33,4 +33,4 @@ __all__ = [
     "DEFAULT_SETTLE", "MAX_RECORD_BYTES", "MAX_RUN_TICKS", "NOISE_CHUNK", "REASON_HARD_LIMIT",
     "REASON_NAMES",
     "LoopOptions", "ServoLoop", "Trace", "simulate_axis",
-]  # fmt: skip
+]

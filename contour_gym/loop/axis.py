@@ -49,7 +49,7 @@ def simulate_axis(
     u = np.ascontiguousarray(as_finite_array(controls, "controls", ndim=1))
     n = u.shape[0]
     w = np.zeros(n) if noise is None else np.ascontiguousarray(
-        as_finite_array(noise, "noise", shape=(n,)))  # fmt: skip
+        as_finite_array(noise, "noise", shape=(n,)))
     law = law_for(axis.friction)
     slots, codes = jit.bind({FRICTION_FAMILY: [law]})
     ax = axis_row(axis, codes[FRICTION_FAMILY.name][0], ideal=True)[None]
@@ -60,5 +60,5 @@ def simulate_axis(
     xs, vs = np.zeros(n), np.zeros(n)
     kernel.drive_axis(ax, friction_row(axis)[None], ripple_rows(axis)[None],
                       disturbance_row(axis, ts)[None], ad, bd, st, u, 0.0, ts, substeps, w, xs,
-                      vs)  # fmt: skip
+                      vs)
     return xs, vs, st[0].copy()

@@ -46,7 +46,7 @@ class PathBank:
     """
 
     def __init__(self, stage: Stage, interpolator: motion.Interpolator, opts: LoopOptions,
-                 batch: int, path: Path, offsets: Array) -> None:  # fmt: skip
+                 batch: int, path: Path, offsets: Array) -> None:
         self.stage, self.interpolator, self.opts = stage, interpolator, opts
         self.batch_size, self._offsets = batch, offsets
         program = self._build_program(path)
@@ -94,7 +94,7 @@ class PathBank:
             path, self.interpolator, self.stage.ts, path_control=self.opts.path_control,
             path_tolerance=self.opts.path_tolerance,
             use_program_feeds=self.opts.use_program_feeds,
-        )  # fmt: skip
+        )
 
     def set_paths(self, paths: Path | Sequence[Path], members: ArrayLike | None = None) -> None:
         """Give members paths of their own (they start them at their next reset).
@@ -116,7 +116,7 @@ class PathBank:
         given = [paths] * len(idx) if isinstance(paths, Path) else list(paths)
         if len(given) != len(idx):
             raise ValueError(f"need one path or {len(idx)} paths (one per member), got "
-                             f"{len(given)}")  # fmt: skip
+                             f"{len(given)}")
         new = list(self._paths)
         for b, path in zip(idx, given, strict=True):
             new[int(b)] = path
@@ -142,7 +142,7 @@ class PathBank:
             slots.setdefault(id(path), len(slots))
         self._bank_paths = list({id(p): p for p in self._paths}.values())
         programs = list({id(p): prog for p, prog in zip(self._paths, self._programs,
-                                                       strict=True)}.values())  # fmt: skip
+                                                       strict=True)}.values())
         self._slot = np.array([slots[id(p)] for p in self._paths], dtype=np.int64)
         self._pblob, self._kind, self.p_at = path_bank(self._bank_paths, programs, self._slot)
         self._firsts = np.stack([p.point(0.0) for p in self._bank_paths])
@@ -176,7 +176,7 @@ class PathBank:
 
     # ------------------------------------------------------------- planning
     def planned_time(self, overrides: Array, f_max: float, override: float | None = None,
-                     member: int | None = None) -> float:  # fmt: skip
+                     member: int | None = None) -> float:
         """A generous estimate of one contour's duration, s.
 
         Args:

@@ -70,7 +70,7 @@ def axis_arrays(
         "dist": np.stack([disturbance_row(x, stage.ts) for x in stage.axes]),
     }
     return {"ax_p": ax_p, "ad": ad, "bd": bd,
-            **{k: np.repeat(v[None], batch, axis=0) for k, v in each.items()}}  # fmt: skip
+            **{k: np.repeat(v[None], batch, axis=0) for k, v in each.items()}}
 
 
 def contour_offsets(stage: Stage) -> Array:
@@ -107,7 +107,7 @@ def state_shapes(
         "last": (b, c, LAST.size), "acc_c": (b, c, ACC_C.size), "acc_a": (b, a, ACC_A.size),
         "ep_c": (b, c, ACC_C.size), "ep_a": (b, a, ACC_A.size), "u_cmd": (b, a),
         "y_last": (b, a), "mem": (b, MEM.size), "work": (parts, WORK.size + WORK_PAD, a),
-    }  # fmt: skip
+    }
 
 
 def contour_axes(stage: Stage) -> NDArray[np.int64]:
@@ -184,7 +184,7 @@ def config_row(stage: Stage, path: Path, opts: LoopOptions, record: bool, search
         codes: The component code of each coded config column.
     """
     exact = opts.ideal or not any(
-        x.encoder_resolution > 0 or x.noise_std > 0 for x in stage.axes)  # fmt: skip
+        x.encoder_resolution > 0 or x.noise_std > 0 for x in stage.axes)
     every = 1 if opts.sample_period is None else max(1, round(opts.sample_period / stage.ts))
     return CONFIG.row(
         ts=stage.ts, nsub=stage.substeps, dim=path.dim, meas_exact=float(exact),
@@ -194,4 +194,4 @@ def config_row(stage: Stage, path: Path, opts: LoopOptions, record: bool, search
         in_speed=stage.in_position_speed,
         law_dt=1.0 if path.time_law is None else path.time_law.dt,
         sample_every=every, search=float(search), **codes,
-    )  # fmt: skip
+    )

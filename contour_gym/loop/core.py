@@ -87,7 +87,7 @@ from contour_gym.servo.gains import as_pid_gains
 Array = NDArray[np.float64]
 # config columns holding the code of the loop's one component of each family
 _CODED = {"ctrl": CONTROLLER_FAMILY, "est": ESTIMATOR_FAMILY, "ccc": CCC_FAMILY,
-          "comp": COMPENSATION_FAMILY}  # fmt: skip
+          "comp": COMPENSATION_FAMILY}
 MAX_RUN_TICKS = 200_000_000  # ticks one run() may take (55 h of machine time at 1 kHz)
 
 
@@ -152,7 +152,7 @@ class ServoLoop(LoopViews):
         self.controller, ctrl_p, comp_p = build_controller(
             self.opts.axis_controller, stage, self.axis_gains, b,
             **(self.opts.controller_options or {}),
-        )  # fmt: skip
+        )
         self.estimator = get_estimator(self.opts.estimator, **(self.opts.estimator_options or {}))
         self.ccc_law = CCC_LAWS.get(self.opts.ccc_law)
         self.law_names = friction_laws(stage)
@@ -184,19 +184,19 @@ class ServoLoop(LoopViews):
             "ccc_p": ccc_params(ccc_gains, b, c, self.ccc_law, **law_params), "ccc_w": ccc_w,
             "ccc_data": self.ccc_law.table(), "est_p": self.estimator.params,
             "ip_p": self.interpolator.params(b), "c_off": contour_offsets(stage), **axes,
-        }  # fmt: skip
+        }
 
     def _build_blobs(self, params: dict[str, Array]) -> None:
         # every array the kernel touches lives in one of two blobs (contour_gym._blob); the
         # attributes named in FLOAT_NAMES / INT_NAMES are views (LoopViews), written in place
         b = self.batch_size
         shapes = state_shapes(self.stage, b, self.controller.state.size, self.ccc_law.state.size,
-                              self.threads)  # fmt: skip
+                              self.threads)
         self._fblob = filled_blob(FLOAT_NAMES, params, shapes)
         self._iblob = filled_blob(
             INT_NAMES, {"c_axes": contour_axes(self.stage)},
             {"status": (b,), "k_start": (b,), "noise_at": (b,), "p_at": (b, 3)}, np.int64,
-        )  # fmt: skip
+        )
         self.sums = ErrorSums(self.ep_c, self.ep_a)
 
     def _config_row(self) -> Array:
@@ -211,7 +211,7 @@ class ServoLoop(LoopViews):
             CONTROLLER_FAMILY: [self.controller], ESTIMATOR_FAMILY: [self.estimator.kind],
             CCC_FAMILY: [self.ccc_law], COMPENSATION_FAMILY: [compensates],
             FRICTION_FAMILY: [FRICTION_LAWS.get(n) for n in self.law_names],
-        }  # fmt: skip
+        }
         self._slots, self.codes = jit.bind(uses)
         generic = jit.is_generic(self._slots)
         self._own_slots = jit.bind(uses, own=True)[0] if generic else self._slots
@@ -408,7 +408,7 @@ class ServoLoop(LoopViews):
         idx = member_indices(self.batch_size, members)
         start = self.bank.start_axes(idx)  # each member at its own path's start
         for arr in (self.ctrl_s, self.comp_s, self.ccc_s, self.hist, self.last, self.u_cmd,
-                    self.mem, self.ax_s, self.foot):  # fmt: skip
+                    self.mem, self.ax_s, self.foot):
             arr[idx] = 0.0
         self.ax_s[idx, :, ST.x] = start
         self.y_last[idx] = start
@@ -446,7 +446,7 @@ class ServoLoop(LoopViews):
     def advance(
         self, n_ticks: int, skip: ArrayLike | None = None,
         via: Callable[..., Any] | None = None, leading: tuple[Any, ...] = (),
-    ) -> Any:  # fmt: skip
+    ) -> Any:
         """Run ``n_ticks`` ticks, by the loop's kernel or by a compiled caller of its run.
 
         Args:
@@ -473,7 +473,7 @@ class ServoLoop(LoopViews):
         noise = self._noise.take(n_ticks, self.status, self.noise_at)
         rec = self._recorder.new(n_ticks) if self.record else self._no_record
         args = (n_ticks, self.tick, self._config, self._fblob.buffer, self._fblob.layout,
-                self._iblob.buffer, self._iblob.layout, *self.bank.blobs(), noise, rec)  # fmt: skip
+                self._iblob.buffer, self._iblob.layout, *self.bank.blobs(), noise, rec)
         call, head = (self.kernel.run_ticks, args) if via is None else (via, (*leading, *args))
         result = self._run_parts(call, head, n_ticks)
         if result is False:
@@ -568,11 +568,11 @@ class ServoLoop(LoopViews):
         # the run's tick cap, checked before anything runs: time and memory are bounded
         ticks = math.ceil(positive(max_time, "max_time") / self.stage.ts)
         what = (f"{max_time:.4g} s of machine time at a {self.stage.ts:.3g} s servo period is "
-                f"{ticks:.3g} ticks")  # fmt: skip
+                f"{ticks:.3g} ticks")
         if ticks > MAX_RUN_TICKS:
             raise ValueError(f"{what}, more than a run may take ({MAX_RUN_TICKS:.3g}): check "
                              "the path's length, its feeds and the stage's ts, or pass "
-                             "max_time")  # fmt: skip
+                             "max_time")
         if self.record:
             self._recorder.check_size(ticks, what)
         return ticks
@@ -673,4 +673,4 @@ def _options(options: dict[str, Any]) -> LoopOptions:
 __all__ = [
     "MAX_RECORD_BYTES", "MAX_RUN_TICKS", "REASON_NAMES", "LoopOptions", "ServoLoop", "Trace",
     "simulate_axis",
-]  # fmt: skip
+]

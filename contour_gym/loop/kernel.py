@@ -140,7 +140,7 @@ def _track_foot(loop, path, cfg, q, s, p0, p1, p2):
     eps, g0, g1, g2, sf, qx, qy, qz = ground_truth_from(
         path.kind, path.s0, path.data, path.bound, cfg.dim, p0, p1, p2, sf_prev, foot[q, FT.qx],
         foot[q, FT.qy], foot[q, FT.qz], s,
-    )  # fmt: skip
+    )
     step = _step(path, sf, sf_prev)
     foot[q, FT.progress] += step
     foot[q, FT.s], foot[q, FT.qx], foot[q, FT.qy], foot[q, FT.qz] = sf, qx, qy, qz
@@ -175,11 +175,11 @@ def _estimate(loop, path, cfg, q, c, s, eps, g0, g1, g2, back):
         e, c0, c1, c2, sf, qx, qy, qz = ground_truth_from(
             path.kind, path.s0, path.data, path.bound, dim, p0, p1, p2, sf_prev, f[q, FT.e_qx],
             f[q, FT.e_qy], f[q, FT.e_qz], s,
-        )  # fmt: skip
+        )
         f[q, FT.e_s], f[q, FT.e_qx], f[q, FT.e_qy], f[q, FT.e_qz] = sf, qx, qy, qz
         return e, c0, c1, c2, (sf if _step(path, sf, sf_prev) < 0.0 else -1.0)
     foot = EST_FOOT(cfg.est, loop.est_p, path.kind, path.s0, path.data, path.bound, p0, p1, p2,
-                    s, loop.hist[b])  # fmt: skip
+                    s, loop.hist[b])
     e, c0, c1, c2, _ = resolve(foot, path.kind, path.s0, path.data, path.bound, dim, p0, p1, p2, s)
     return e, c0, c1, c2, -1.0
 
@@ -227,7 +227,7 @@ def _ccc(loop, cfg, q, c, dim, eps, g0, g1, g2, waiting, aside):
         else:
             work[row, axes[c, i]] += w[q, i] * out
         CCC_COMMIT(cfg.ccc, loop.ccc_p, loop.ccc_s, loop.ccc_data, q, 3 * q + i, e_i, cfg.ts, out,
-                   False)  # fmt: skip
+                   False)
         if waiting:
             CCC_RELEASE(cfg.ccc, loop.ccc_p, loop.ccc_s, loop.ccc_data, q, 3 * q + i, cfg.ts)
 
@@ -264,7 +264,7 @@ def _axes(loop, cfg, b, n_axes):
         u_sat = min(max(u, -u_max), u_max)
         applied = loop.u_cmd[b, a] if cfg.delay else u_sat
         CTRL_COMMIT(cfg.ctrl, loop.ctrl_p, loop.ctrl_s, i, r, rd, rdd, y, ts, u, applied, u_comp,
-                    u_max)  # fmt: skip
+                    u_max)
         COMP_COMMIT(cfg.comp, loop.comp_p, loop.comp_s, i, rd, y, ts)
         work[WORK_ROW.u, a], work[WORK_ROW.ua, a] = u_sat, applied
 
@@ -351,7 +351,7 @@ def _plant(loop, cfg, b, k, noise, j, n_axes, has_noise):
         loop.u_cmd[b, a] = loop.work[WORK_ROW.u, a]
         w = noise[b, j, a] if has_noise else 0.0
         axis_tick(loop.ax_p, loop.fr_p, loop.rip, loop.dist, loop.ad, loop.bd, loop.ax_s, i,
-                  loop.work[WORK_ROW.ua, a], k * cfg.ts, cfg.ts, cfg.nsub, w)  # fmt: skip
+                  loop.work[WORK_ROW.ua, a], k * cfg.ts, cfg.ts, cfg.nsub, w)
         x, v = loop.ax_s[i, ST.x], loop.ax_s[i, ST.v]
         if not (abs(x) < STATE_LIMIT and abs(v) < STATE_LIMIT):
             ok = False
@@ -458,7 +458,7 @@ def member_run(b, n, k0, cfg, loop, path, noise, rec):
 def run_ticks(
     n, k0, config_row, floats, float_layout, ints, int_layout, path_kinds, path_floats,
     path_layout, noise, rec, lo, hi, part,
-):  # fmt: skip
+):
     """Run ``n`` ticks for members ``lo:hi`` whose status is OK; ends are flagged in ``status``.
 
     ``config_row`` is the run's :data:`~contour_gym.loop.state.CONFIG` row; ``floats`` and

@@ -68,7 +68,7 @@ Members = namedtuple(
     ("s", "v", "block", "override", "status", "progress", "estimate", "error_sum", "ticks",
      "error_peak", "position", "measured", "effort_travel", "effort_max", "contour_axes",
      "contour_offset", "path_at", "ccc_gains"),
-)  # fmt: skip
+)
 
 
 @numba.njit(cache=True, inline="always")
@@ -112,4 +112,4 @@ def loop_and_members(floats, float_layout, ints, int_layout, part):
 __all__ = [
     "ARRIVED", "FAILED", "PAUSED", "RUNNING", "Members", "loop_and_members", "member_path",
     "members", "next_path", "path_bank",
-]  # fmt: skip
+]

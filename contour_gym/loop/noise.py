@@ -105,7 +105,7 @@ def member_generators(
     else:
         if not isinstance(seed, (Sequence, np.ndarray)) or isinstance(seed, (str, bytes)):
             raise ValueError("seed must be a non-negative int, a sequence of them or None, "
-                             f"got {seed!r}")  # fmt: skip
+                             f"got {seed!r}")
         roots = [np.random.SeedSequence(seed_value(s)) for s in seed]
         if len(roots) != count:
             raise ValueError(f"need {count} seeds, got {len(roots)}")

@@ -132,7 +132,7 @@ class Parameters:
         idx = self._members(members)
         f = _scale_factors((len(idx), self.stage.n_axes), mass=mass, damping=damping,
                            force_constant=force_constant, friction=friction,
-                           disturbance=disturbance)  # fmt: skip
+                           disturbance=disturbance)
         ax_p, fr_p, dist = (arr[idx].copy() for arr in self._nominal)
         ax_p[..., AX.m] *= f["mass"]
         ax_p[..., AX.b] *= f["damping"]

@@ -52,7 +52,7 @@ class Trace:
         """
         if start < 0 or (ticks is not None and ticks < 0):
             raise ValueError(f"a trace window needs start >= 0 and ticks >= 0, got start "
-                             f"{start!r}, ticks {ticks!r}")  # fmt: skip
+                             f"{start!r}, ticks {ticks!r}")
         rows = slice(start, None if ticks is None else start + ticks)
         n = len(self.t[rows])
         return Trace(t=self.t[:n].copy(),
@@ -83,7 +83,7 @@ class Recorder:
         self.calls = []
 
     def keep(self, rec: Array, ended: NDArray[np.bool_], end: Array, local: NDArray[np.int64],
-             paused: NDArray[np.bool_] | None = None) -> None:  # fmt: skip
+             paused: NDArray[np.bool_] | None = None) -> None:
         """Keep a recorded call; rows a member never wrote are NaN, not data.
 
         Args:
@@ -121,7 +121,7 @@ class Recorder:
         if need > MAX_RECORD_BYTES:
             raise ValueError(f"{what}: recording it needs {need / 2**30:.3g} GiB, more than "
                              f"{MAX_RECORD_BYTES / 2**30:.3g} GiB; run without record=True, or "
-                             "a shorter max_time")  # fmt: skip
+                             "a shorter max_time")
 
     def trace(self, ts: float, member: int | None = None) -> Trace:
         """The kept calls as one :class:`Trace`, at ``ts`` seconds per tick.
@@ -134,7 +134,7 @@ class Recorder:
         a, c = self.n_axes, self.n_contours
         rows = slice(None) if member is None else slice(member, member + 1)
         rec = (np.concatenate([call[rows] for call in self.calls], axis=1) if self.calls
-               else np.zeros((self.batch if member is None else 1, 0, self.width)))  # fmt: skip
+               else np.zeros((self.batch if member is None else 1, 0, self.width)))
         base = 2 + 3 * a
         return Trace(
             t=np.arange(rec.shape[1], dtype=np.float64) * ts,

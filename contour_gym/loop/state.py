@@ -34,11 +34,11 @@ FLOATS = (
     ("last", "rows2"), ("acc_c", "rows2"), ("acc_a", "rows2"), ("ep_c", "rows2"),
     ("ep_a", "rows2"), ("u_cmd", "view2"), ("y_last", "view2"), ("mem", "view2"),
     ("work", "view3"), ("c_off", "view2"),
-)  # fmt: skip
+)
 # noise_at: each member's row in the noise buffer of its next tick (the kernel advances it)
 # p_at: each member's path in the path bank, row (first segment, segments, first s0 entry)
 INTS = (("c_axes", "view2"), ("status", "view1"), ("k_start", "view1"), ("noise_at", "view1"),
-        ("p_at", "view2"))  # fmt: skip
+        ("p_at", "view2"))
 FLOAT_NAMES = tuple(n for n, _ in FLOATS)
 INT_NAMES = tuple(n for n, _ in INTS)
 FLOAT_AT = namedtuple("F", FLOAT_NAMES)(*range(len(FLOATS)))
@@ -53,7 +53,7 @@ PATH_FLOATS = (
     ("s0", "view1"), ("data", "view2"), ("bound", "view2"), ("feed", "view1"),
     ("flags", "view1"), ("vcap", "view1"), ("vj", "view1"), ("wait", "view1"),
     ("dwell", "view1"), ("law_s", "view1"), ("law_v", "view1"), ("member", "view2"),
-)  # fmt: skip
+)
 PATH_NAMES = tuple(n for n, _ in PATH_FLOATS)
 PATH_AT = namedtuple("PF", PATH_NAMES)(*range(len(PATH_FLOATS)))
 MEMBER_PATH = Schema("member path", length=1.0, closed=0.0)  # a member's path scalars
@@ -71,7 +71,7 @@ CONFIG = Schema(
     delay=0.0, inj_ref=0.0, record=0.0, settle_ticks=1000.0, in_band=1e-6, in_speed=1e-3,
     law_dt=1.0, sample_every=1.0, stop_above=Param(math.inf, number), ctrl=0.0, est=0.0,
     search=0.0, ccc=0.0, comp=0.0,
-)  # fmt: skip
+)
 CF = CONFIG.col
 Config = namedtuple("Config", CONFIG.names)  # type: ignore[misc]
 
@@ -98,7 +98,7 @@ REASON_NAMES = {
     REASON_OVER_LIMIT: "contour error above the run's stop_above",
     REASON_TIME_CAP: "the run's time cap was reached before the path end",
     REASON_HARD_LIMIT: "contour error above the env's hard limit",
-}  # fmt: skip
+}
 STATE_LIMIT = 1e3  # |x| in m or |v| in m/s beyond this is a diverged member
 
 
@@ -211,4 +211,4 @@ def config(c):
         c[CF.in_speed], c[CF.law_dt], int(c[CF.sample_every]),
         c[CF.stop_above], int(c[CF.ctrl]), int(c[CF.est]), c[CF.search] != 0.0, int(c[CF.ccc]),
         int(c[CF.comp]),
-    )  # fmt: skip
+    )

@@ -140,7 +140,7 @@ class LoopViews:
         """The names declared as views of the float blob and of the int blob."""
         views = [v for v in vars(cls).values() if isinstance(v, BlobView)]
         return ({v.name for v in views if v.blob == "_fblob"},
-                {v.name for v in views if v.blob == "_iblob"})  # fmt: skip
+                {v.name for v in views if v.blob == "_iblob"})
 
     @property
     def s(self) -> Array:

@@ -75,7 +75,7 @@ def track_many(kind, s0, data, bound, pts, s_ref, s_start, out_s, out_d2):
     for k in range(pts.shape[0]):
         px, py, pz = pts[k, 0], pts[k, 1], pts[k, 2]
         prev, _ = branch_nearest_from(kind, s0, data, bound, px, py, pz, prev, s_ref[k], qx, qy,
-                                      qz)  # fmt: skip
+                                      qz)
         qx, qy, qz = eval_path(kind, s0, data, prev)[:3]
         vx, vy, vz = qx - px, qy - py, qz - pz
         out_s[k], out_d2[k] = prev, vx * vx + vy * vy + vz * vz

@@ -252,7 +252,7 @@ def _clearance(kind, s0, data, bound, i, cell, closed):
     for k in range(m):
         x0, x1 = a + part * k / m, a + part * (k + 1) / m
         lo, hi = branch_range(s0, bound, closed, x1, x1, CHORD_TURN)[0], branch_range(
-            s0, bound, closed, x0, x0, CHORD_TURN)[1]  # fmt: skip
+            s0, bound, closed, x0, x0, CHORD_TURN)[1]
         lo_band = branch_range(s0, bound, closed, x0, x0, BAND_TURN)[0]
         hi_band = branch_range(s0, bound, closed, x1, x1, BAND_TURN)[1]
         px, py, pz = eval_path(kind, s0, data, x0)[:3]
@@ -481,7 +481,7 @@ def search_tree(kind, s0, data, bound, px, py, pz, windows, seed, best_s, best_d
                 continue
             if hi - lo == 1:
                 best_s, best_d2 = search_segment(kind, s0, data, bound, lo, px, py, pz, s_lo,
-                                                 s_hi, best_s, best_d2)  # fmt: skip
+                                                 s_hi, best_s, best_d2)
             k += 1
     return best_s, best_d2
 
@@ -537,7 +537,7 @@ def nearest_leaf(kind, s0, bound, px, py, pz, windows):
         in_right = (hi > a0 and mid <= b0) or (hi > a1 and mid <= b1)
         if in_left and in_right:
             go_left = (_sphere_gap(bound, n + left, px, py, pz)
-                       <= _sphere_gap(bound, n + right, px, py, pz))  # fmt: skip
+                       <= _sphere_gap(bound, n + right, px, py, pz))
         else:
             go_left = in_left
         if go_left:
@@ -580,7 +580,7 @@ def _local_window(s0, bound, px, py, pz, s_from, qx, qy, qz, s_to, closed):
     if min(lo, t) < 0.0 or max(hi, t) > length:  # across the end of a closed path
         return False, lo, hi
     here, here_left = _turn_from(s0, bound, j, s_from, False), _turn_from(s0, bound, j, s_from,
-                                                                          True)  # fmt: skip
+                                                                          True)
     ahead = _turn_from(s0, bound, j, hi, True) - here
     behind = here_left - _turn_from(s0, bound, j, lo, False)
     if t >= s_from:
@@ -673,7 +673,7 @@ def branch_has_nearer(kind, s0, data, bound, px, py, pz, s, bar):
         lo, hi = branch_range(s0, bound, closed, s, s, HALF_TURN)
     windows = branch_windows(length, closed, lo, hi)
     _, best = search_tree(kind, s0, data, bound, px, py, pz, windows, find_segment(s0, s),
-                          -1.0, bar)  # fmt: skip
+                          -1.0, bar)
     return best < bar
 
 

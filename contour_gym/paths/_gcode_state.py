@@ -88,7 +88,7 @@ class _State:
             out.rows.append(row)
             if not rapid and self.feed != self.feed:  # NaN: no F word yet
                 raise GcodeError(lineno, "F", "a feed move before any F word (program an F, "
-                                 "or pass default_feed)")  # fmt: skip
+                                 "or pass default_feed)")
             out.feeds.append(math.nan if rapid else self.feed)
             out.lines.append(lineno)
             out.rapid.append(rapid)

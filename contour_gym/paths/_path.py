@@ -261,7 +261,7 @@ class Path:
             hint = self._arc_lengths(s_hint, "s_hint", n)
             start = hint if s_from is None else self._arc_lengths(s_from, "s_from", n)
             _batch.nearest_many_hinted(t.kind, t.s0, t.data, t.bound, pts, start, hint, out_s,
-                                       out_d2)  # fmt: skip
+                                       out_d2)
         return self._signed(pts, out_s, out_d2, single)
 
     def track(

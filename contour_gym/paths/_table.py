@@ -25,7 +25,7 @@ def _frozen(arr: Any, dtype: type) -> Any:
 
 
 def build_bound(kind: IntArray, s0: FloatArray, data: FloatArray, spheres: FloatArray
-                ) -> FloatArray:  # fmt: skip
+                ) -> FloatArray:
     """A table's ``bound`` rows (:mod:`contour_gym.paths._branch`) from its segments' spheres.
 
     ``spheres``: each segment's bounding sphere ``(n, 4)``, centre xyz and radius (m).

@@ -82,7 +82,7 @@ class TimeLaw:
     def from_functions(
         cls, s_of_t: Callable[[Array], Array], v_of_t: Callable[[Array], Array],
         duration: float, dt: float = 1e-3, label: str = "",
-    ) -> TimeLaw:  # fmt: skip
+    ) -> TimeLaw:
         """Sample ``s(t)`` and ``s'(t)`` on ``[0, duration]`` (rounded up to whole steps)."""
         t = _grid(duration, dt)
         return cls(dt, np.asarray(s_of_t(t), float), np.asarray(v_of_t(t), float), label)
@@ -91,7 +91,7 @@ class TimeLaw:
     def from_speed(
         cls, speed: Callable[[Array], Array], duration: float, dt: float = 1e-3,
         label: str = "",
-    ) -> TimeLaw:  # fmt: skip
+    ) -> TimeLaw:
         """Integrate a path speed ``|dC/dt|(t)`` on ``[0, duration]``.
 
         Each grid step is integrated by 5-point Gauss-Legendre quadrature (exact to about
@@ -120,7 +120,7 @@ class TimeLaw:
             raise ValueError(f"laps must be a positive int, got {laps!r}")
         n = self.s.size - 1
         s = np.concatenate([self.s[:n] + k * self.length for k in range(laps)]
-                           + [[laps * self.length]])  # fmt: skip
+                           + [[laps * self.length]])
         v = np.concatenate([self.v[:n]] * laps + [self.v[-1:]])
         label = f"{self.label} x{laps}" if self.label else f"x{laps}"
         return TimeLaw(self.dt, s, v, label)

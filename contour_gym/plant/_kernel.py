@@ -33,14 +33,14 @@ from contour_gym._validate import number
 AXIS = Schema(
     "axis", m=1.0, b=0.0, ks=0.0, k=1.0, u_max=1.0, tau=0.0, enc=0.0, noise=0.0, nrip=0.0,
     harm=0.0, law=0.0,
-)  # fmt: skip
+)
 AX = AXIS.col
 STATE = state_schema("axis state", "x", "v", "i", "z0", "z1", "d")
 ST = STATE.col
 DISTURBANCE = Schema(
     "disturbance", step_t=Param(math.inf, number), step_a=0.0, sin_a=0.0, sin_w=0.0, sin_ph=0.0,
     rnd_std=0.0, rnd_alpha=0.0,
-)  # fmt: skip
+)
 DS = DISTURBANCE.col
 N_FR = 8  # friction-law parameter columns (the widest law's schema)
 MAX_LAWS = 4  # distinct friction laws one stage may use

@@ -160,7 +160,7 @@ class AxisParams:
             ends = as_finite_array(self.travel, f"{self.name}.travel", ndim=1)
             if ends.shape != (2,) or not ends[0] < ends[1]:
                 raise ValueError(f"{self.name}.travel must be (low, high) with low < high, m; "
-                                 f"got {self.travel!r}")  # fmt: skip
+                                 f"got {self.travel!r}")
             object.__setattr__(self, "travel", (float(ends[0]), float(ends[1])))
 
     @property

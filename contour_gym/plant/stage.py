@@ -150,7 +150,7 @@ class Stage:
         low, high = axis.travel or (0.0, 0.0)
         what = (f"the path reaches {axis.name} = {reach * 1e3:.6g} mm, outside the machine's "
                 f"{axis.name} travel [{low * 1e3:.6g}, {high * 1e3:.6g}] mm "
-                f"({self.name})")  # fmt: skip
+                f"({self.name})")
         lines = getattr(path, "segment_lines", None)
         if lines is not None:
             seg = min(int(np.searchsorted(path.table.s0, s, side="right")) - 1, len(lines) - 1)
@@ -185,7 +185,7 @@ def axis_row(axis: AxisParams, law: int = 0, *, ideal: bool = False) -> np.ndarr
         noise=0.0 if ideal else axis.noise_std,
         nrip=0 if axis.ripple is None else len(axis.ripple.wavenumber),
         harm=float(axis.ripple is not None and axis.ripple.harmonic), law=law,
-    )  # fmt: skip
+    )
 
 
 def friction_row(axis: AxisParams) -> np.ndarray:
@@ -207,7 +207,7 @@ def disturbance_row(axis: AxisParams | None, ts: float) -> np.ndarray:
         step_t=d.step_time, step_a=d.step_amp, sin_a=d.sin_amp,
         sin_w=2.0 * math.pi * d.sin_freq, sin_ph=d.sin_phase, rnd_std=d.random_std,
         rnd_alpha=math.exp(-2.0 * math.pi * d.random_bandwidth * ts),
-    )  # fmt: skip
+    )
 
 
 def zoh_matrices(ax_p: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:

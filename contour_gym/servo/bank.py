@@ -84,7 +84,7 @@ class AxisControllers:
         return (
             table(self.params), self.state.reshape(-1, self.state.shape[-1]),
             table(self.compensation), self.comp_state.reshape(-1, self.comp_state.shape[-1]),
-        )  # fmt: skip
+        )
 
     def _input(self, value: ArrayLike, name: str) -> Array:
         arr = as_finite_array(value, name)

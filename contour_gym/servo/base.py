@@ -110,7 +110,7 @@ def per_axis(value: ArrayLike, n_axes: int, name: str, *, allow_zero: bool = Fal
 def option(
     value: ArrayLike | None, default: ArrayLike, n_axes: int, name: str, *,
     allow_zero: bool = False,
-) -> Array:  # fmt: skip
+) -> Array:
     """An option given per axis (or one for all), else its default."""
     return per_axis(default if value is None else value, n_axes, name, allow_zero=allow_zero)
 

@@ -43,13 +43,13 @@ if TYPE_CHECKING:
 
 NONE, FEEDFORWARD, FEEDBACK, FEEDBACK_STATIC = 0, 1, 2, 3
 MODES = {"none": NONE, "feedforward": FEEDFORWARD, "feedback": FEEDBACK,
-         "feedback_static": FEEDBACK_STATIC}  # fmt: skip
+         "feedback_static": FEEDBACK_STATIC}
 OPTIONS = ("friction", "friction_model")
 
 PARAMS = Schema(
     "compensation", mode=0.0, inv_k=0.0, sigma0=1.0, sigma1=0.0, sigma2=0.0, fc=1.0, fs=1.0,
     vs=1.0,
-)  # fmt: skip
+)
 STATE = state_schema("compensation state", "z", "n", "y_prev")
 C, S = PARAMS.col, STATE.col
 
@@ -134,7 +134,7 @@ def compensation_rows(
         out[:, i] = PARAMS.row(
             mode=mode, inv_k=1.0 / stage.axes[i].force_constant, sigma0=fm.sigma0,
             sigma1=fm.sigma1, sigma2=fm.sigma2, fc=fm.fc, fs=fm.fs, vs=fm.vs,
-        )  # fmt: skip
+        )
     return out
 
 

@@ -48,4 +48,4 @@ def as_pid_gains(value: Any, name: str) -> PIDGains:
             return PIDGains(**value)
         raise ValueError(f"{name} needs kp and takes {', '.join(accepted)}; got {dict(value)!r}")
     raise ValueError(f"{name} must be a PIDGains or a mapping of {', '.join(accepted)}, "
-                     f"got {value!r}")  # fmt: skip
+                     f"got {value!r}")

@@ -38,7 +38,7 @@ PARAMS = Schema(
     kp=Param(check=positive, doc="1/s^2"), kd=Param(check=non_negative, doc="1/s"),
     a=Param(check=non_negative, doc="nominal damping / mass, 1/s"),
     b=Param(check=positive, doc="nominal force constant / mass"),
-)  # fmt: skip
+)
 STATE = state_schema("pd_robust state", "n", "y_prev")
 C, S = PARAMS.col, STATE.col
 
@@ -62,7 +62,7 @@ def build(
     stage: Stage, gains: Sequence[PIDGains], batch: int, *, kp: ArrayLike | None = None,
     kd: ArrayLike | None = None, mass: ArrayLike | None = None,
     damping: ArrayLike | None = None, force_constant: ArrayLike | None = None,
-) -> np.ndarray:  # fmt: skip
+) -> np.ndarray:
     """The defaults of the module docstring, any option overridden."""
     n, d = stage.n_axes, smc_defaults(stage, gains, observer=True)
     layer = d["reaching"] + d["eta"] / d["phi"]  # smc_dob's gain on S inside its layer
@@ -70,7 +70,7 @@ def build(
     return rows(
         PARAMS, batch, n, kp=option(kp, d["c"] * layer, n, "kp"),
         kd=option(kd, d["c"] + layer, n, "kd"), a=a, b=b,
-    )  # fmt: skip
+    )
 
 
 CONTROLLER = register_controller(

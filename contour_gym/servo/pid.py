@@ -66,7 +66,7 @@ def pid_params(gains: Sequence[PIDGains], batch: int) -> np.ndarray:
     return rows(
         PARAMS, batch, len(gains), kp=[g.kp for g in gains], ki=[g.ki for g in gains],
         kd=[g.kd for g in gains], kff=[g.kff for g in gains],
-    )  # fmt: skip
+    )
 
 
 def build(stage: Stage, gains: Sequence[PIDGains], batch: int) -> np.ndarray:

@@ -157,7 +157,7 @@ def _build(
     phi: ArrayLike | None = None, observer_gain: ArrayLike | None = None,
     mass: ArrayLike | None = None, damping: ArrayLike | None = None,
     force_constant: ArrayLike | None = None,
-) -> np.ndarray:  # fmt: skip
+) -> np.ndarray:
     n, d = stage.n_axes, smc_defaults(stage, gains, observer)
     if not observer and observer_gain is not None:
         raise ValueError("smc has no observer; use smc_dob to set observer_gain")
@@ -172,7 +172,7 @@ def _build(
         reaching=option(reaching, d["reaching"], n, "reaching", allow_zero=True),
         eta=option(eta, d["eta"], n, "eta"), phi=option(phi, d["phi"], n, "phi"),
         observer_gain=gain, a=a, b=b,
-    )  # fmt: skip
+    )
 
 
 def build_dob(
@@ -181,12 +181,12 @@ def build_dob(
     phi: ArrayLike | None = None, observer_gain: ArrayLike | None = None,
     mass: ArrayLike | None = None, damping: ArrayLike | None = None,
     force_constant: ArrayLike | None = None,
-) -> np.ndarray:  # fmt: skip
+) -> np.ndarray:
     """``smc_dob`` rows: the defaults of the module docstring, any option overridden."""
     return _build(
         stage, gains, batch, observer=True, c=c, reaching=reaching, eta=eta, phi=phi,
         observer_gain=observer_gain, mass=mass, damping=damping, force_constant=force_constant,
-    )  # fmt: skip
+    )
 
 
 def build_plain(
@@ -195,12 +195,12 @@ def build_plain(
     phi: ArrayLike | None = None, observer_gain: ArrayLike | None = None,
     mass: ArrayLike | None = None, damping: ArrayLike | None = None,
     force_constant: ArrayLike | None = None,
-) -> np.ndarray:  # fmt: skip
+) -> np.ndarray:
     """``smc`` rows (no observer, 001's large switching gain)."""
     return _build(
         stage, gains, batch, observer=False, c=c, reaching=reaching, eta=eta, phi=phi,
         observer_gain=observer_gain, mass=mass, damping=damping, force_constant=force_constant,
-    )  # fmt: skip
+    )
 
 
 SMC_DOB = register_controller(

@@ -108,7 +108,7 @@ def build(
     stage: Stage, gains: Sequence[PIDGains], batch: int, *, kp: ArrayLike | None = None,
     ti: ArrayLike | None = None, td: ArrayLike | None = None, alpha: ArrayLike | None = None,
     beta: ArrayLike | None = None,
-) -> np.ndarray:  # fmt: skip
+) -> np.ndarray:
     """The preset's PID as a 2-DOF PID, any of the five numbers overridden per axis."""
     values = values_of(gains)
     for j, (name, given) in enumerate(zip(NAMES, (kp, ti, td, alpha, beta), strict=True)):

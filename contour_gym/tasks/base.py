@@ -153,7 +153,7 @@ TASKS: Registry[Task] = Registry("task")  # the built-ins register on import (co
 TASK_FAMILY = Family(
     "task", {"TASK_APPLY": attrgetter("apply"), "TASK_OBSERVE": attrgetter("observe")},
     TASKS.components,
-)  # fmt: skip
+)
 
 
 def register_task(task: Task, *, replace: bool = False) -> Task:

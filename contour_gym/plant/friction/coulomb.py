@@ -56,4 +56,4 @@ LAW = register_friction_law(
         scale=("fc", "fs"), break_away=lambda m: m.static,
         values=lambda m: {"fc": m.fc, "fs": m.static},
     )
-)  # fmt: skip
+)

@@ -63,7 +63,7 @@ class LuGreFriction:
         return PARAMS.row(
             sigma0=self.sigma0, sigma1=self.sigma1, sigma2=self.sigma2, fc=self.fc, fs=self.fs,
             vs=self.vs,
-        )  # fmt: skip
+        )
 
 
 PARAMS = Schema(

@@ -47,7 +47,7 @@ PARAMS = Schema(
     "stribeck",
     fc=Param(check=non_negative), fs=Param(check=non_negative), vs=Param(check=positive),
     delta=Param(2.0, positive), fv=Param(0.0, non_negative),
-)  # fmt: skip
+)
 C = PARAMS.col
 
 
