@@ -20,6 +20,7 @@ import os
 import shutil
 import tempfile
 import threading
+from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
@@ -203,3 +204,26 @@ def mark_compiled(module: ModuleType) -> None:
     if not marker.exists():
         with contextlib.suppress(OSError):
             marker.touch()
+
+
+@contextlib.contextmanager
+def locked(path: Path | str, wait: bool = True) -> Iterator[bool]:
+    """Hold an exclusive lock on the file ``path`` for the block; yields whether it got it.
+
+    Args:
+        path: The lock file (created if missing).
+        wait: Wait until the lock is free; else give up at once if another process holds it.
+            Without ``fcntl`` (Windows) the lock is never got: waiting blocks run unlocked.
+    """
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows
+        yield wait
+        return
+    with open(path, "a") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
+        except OSError:
+            yield False
+            return
+        yield True

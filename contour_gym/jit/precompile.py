@@ -14,7 +14,6 @@ user's script).
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import importlib
 import os
@@ -22,7 +21,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
@@ -31,6 +30,8 @@ import numba
 
 from contour_gym import jit
 from contour_gym._registry import Registry
+from contour_gym.jit.cache import locked
+from contour_gym.jit.progress import Line
 from contour_gym.jit.stack import on_reserved_stack
 
 IN_WORKER = "CONTOUR_GYM_COMPILE_WORKER"  # set in the workers: they compile in-process
@@ -141,7 +142,7 @@ def compile_builtins(
         return []  # a worker compiles in its own process, by running its warm-up
     if not pending(names):
         return []
-    with _locked(jit.generated_dir() / "compile.lock"):
+    with locked(jit.generated_dir() / "compile.lock"):  # one compiling process per folder
         todo = pending(names)  # another process may have compiled them meanwhile
         if todo:
             _run_all(todo, max(1, workers or os.cpu_count() or 1), progress)
@@ -189,15 +190,13 @@ def _run_all(todo: list[str], workers: int, progress: bool) -> None:
                                        f"(exit code {proc.returncode}):\n{err}")
                 if bar:
                     bar.finish(name)
-            if bar:
-                bar.tick()
     finally:
         for proc in running.values():
             proc.kill()
         for handle in errors.values():
             handle.close()
         if bar:
-            bar.close()
+            bar.line.close()
 
 
 def _ready(name: str, waiting: list[str], running: Mapping[str, object]) -> bool:
@@ -221,22 +220,6 @@ def expected_seconds(todo: Sequence[str], workers: int) -> float:
     return clock
 
 
-@contextlib.contextmanager
-def _locked(path: Path) -> Iterator[None]:
-    # one compiling process per cache folder; the others wait, then find the work done
-    with open(path, "a") as handle:
-        try:
-            import fcntl
-        except ImportError:  # pragma: no cover - Windows: no lock, at worst work done twice
-            yield
-            return
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
-
-
 _ENSURED: set[str] = set()
 
 
@@ -252,13 +235,10 @@ class _Bar:
     """The progress bar: warm-ups done of all, the ones compiling now, the time so far."""
 
     def __init__(self, todo: list[str], expected: float) -> None:
-        from tqdm.auto import tqdm
-
         self.running: list[str] = []
         about = f"about {expected:.0f} s" if expected < 120 else f"about {expected / 60:.0f} min"
         desc = f"contour-gym: compiling kernels, first run only ({about} on 2 cores)"
-        self.bar = tqdm(total=len(todo), unit="group", file=sys.stderr, desc=desc,
-                        bar_format="{desc}: {n}/{total} groups [{elapsed}] {postfix}")
+        self.line = Line(desc, "{desc}: {n}/{total} groups [{elapsed}] {postfix}", len(todo))
 
     def start(self, name: str) -> None:
         self.running.append(name)
@@ -266,19 +246,12 @@ class _Bar:
 
     def finish(self, name: str) -> None:
         self.running.remove(name)
-        self.bar.update(1)
+        self.line.bar.update(1)
         self._show()
-
-    def tick(self) -> None:
-        if sys.stderr.isatty():  # the elapsed time, redrawn in place (a log gets updates only)
-            self.bar.refresh()
 
     def _show(self) -> None:
         now = ", ".join(WARMUPS.get(n).doc or n for n in self.running)
-        self.bar.set_postfix_str(f"now: {now}" if now else "", refresh=True)
-
-    def close(self) -> None:
-        self.bar.close()
+        self.line.show(f"now: {now}" if now else "", refresh=True)
 
 
 # --------------------------------------------------------------------------------------

@@ -22,37 +22,56 @@ OWN_KERNEL_SECONDS = 20.0
 19 s), for the progress line."""
 
 
-class _Progress(event.Listener):
-    """A progress line on stderr while numba compiles: what, how long to expect, the time so far."""
+class Line:
+    """A tqdm line on stderr, redrawn every half second on a terminal (a log gets changes only).
 
-    def __init__(self, label: str) -> None:
+    Args:
+        desc: What it shows first.
+        bar_format: tqdm's format.
+        total: Steps to count (None: none).
+    """
+
+    def __init__(self, desc: str, bar_format: str, total: int | None = None) -> None:
         from tqdm.auto import tqdm
 
-        desc = (f"contour-gym: compiling {label} "
-                f"(first run only, about {OWN_KERNEL_SECONDS:.0f} s on 2 cores)")
-        self.bar = tqdm(total=None, file=sys.stderr, desc=desc,
-                        bar_format="{desc} [{elapsed}] {postfix}")
+        self.bar = tqdm(total=total, file=sys.stderr, desc=desc, bar_format=bar_format,
+                        unit="group")
         self.stop = threading.Event()
         self.thread = threading.Thread(target=self._tick, daemon=True)
         self.thread.start()
 
     def _tick(self) -> None:
         while not self.stop.wait(0.5):
-            if sys.stderr.isatty():  # redrawn in place; a log file gets the start and end
+            if sys.stderr.isatty():
                 self.bar.refresh()
+
+    def show(self, text: str, refresh: bool = False) -> None:
+        """Set the text after the time."""
+        self.bar.set_postfix_str(text, refresh=refresh)
+
+    def close(self, text: str | None = None) -> None:
+        """Stop redrawing; show ``text`` last."""
+        self.stop.set()
+        self.thread.join()
+        if text is not None:
+            self.show(text)
+        self.bar.close()
+
+
+class _Progress(event.Listener):
+    """A progress line while numba compiles: what, how long to expect, the time so far."""
+
+    def __init__(self, label: str) -> None:
+        desc = (f"contour-gym: compiling {label} "
+                f"(first run only, about {OWN_KERNEL_SECONDS:.0f} s on 2 cores)")
+        self.line = Line(desc, "{desc} [{elapsed}] {postfix}")
 
     def on_start(self, ev: event.Event) -> None:
         func = getattr(ev.data.get("dispatcher"), "py_func", None)
-        self.bar.set_postfix_str(f"now: {getattr(func, '__qualname__', '?')}", refresh=False)
+        self.line.show(f"now: {getattr(func, '__qualname__', '?')}")
 
     def on_end(self, ev: event.Event) -> None:
         pass
-
-    def close(self) -> None:
-        self.stop.set()
-        self.thread.join()
-        self.bar.set_postfix_str("done", refresh=False)
-        self.bar.close()
 
 
 @contextlib.contextmanager
@@ -70,7 +89,7 @@ def compiling(label: str, show: bool = True) -> Iterator[None]:
         with event.install_listener("numba:compile", progress):
             yield
     finally:
-        progress.close()
+        progress.line.close("done")
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,6 @@ next run asks again). Set ``CONTOUR_GYM_BACKGROUND=0`` to turn them off.
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import os
 import pickle
@@ -35,7 +34,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 from typing import Protocol
@@ -44,6 +43,7 @@ import numba
 
 from contour_gym import jit
 from contour_gym.jit import precompile
+from contour_gym.jit.cache import locked
 from contour_gym.jit.stack import on_reserved_stack
 
 BACKGROUND = "CONTOUR_GYM_BACKGROUND"  # "0": no background compiles
@@ -138,7 +138,8 @@ def _detach(
     script = "\n".join([
         "import os", "os.nice(19)", "from contour_gym.jit import tiers",
         f"tiers._watch({str(jit.generated_dir())!r})",
-        f"with tiers._holding({str(lock)!r}) as held:", f"    tiers.{func}({arg!r}, held)",
+        f"with tiers.locked({str(lock)!r}, wait=False) as held:",
+        f"    tiers.{func}({arg!r}, held)",
     ])
     process = subprocess.Popen(
         [sys.executable, "-c", script], env=full, stdin=subprocess.DEVNULL,
@@ -169,32 +170,9 @@ def _lock(slot: str) -> Path:
 
 
 def _busy(lock: Path) -> bool:
-    # whether a background process holds this slot's lock (a non-blocking probe)
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - Windows: no background compiles
-        return True
-    with open(lock, "a") as handle:
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            return True
-        fcntl.flock(handle, fcntl.LOCK_UN)
-    return False
-
-
-@contextlib.contextmanager
-def _holding(lock: str) -> Iterator[bool]:
-    """Hold the slot's lock for a background process's lifetime; whether it got it."""
-    import fcntl
-
-    with open(lock, "a") as handle:
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            yield False
-            return
-        yield True
+    # whether a background process holds this slot's lock (a probe that never waits)
+    with locked(lock, wait=False) as got:
+        return not got
 
 
 def _builtins_main(warmup: str, held: bool = True) -> None:
