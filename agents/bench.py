@@ -56,7 +56,7 @@ from typing import Any
 
 import numpy as np
 
-from agents._files import write_atomically, write_handle_atomically
+from agents._files import write_atomically, write_handle_atomically, write_text
 from agents.bench_plots import scenario_plots
 from agents.evaluate import env_arguments, make_vector_env, run_episodes
 from agents.generalization import format_value, summary_rows
@@ -163,10 +163,6 @@ def evaluate_cell(scenario: ScenarioSpec, spec: PolicySpec, envs: EnvPool) -> Ce
 
 
 # ------------------------------------------------------------------------- the run folder
-def _write_text(target: Path, text: str) -> None:
-    write_atomically(target, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
-
-
 class RunFolder:
     """A run's folder: the suite's identity, the cells, the plots and the tables.
 
@@ -200,9 +196,9 @@ class RunFolder:
         if not (self.root / "suite.json").is_file():
             identity = {"name": self.suite.name, "source": str(self.suite.source),
                         "hash": self.suite.digest}
-            _write_text(self.root / "suite.json", json.dumps(identity, indent=1) + "\n")
+            write_text(self.root / "suite.json", json.dumps(identity, indent=1) + "\n")
         if not (self.root / "suite.yaml").is_file():
-            _write_text(self.root / "suite.yaml", self.suite.text)
+            write_text(self.root / "suite.yaml", self.suite.text)
 
     def cell_file(self, scenario: str, policy: str, suffix: str = ".json") -> Path:
         """Where a cell's record (``.json``) or trace (``.npz``) lives."""
@@ -256,7 +252,7 @@ class RunFolder:
                   "suite_hash": self.suite.digest, "wall_time": cell.wall_time,
                   "episodes": cell.episodes}
         text = json.dumps(record, indent=1, default=repr)
-        _write_text(self.cell_file(cell.scenario, cell.policy), text)
+        write_text(self.cell_file(cell.scenario, cell.policy), text)
 
     def load(self, scenario: str, policy: str, with_trace: bool = True) -> Cell:
         """A finished cell read back (its trace too, if asked and its file is there)."""
@@ -498,8 +494,8 @@ def run_suite(
     markdown = markdown_table(suite, rows)
     if suite.summary == "paths":
         markdown += "\n## Per path, by machine\n\n" + summary_markdown(summary_rows(suite, cells))
-    _write_text(folder.root / "results.md", markdown)
-    _write_text(folder.root / "results.csv", csv_table(rows))
+    write_text(folder.root / "results.md", markdown)
+    write_text(folder.root / "results.csv", csv_table(rows))
     return BenchResult(folder.root, rows, markdown, computed, time.perf_counter() - start)
 
 

@@ -28,7 +28,7 @@ from pathlib import Path as FilePath
 
 import numpy as np
 
-from agents._files import save_figure
+from agents._files import output_file, output_folder, save_figure
 from agents.parallel import exit_quickly
 from agents.rl.algorithms import ALGORITHMS
 from contour_gym import precompile
@@ -471,6 +471,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             warnings.showwarning = _show_warning
             # the -v0 ids stay supported beside -v1 (the shipped agents were trained on them)
             warnings.filterwarnings("ignore", message=r".*contour_gym/\S+-v0 is out of date")
+            _check_outputs(args)
             return command(args)
     except InputFileError as exc:
         print(exc, file=sys.stderr)
@@ -482,6 +483,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"contour-gym: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 1
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Refuse an ``--out`` where nothing may be written, before any work (agents._files)."""
+    if args.command == "simulate":
+        output_file(args.out, "--out")
+    elif args.out is not None:
+        output_folder(args.out, "--out")
 
 
 def _show_warning(message: Warning | str, *_: object, **__: object) -> None:

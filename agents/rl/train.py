@@ -54,7 +54,7 @@ import yaml
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 
 import contour_gym  # noqa: F401  (registers the ids)
-from agents._files import save_figure, write_atomically, write_handle_atomically
+from agents._files import save_figure, write_atomically, write_handle_atomically, write_text
 from agents.evaluate import run_policy_batch
 from agents.rl.algorithms import algorithm
 from agents.rl.config import RunConfig, algo_class, dump_block, load_config
@@ -163,8 +163,8 @@ def _new_run_folder(run: Path, config: RunConfig, args: dict[str, Any], command:
                          "another out_dir or seed")
     run.mkdir(parents=True, exist_ok=True)
     args["command"] = command
-    (run / "config.yml").write_text(dump_block(config), encoding="utf-8")
-    (run / "args.yml").write_text(yaml.safe_dump(args, sort_keys=False), encoding="utf-8")
+    write_text(run / "config.yml", dump_block(config))
+    write_text(run / "args.yml", yaml.safe_dump(args, sort_keys=False))
     return run
 
 
@@ -188,7 +188,7 @@ def _resume(run: Path, total_timesteps: int | None, progress: bool, threads: int
     total = args["total_timesteps"] if total_timesteps is None else total_timesteps
     if total != args["total_timesteps"]:  # the run's target is now the new one
         args["total_timesteps"] = _positive(total, "total_timesteps")
-        args_file.write_text(yaml.safe_dump(args, sort_keys=False), encoding="utf-8")
+        write_text(args_file, yaml.safe_dump(args, sort_keys=False))
     _set_threads(threads)
     try:
         model = load_checkpoint(run, config, checkpoint, args["seed"])

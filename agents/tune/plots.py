@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from agents._files import save_figure
 from agents.tune.result import TuneResult
 
 
@@ -32,7 +33,7 @@ def write_plots(result: TuneResult, folder: str | os.PathLike[str]) -> list[Path
            title=f"tune {result.protocol}: {result.optimizer}, seed {result.seed}")
     ax.grid(True, alpha=0.3)
     written = [folder / "convergence.png"]
-    fig.savefig(written[0], dpi=120)
+    save_figure(fig, written[0])
     sched = result.settings.get("schedules")
     if sched is not None:
         arr = np.asarray(sched)
@@ -45,5 +46,5 @@ def write_plots(result: TuneResult, folder: str | os.PathLike[str]) -> list[Path
         ax.legend()
         ax.grid(True, alpha=0.3)
         written.append(folder / "schedules.png")
-        fig.savefig(written[-1], dpi=120)
+        save_figure(fig, written[-1])
     return written

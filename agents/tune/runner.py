@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from agents._files import write_atomically
+from agents._files import write_text
 from agents.optim import OPTIMIZERS, OptimResult, minimize, options_of
 from agents.optim._base import make_rng, positive_int
 from agents.optim.pso import schedules
@@ -357,7 +357,7 @@ def check_run_folder(folder: Path, overwrite: bool) -> None:
 def _write_json(target: Path, data: Mapping[str, Any]) -> None:
     """Write ``data`` as JSON, whole or not at all (:func:`agents._files.write_atomically`)."""
     text = json.dumps(data, indent=2) + "\n"
-    write_atomically(target, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+    write_text(target, text)
 
 
 def compare(
