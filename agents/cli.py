@@ -272,10 +272,14 @@ def read_part(args: argparse.Namespace) -> GcodePath:
     except OSError as exc:
         raise InputFileError(f"{name}: {exc.strerror or exc}") from None
     with _naming(name):
-        return from_gcode(text, work_offsets=dict(args.work_offset) or None,
+        part = from_gcode(text, work_offsets=dict(args.work_offset) or None,
                           tool_lengths=dict(args.tool_length) or None, cut_z=args.cut_z * 1e-3,
                           default_feed=None if args.default_feed is None else
                           args.default_feed * 1e-3 / 60.0)
+    if not np.any(part.cutting):
+        raise InputFileError(f"{name}: nothing to cut: every move is a rapid (G0), or above "
+                             f"--cut-z {args.cut_z:g} mm on a 3-D program")
+    return part
 
 
 @contextmanager

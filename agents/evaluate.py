@@ -181,8 +181,10 @@ def _episodes(venv: Any, policy: Policy, obs: Mapping[str, Any], n: int) -> dict
         "truncated": np.zeros(n, dtype=bool), "steps": np.zeros(n, dtype=np.int64),
     }
     metrics: dict[str, NDArray[Any]] = {}
+    step = 0
     while live.any():
-        obs, reward, terminated, truncated, info = venv.step(policy.act(obs))
+        obs, reward, terminated, truncated, info = venv.step(_checked(policy, obs, venv, step))
+        step += 1
         out["return"][live] += reward[live]
         out["steps"][live] += 1
         ended = live & (terminated | truncated)
@@ -194,6 +196,21 @@ def _episodes(venv: Any, policy: Policy, obs: Mapping[str, Any], n: int) -> dict
                     metrics.setdefault(key, np.zeros_like(value))[ended] = value[ended]
         live &= ~ended
     return {**metrics, **out}
+
+
+def _checked(policy: Policy, obs: Mapping[str, Any], venv: Any, step: int) -> NDArray[Any]:
+    # the policy's actions, refused naming the policy, the scenario and the step if not finite
+    actions = np.asarray(policy.act(obs), dtype=float)
+    bad = ~np.isfinite(actions).reshape(len(actions), -1).all(axis=1)
+    if bad.any():
+        member = int(np.argmax(bad))
+        task = getattr(venv, "task", None)
+        where = (f"{task.scenario.preset.name} on {task.loop.paths[member].name}"
+                 if task is not None else "its env")
+        raise ValueError(f"policy {getattr(policy, 'name', type(policy).__name__)!r} returned "
+                         f"a non-finite action {actions[member].tolist()} at step {step} of "
+                         f"member {member} ({where})")
+    return actions
 
 
 def run_policy(

@@ -367,3 +367,59 @@ def test_a_path_well_inside_the_travel_is_passed_without_evaluating_it(monkeypat
     monkeypatch.setattr(type(path), "point", lambda *a, **k: pytest.fail("evaluated"))
     assert isinstance(path, PathClass)
     get_preset("xy_dc_servo").stage.check_travel(path)  # bounding spheres suffice
+
+
+# ------------------------------------------------------------------ issue 63: silently wrong
+@pytest.mark.parametrize("options", [{"bogus": 1}, {"reset_mask": None, "seed": 3}])
+def test_unknown_reset_options_are_refused_by_name(options: dict[str, object]) -> None:
+    from contour_gym.envs import CCCVectorEnv
+
+    env = CCCEnv()
+    with pytest.raises(ValueError, match=r"unknown reset option.*: it takes keep_paths$"):
+        env.reset(seed=0, options=options)
+    venv = CCCVectorEnv(num_envs=2)
+    with pytest.raises(ValueError, match=r"option\(s\) \['(bogus|seed)'\]: it takes reset_mask"):
+        venv.reset(seed=0, options=options)
+    env.reset(seed=0, options={})  # nothing asked: fine
+
+
+def test_a_program_with_a_byte_order_mark_reads_as_without(tmp_path: Path) -> None:
+    text = "G21 G90\nG1 X10 Y0 F600\nG1 X10 Y10\n"
+    plain = from_gcode(text)
+    marked = from_gcode("\ufeff" + text)
+    np.testing.assert_array_equal(marked.table.data, plain.table.data)
+    part = tmp_path / "bom.nc"
+    part.write_bytes(b"\xef\xbb\xbf" + text.encode())
+    assert main(["simulate", "--gcode", str(part), "--out", str(tmp_path / "p.png")]) == 0
+
+
+@pytest.mark.parametrize("word, plain", [("F1e12", "1000000000000"), ("X1.5E-3", "0.0015")])
+def test_a_number_with_an_exponent_is_refused_as_a_number(word: str, plain: str) -> None:
+    with pytest.raises(contour_gym.paths.GcodeError, match=f"{word}: G-code numbers have no "
+                                                           f"exponent; write {plain} out"):
+        from_gcode(f"G21\nG1 X1 Y1 F600\nG1 {word} Y2\n")
+
+
+def test_a_program_of_rapids_only_has_nothing_to_cut(tmp_path: Path, capsys) -> None:
+    part = tmp_path / "rapids.nc"
+    part.write_text("G21\nG0 X10 Y0\nG0 X10 Y10\n")
+    assert main(["simulate", "--gcode", str(part), "--out", str(tmp_path / "p.png")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"{part}: nothing to cut")
+
+
+def test_a_policy_returning_nan_is_named_with_its_scenario() -> None:
+    from agents.evaluate import run_policy
+    from agents.policy_base import Policy
+
+    class NanPolicy(Policy):
+        name = "my_nan_policy"
+        tasks = ("ccc",)
+
+        def act(self, obs):  # type: ignore[no-untyped-def]
+            return np.full((len(obs["contour_error"]), 3), np.nan)
+
+    with pytest.raises(ValueError, match=r"policy 'my_nan_policy' returned a non-finite action "
+                                         r"\[nan, nan, nan\] at step 0 of member 0 "
+                                         r"\(xy_dc_servo on circle_r10\)"):
+        run_policy("contour_gym/CCC-v1", NanPolicy())

@@ -125,7 +125,17 @@ class ContourEnv(GainsMap, gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, NDArray[np.float32]], dict[str, Any]]:
-        """Start an episode at the path start (see the class docstring)."""
+        """Start an episode at the path start (see the class docstring).
+
+        ``options["keep_paths"]`` is the vector env's (it acts on auto-resets, which a single env
+        has none of): accepted so that a vector env's options pass through wrappers such as
+        Gymnasium's ``SyncVectorEnv``, and the path is drawn as without it.
+
+        Raises:
+            ValueError: for a ``keep_paths`` that is not a bool, or another option.
+        """
+        _check_options(options, ("keep_paths",))
+        _keep_paths(options)
         super().reset(seed=seed)
         self.task.reset_members(np.array([0]), [self.np_random])
         self._needs_reset = False
@@ -163,6 +173,21 @@ def _show(image: NDArray[np.uint8]) -> None:
     plt.imshow(image)
     plt.axis("off")
     plt.pause(0.001)
+
+
+VECTOR_RESET_OPTIONS = ("reset_mask", "keep_paths")
+
+
+def _check_options(options: dict[str, Any] | None, known: tuple[str, ...]) -> None:
+    """Refuse reset options other than ``known``, naming them and what is accepted."""
+    if options is None:
+        return
+    if not isinstance(options, dict):
+        raise ValueError(f"reset options must be a dict, got {options!r}")
+    unknown = sorted(set(options) - set(known), key=str)
+    if unknown:
+        takes = f"it takes {', '.join(known)}"
+        raise ValueError(f"unknown reset option(s) {unknown}: {takes}")
 
 
 def _reset_mask(options: dict[str, Any] | None, n: int) -> NDArray[np.bool_] | None:
@@ -256,10 +281,11 @@ class ContourVectorEnv(GainsMap, VectorEnv):
         ``options["keep_paths"]`` (a full reset's): see the class docstring.
 
         Raises:
-            ValueError: for a reset mask that is not a bool array (num_envs,) with a True, or
-                a ``keep_paths`` that is not a bool.
+            ValueError: for a reset mask that is not a bool array (num_envs,) with a True, a
+                ``keep_paths`` that is not a bool, or another option.
             ResetNeeded: for a partial reset without a seed before the first full reset.
         """
+        _check_options(options, VECTOR_RESET_OPTIONS)
         mask = _reset_mask(options, self.num_envs)
         keep = _keep_paths(options)
         if mask is None:

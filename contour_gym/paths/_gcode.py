@@ -202,6 +202,7 @@ def from_gcode(text: str, *, start: ArrayLike = (0.0, 0.0, 0.0),
     """
     if not isinstance(text, str):
         raise ValueError(f"text must be a str, got {type(text).__name__}")
+    text = text.removeprefix("\ufeff")  # a byte-order mark some editors write first
     p0 = as_finite_array(start, "start", ndim=1)
     if p0.shape[0] not in (2, 3):
         raise ValueError(f"start must be a 2-D or 3-D point, got shape {p0.shape}")

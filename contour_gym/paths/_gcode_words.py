@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
+from decimal import Decimal
 from typing import Any
 
 _WORD = re.compile(r"\s*([A-Za-z])\s*([+-]?(?:\d+\.?\d*|\.\d+))", re.ASCII)  # ASCII digits only
+_EXPONENT = re.compile(r"[eE][+-]?\d+", re.ASCII)  # right after a number: 1e12
 _O_WORD = re.compile(r"O\s*(\d+|<[^>]*>)\s*(.*)$", re.IGNORECASE | re.ASCII)
 _MACRO = re.compile(r"[A-Za-z]?\s*#\s*(?:<[^>]*>|\d+)?", re.ASCII)
 _EXPR = re.compile(r"[A-Za-z]*\s*\[[^\]]*\]?")
@@ -122,9 +124,19 @@ def _tokens(line: str, lineno: int) -> list[tuple[str, float]]:
             if not rest:
                 break
             raise GcodeError(lineno, rest, f"cannot read {rest!r}")
+        exponent = _EXPONENT.match(line, m.end())
+        if exponent is not None:  # F1e12: the controller would read F1 and an E word
+            word = m.group(0).strip() + exponent.group(0)
+            raise GcodeError(lineno, word, f"{word}: G-code numbers have no exponent; write "
+                                           f"{_plain(m.group(2) + exponent.group(0))} out")
         words.append((m.group(1).upper(), float(m.group(2))))
         pos = m.end()
     return words
+
+
+def _plain(number: str) -> str:
+    # a number with an exponent in plain digits: "1e12" -> "1000000000000"
+    return format(Decimal(number).normalize(), "f")
 
 
 def _add_g(blk: _Block, num: float) -> None:
