@@ -7,6 +7,12 @@ statistics; absent when trained without normalisation) and ``meta.yaml``::
     env_id: contour_gym/CCC-Circle-v0
     env_kwargs: {randomize: true}      # the training env's
     command: python -m agents.rl.train_shipped ppo_ccc_circle
+    files: {model.zip: <sha256>, vecnormalize.pkl: <sha256>}   # every file the agent needs
+
+Before the model is first read, every file ``files`` lists must be there with its checksum: a
+missing or changed file is refused naming it (an agent without its statistics would act on
+raw observations, and worse). A folder whose ``meta.yaml`` lists no files (written before they
+were recorded) loads with a warning; :func:`record_files` records them.
 
 Every folder under ``agents/trained/`` is registered as a policy by its name
 (:func:`register_saved_agents`, run when :mod:`agents.policies` is imported), so
@@ -28,7 +34,9 @@ from __future__ import annotations
 
 import enum
 import functools
+import hashlib
 import pickle
+import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -37,6 +45,7 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
+from agents._files import write_text
 from agents.parallel import limit_new_torch
 from agents.policy_base import (
     POLICIES,
@@ -391,10 +400,26 @@ class SavedAgent(SB3Policy):
                          self._algo.recurrent)
 
     def _read(self) -> None:
-        """Read the model (loaded to act) and its normalizer: when first needed (class doc)."""
+        """Read the model (loaded to act) and its normalizer: when first needed (class doc).
+
+        Raises:
+            ValueError: naming the agent and the file, for a file ``meta.yaml`` lists that is
+                missing or changed, or one that cannot be read.
+        """
         model, stats = self.folder / MODEL_FILE, self.folder / STATS_FILE
-        self._model, self._normalizer = _loaded(self._algo, model, _stamp(model), stats,
-                                                _stamp(stats))
+        listed = self.meta.get("files")
+        if listed is None:
+            warnings.warn(f"agent {self.folder.name!r}: {self.folder / META_FILE} lists no files "
+                          "to check; agents.rl.saved.record_files(folder) records them",
+                          stacklevel=2)
+        else:
+            _verified(self.folder, tuple(sorted(listed.items())), _stamps(self.folder, listed))
+        try:
+            self._model, self._normalizer = _loaded(self._algo, model, _stamp(model), stats,
+                                                    _stamp(stats))
+        except Exception as exc:  # a file SB3 or pickle cannot read, whatever it raises
+            raise ValueError(f"agent {self.folder.name!r}: cannot load {model} or {stats}: "
+                             f"{type(exc).__name__}: {exc}") from exc
         limit_new_torch()  # torch may have been imported just now, inside a unit
 
     def _interface(self) -> dict[str, Any]:
@@ -413,6 +438,41 @@ class SavedAgent(SB3Policy):
     def env_id(self) -> str:
         """The id the agent was trained on."""
         return str(self.meta["env_id"])
+
+
+def file_digest(path: Path) -> str:
+    """The SHA-256 of a file's bytes, in hex."""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def record_files(folder: str | Path) -> dict[str, str]:
+    """Record in ``folder``'s ``meta.yaml`` the checksum of each file the agent has; them.
+
+    The model and, if present, its statistics: saved that way, loading refuses the agent
+    when either is later missing or changed.
+    """
+    folder = Path(folder)
+    meta = read_meta(folder)
+    meta["files"] = {name: file_digest(folder / name) for name in (MODEL_FILE, STATS_FILE)
+                     if (folder / name).is_file()}
+    write_text(folder / META_FILE, yaml.safe_dump(meta, sort_keys=False))
+    return dict(meta["files"])
+
+
+def _stamps(folder: Path, listed: Mapping[str, str]) -> tuple[object, ...]:
+    return tuple(_stamp(folder / name) for name in sorted(listed))
+
+
+@functools.lru_cache(maxsize=64)
+def _verified(folder: Path, listed: tuple[tuple[str, str], ...], stamps: object) -> None:
+    """Check each listed file is there with its checksum (once while the files are unchanged)."""
+    for name, digest in listed:
+        path = folder / name
+        if not path.is_file():
+            raise ValueError(f"agent {folder.name!r}: {path} is missing ({META_FILE} lists it)")
+        if file_digest(path) != digest:
+            raise ValueError(f"agent {folder.name!r}: {path} is corrupt or changed since the "
+                             f"agent was saved (its SHA-256 is not the one {META_FILE} lists)")
 
 
 def _stamp(path: Path) -> tuple[int, int] | None:
@@ -493,6 +553,11 @@ def read_meta(folder: Path) -> dict[str, Any]:
         raise ValueError(f"{path}: must be a mapping with 'algo' and 'env_id' strings")
     if not isinstance(meta.get("env_kwargs") or {}, dict):
         raise ValueError(f"{path}: env_kwargs must be a mapping")
+    files = meta.get("files")
+    if files is not None and not (isinstance(files, dict) and MODEL_FILE in files and all(
+            isinstance(k, str) and isinstance(v, str) and len(v) == 64 for k, v in files.items())):
+        raise ValueError(f"{path}: files must map each file name (model.zip among them) to "
+                         "its SHA-256 in hex")
     return meta
 
 

@@ -34,9 +34,9 @@ from typing import Any
 
 import yaml
 
-from agents._files import write_atomically
+from agents._files import write_atomically, write_text
 from agents.rl.algorithms import ALGORITHMS
-from agents.rl.saved import META_FILE, MODEL_FILE, STATS_FILE, TRAINED_DIR
+from agents.rl.saved import META_FILE, MODEL_FILE, STATS_FILE, TRAINED_DIR, file_digest
 from agents.rl.train import (
     BEST_META,
     BEST_MODEL,
@@ -145,9 +145,11 @@ def export_agent(run: Path, dest: Path, command: str,
     best = (run / BEST_MODEL).is_file()  # the best evaluation's model, else the final one
     pairs = ((BEST_MODEL, MODEL_FILE), (BEST_STATS, STATS_FILE)) if best else (
         (MODEL_FILE, MODEL_FILE), (STATS_FILE, STATS_FILE))
-    for src, file in pairs:  # each whole or not at all
+    for src, file in pairs:  # each whole or not at all; none left of an earlier export
         if (run / src).is_file():
             _copy_atomically(run / src, dest / file)
+        else:
+            (dest / file).unlink(missing_ok=True)
     curve = read_curve(run / "eval.csv")
     selected = yaml.safe_load((run / BEST_META).read_text(encoding="utf-8")) if best else None
     trained = block.get("env_kwargs") or {}
@@ -158,8 +160,9 @@ def export_agent(run: Path, dest: Path, command: str,
             "last_evaluation": curve[-1] if curve else None}
     if act_env_kwargs:
         meta["trained_env_kwargs"] = copy.deepcopy(trained)  # no YAML anchors
-    text = yaml.safe_dump(meta, sort_keys=False)
-    write_atomically(dest / META_FILE, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+    meta["files"] = {file: file_digest(dest / file) for _, file in pairs
+                     if (dest / file).is_file()}
+    write_text(dest / META_FILE, yaml.safe_dump(meta, sort_keys=False))
     return dest
 
 
