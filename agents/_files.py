@@ -17,6 +17,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from contour_gym._memory import check_size
+
 
 class OutputPathError(ValueError):
     """An output path where no file may be written (a folder, a device, a FIFO, ...)."""
@@ -104,8 +106,22 @@ def write_handle_atomically(target: Path, write: Callable[[Any], object]) -> Non
     write_atomically(target, through_handle)
 
 
+MAX_PLOT_BYTES = 1e9  # a plot's pixels (RGBA) in memory at most
+MAX_PLOT_SIDE = 1 << 16  # pixels on a side at most (matplotlib's Agg draws no more)
+
+
 def save_figure(fig: Any, target: Path, dpi: float = 120.0) -> None:
-    """Save a matplotlib figure whole or not at all; the format from the file name."""
+    """Save a matplotlib figure whole or not at all; the format from the file name.
+
+    Raises:
+        ValueError: for a size at ``dpi`` past :data:`MAX_PLOT_SIDE` pixels on a side or
+            :data:`MAX_PLOT_BYTES` (or the memory available), before it is drawn.
+    """
+    width, height = (float(x) * dpi for x in fig.get_size_inches())
+    what = f"a {width:.0f} x {height:.0f} pixel plot (dpi {dpi:g})"
+    if max(width, height) > MAX_PLOT_SIDE:
+        raise ValueError(f"{what} is more than {MAX_PLOT_SIDE} pixels on a side: lower --dpi")
+    check_size(4.0 * width * height, what, "--dpi", cap=MAX_PLOT_BYTES)
     fmt = target.suffix[1:] or "png"
     write_atomically(target, lambda tmp: fig.savefig(tmp, dpi=dpi, format=fmt))
 

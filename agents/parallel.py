@@ -66,16 +66,26 @@ def _worker_environment() -> dict[str, str]:
     return {**_SINGLE_THREADED, **mode}
 
 
+WORKERS_PER_CPU = 2  # worker processes on this machine at most, per CPU it may use
+
+
 def resolve_workers(workers: int | None) -> int:
     """``workers`` checked (None: every CPU this process may use).
 
     Raises:
-        ValueError: for anything but a positive int or None.
+        ValueError: for anything but a positive int or None, or more than
+            :data:`WORKERS_PER_CPU` per CPU this process may use (each worker is a process
+            of its own; more of them than cores only share the cores).
     """
     if workers is None:
         return available_cpus()
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers must be a positive int, got {workers!r}")
+    cpus = available_cpus()
+    if workers > WORKERS_PER_CPU * cpus:
+        raise ValueError(f"workers {workers} is more than {WORKERS_PER_CPU} per CPU of this "
+                         f"machine ({cpus} CPUs: at most {WORKERS_PER_CPU * cpus}): lower "
+                         "--workers")
     return workers
 
 
