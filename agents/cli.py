@@ -477,6 +477,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             warnings.filterwarnings("ignore", message=r".*contour_gym/\S+-v0 is out of date")
             _check_outputs(args)
             return command(args)
+    except KeyboardInterrupt:  # train says what it kept itself (_train_one)
+        print(f"contour-gym: interrupted; {KEPT[args.command]}", file=sys.stderr)
+        return 130
     except InputFileError as exc:
         print(exc, file=sys.stderr)
         return 2
@@ -487,6 +490,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"contour-gym: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 1
+
+
+# what an interrupted command kept, and how to go on
+KEPT = {
+    "simulate": "nothing was written",
+    "bench": "the cells computed so far are kept in the run folder; the same command goes on "
+             "from them",
+    "tune": "the generations so far are kept in the run folder; the same command resumes "
+            "from them",
+    "train": "see the run folder",
+}
 
 
 def _check_outputs(args: argparse.Namespace) -> None:

@@ -65,3 +65,22 @@ def test_the_command_line_refuses_before_any_work(tmp_path: Path, argv: list[str
     assert main([*argv, str(fifo)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("contour-gym: error: --out ") and "FIFO" in err[0]
+
+
+@pytest.mark.parametrize("command, kept", [(["bench", "--suite", "tiny"], "cells computed"),
+                                           (["tune", "000_circle"], "generations so far")])
+def test_ctrl_c_ends_with_one_line_of_what_was_kept(command: list[str], kept: str,
+                                                    monkeypatch: pytest.MonkeyPatch,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    import agents.bench
+    import agents.tune
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(agents.bench, "run_suite", interrupted)
+    monkeypatch.setattr(agents.tune, "tune", interrupted)
+    monkeypatch.setattr("agents.cli._compile_up_front", lambda *a, **k: None)
+    assert main(command) == 130
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("contour-gym: interrupted; ") and kept in err[0]
