@@ -423,3 +423,15 @@ def test_a_policy_returning_nan_is_named_with_its_scenario() -> None:
                                          r"\[nan, nan, nan\] at step 0 of member 0 "
                                          r"\(xy_dc_servo on circle_r10\)"):
         run_policy("contour_gym/CCC-v1", NanPolicy())
+
+
+def test_a_hyperparameter_the_algorithm_refuses_is_named_and_no_run_folder_is_left(
+        tmp_path: Path, capsys) -> None:
+    argv = ["train", "contour_gym/CCC-v1", "--algo", "ppo", "--timesteps", "256", "--sweep",
+            "n_steps=-1", "--out", str(tmp_path / "runs")]
+    assert main(argv) == 2
+    err = [line for line in capsys.readouterr().err.splitlines()
+           if line.startswith("contour-gym: error")]
+    assert err == ["contour-gym: error: ppo refuses its hyperparameters: `n_steps * n_envs` "
+                   "must be greater than 1. Currently n_steps=-1 and n_envs=16"]
+    assert not any((tmp_path / "runs").rglob("args.yml"))

@@ -129,10 +129,11 @@ def train(
     given = {} if total_timesteps is None else {"n_timesteps": total_timesteps}
     config = load_config(algo, env_id, config_file, {**overrides, **given})
     args = _new_run_args(config, env_id, algo, seed, eval_every, eval_episodes, checkpoint_every)
-    run = _new_run_folder(Path(out_dir) / run_name(env_id, algo, seed), config, args,
-                          command or _call_repr(args, config_file, overrides))
+    run = Path(out_dir) / run_name(env_id, algo, seed)
+    _check_new(run)
     _set_threads(torch_threads)
-    model = _new_model(config, algo, seed, run)
+    model = _new_model(config, algo, seed, run)  # refuses bad hyperparameters: no folder yet
+    _new_run_folder(run, config, args, command or _call_repr(args, config_file, overrides))
     _learn(model, run, config, args, args["total_timesteps"], progress)
     return run
 
@@ -158,9 +159,7 @@ def _new_run_folder(run: Path, config: RunConfig, args: dict[str, Any], command:
     Raises:
         ValueError: if the folder holds a run already (naming how to resume it).
     """
-    if (run / "args.yml").exists():
-        raise ValueError(f"run folder {run} exists; resume it (resume={str(run)!r}) or choose "
-                         "another out_dir or seed")
+    _check_new(run)
     run.mkdir(parents=True, exist_ok=True)
     args["command"] = command
     write_text(run / "config.yml", dump_block(config))
@@ -168,12 +167,29 @@ def _new_run_folder(run: Path, config: RunConfig, args: dict[str, Any], command:
     return run
 
 
+def _check_new(run: Path) -> None:
+    """Refuse a run folder that holds a run already, naming how to resume it."""
+    if (run / "args.yml").exists():
+        raise ValueError(f"run folder {run} exists; resume it (resume={str(run)!r}) or choose "
+                         "another out_dir or seed")
+
+
 def _new_model(config: RunConfig, algo: str, seed: int, run: Path) -> Any:
-    """A fresh SB3 model of ``algo`` on the training env, logging into ``run``."""
+    """A fresh SB3 model of ``algo`` on the training env, logging into ``run``.
+
+    Raises:
+        ValueError: when the algorithm refuses its hyperparameters (naming them and why).
+    """
     venv = make_training_env(config, seed)
     cls = algo_class(algo)
-    return cls(env=venv, seed=seed, verbose=0, tensorboard_log=str(run / "tensorboard"),
-               device="cpu", **config.model_kwargs(_n_actions(venv)))
+    kwargs = config.model_kwargs(_n_actions(venv))
+    try:
+        return cls(env=venv, seed=seed, verbose=0, tensorboard_log=str(run / "tensorboard"),
+                   device="cpu", **kwargs)
+    except (AssertionError, ValueError, TypeError) as exc:  # SB3 checks by assert
+        venv.close()
+        said = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ValueError(f"{algo} refuses its hyperparameters: {said}") from None
 
 
 def _resume(run: Path, total_timesteps: int | None, progress: bool, threads: int) -> Path:
