@@ -28,12 +28,13 @@ _MEMO = N_HIST + 2  # first slot
 HIST_WIDTH = _MEMO + PATH_MEMO * _SLOT
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(forceinline=True)
 def eval_path_memo(kind, s0, data, s, hist):
     """:func:`~contour_gym.paths._geom.eval_path` at ``s``, remembered in the row ``hist``.
 
     The same arc length, bit for bit (the sign of a zero included), gives the remembered
-    values; another evaluates and overwrites the oldest slot.
+    values; another evaluates and overwrites the oldest slot. Typed once and inlined by LLVM
+    (``forceinline``).
     """
     sign = math.copysign(1.0, s)
     for k in range(PATH_MEMO):

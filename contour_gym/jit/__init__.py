@@ -9,8 +9,8 @@
   compiled up front in worker processes; :mod:`~contour_gym.jit.tiers`: a run's own kernel
   or the built-ins' one, and compiles in the background;
 * :mod:`~contour_gym.jit.progress`: the progress line of a first run, and a census of what
-  it compiled; :mod:`~contour_gym.jit.stack`, :mod:`~contour_gym.jit.inline_copy`: two fixes
-  that make numba's compile faster on Python 3.11.
+  it compiled; :mod:`~contour_gym.jit.stack`, :mod:`~contour_gym.jit.inline_copy`,
+  :mod:`~contour_gym.jit.flags_eq`: three fixes that make numba's compile faster.
 
 **What a kernel calls compiles with it.** A function a kernel calls (the exact search and
 ground truth, the estimators, the history ring) is a plain ``@numba.njit`` without ``cache``:
@@ -20,9 +20,10 @@ called from Python (:mod:`contour_gym.paths._batch`, the estimator API's kernel)
 
 **Inlined by whom.** ``inline="always"`` makes numba inline a function's IR at every call
 site, typing it again each time; ``forceinline=True`` types it once and has LLVM inline it.
-The path's segment evaluation (:func:`contour_gym.paths._geom.eval_segment`) is the second
-kind; the per-tick helpers the first. ``tests/test_compile_budget.py`` counts what a first
-run compiles.
+The path's evaluation, called at many sites (:func:`contour_gym.paths._geom.eval_segment`,
+``find_segment``, ``eval_path``, :func:`contour_gym.contour._history.eval_path_memo`) and a
+blob's sizes are the second kind; the other per-tick helpers the first.
+``tests/test_compile_budget.py`` counts what a first run compiles.
 """
 
 from contour_gym.jit.binding import (

@@ -26,7 +26,7 @@ from types import ModuleType
 
 import numba
 
-from contour_gym.jit import inline_copy
+from contour_gym.jit import flags_eq, inline_copy
 
 KEEP = 3  # cache folders kept; older ones are removed
 LOG = logging.getLogger("contour_gym")
@@ -133,9 +133,11 @@ def cache_root() -> Path:
 def configure() -> None:
     """Set ``numba.config.CACHE_DIR`` unless the user set ``NUMBA_CACHE_DIR``; faster inlining.
 
-    Also installs :mod:`contour_gym.jit.inline_copy` (numba copies inlined IR quadratically).
+    Also installs :mod:`contour_gym.jit.inline_copy` (numba copies inlined IR quadratically)
+    and :mod:`contour_gym.jit.flags_eq` (its typing compares compiler flags slowly).
     """
     inline_copy.install()
+    flags_eq.install()
     if os.environ.get("NUMBA_CACHE_DIR"):
         return
     target = cache_root() / current_digest()

@@ -464,14 +464,15 @@ def run_ticks(
     ``config_row`` is the run's :data:`~contour_gym.loop.state.CONFIG` row; ``floats`` and
     ``ints`` the loop's float and int blobs with their layouts; ``path_kinds``, ``path_floats``
     and ``path_layout`` the path bank's segment kinds and float blob (every member's path:
-    :mod:`contour_gym.loop.state`). The blobs' views are made here and handed to
-    :func:`run_members`. ``part`` names the scratch the call uses: calls on disjoint
-    member ranges and other parts may run at once (on threads: the kernel holds no GIL).
+    :mod:`contour_gym.loop.state`). The blobs' views are made here, and the members run here
+    (:func:`run_members`' body, inlined). ``part`` names the scratch the call uses: calls on
+    disjoint member ranges and other parts may run at once (on threads: the kernel holds no
+    GIL).
     """
     # borrowed: the views made here and in the callees carry no owner to count
     bank = path_bank(borrow(path_kinds), borrow(path_floats), path_layout)
     loop = loop_arrays(borrow(floats), float_layout, borrow(ints), int_layout, part)
-    run_members(n, k0, config_row, loop, bank, borrow(noise), borrow(rec), lo, hi)
+    _members(n, k0, config(config_row), loop, bank, borrow(noise), borrow(rec), lo, hi)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -485,7 +486,14 @@ def run_members(n, k0, config_row, loop, bank, noise, rec, lo, hi):
     member's normals; member ``b`` reads its rows from ``noise_at[b]`` on and advances it by
     ``n`` (:class:`contour_gym.loop.noise.NoiseSource` refills the buffer).
     """
-    cfg = config(config_row)
+    _members(n, k0, config(config_row), loop, bank, noise, rec, lo, hi)
+
+
+# inlined by numba into run_ticks and run_members: run_ticks (simulate, the loop's Python API)
+# compiles no run_members of its own, whose code LLVM would optimise and link once more
+@numba.njit(cache=True, inline="always")
+def _members(n, k0, cfg, loop, bank, noise, rec, lo, hi):
+    """:func:`run_members`' body."""
     n_c, n_a = loop.c_axes.shape[0], loop.work.shape[1]
     loop.acc_c[lo * n_c : hi * n_c] = 0.0  # the window sums start at zero
     loop.acc_a[lo * n_a : hi * n_a] = 0.0

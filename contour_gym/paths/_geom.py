@@ -54,11 +54,12 @@ _NEWTON_TOL = 1e-14  # Newton step size at which the foot point is final, m
 _BOUND_SAMPLES = 32  # sub-intervals per segment when building bounding spheres
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(forceinline=True)
 def find_segment(s0, s):
     """Index of the segment containing arc length ``s`` (binary search, clamped to [0, n-1]).
 
-    At a segment boundary the segment that starts there is returned.
+    At a segment boundary the segment that starts there is returned. Typed once and inlined by
+    LLVM (``forceinline``), as :func:`eval_path`.
     """
     n = s0.shape[0] - 1
     if not s > s0[0]:
@@ -131,11 +132,12 @@ def eval_segment(kind, data, i, t):
     return px, py, pz, tx, ty, tz, kx, ky, kz
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(forceinline=True)
 def eval_path(kind, s0, data, s):
     """Point, dP/ds and d2P/ds2 at arc length ``s`` clamped to [0, L] (9 floats).
 
-    At a corner the segment that starts there is used. NaN propagates.
+    At a corner the segment that starts there is used. NaN propagates. Typed once and inlined
+    by LLVM at every call site (``forceinline``): the loop kernel calls it at many.
     """
     total = s0[s0.shape[0] - 1]
     if s < 0.0:
@@ -207,7 +209,8 @@ def _nearest_arc(kind, data, i, px, py, pz, ta, tb):
     return ta, da
 
 
-@numba.njit
+# inlined by numba: called with constant columns, it would compile once per column
+@numba.njit(cache=True, inline="always")
 def _norm3(data, i, j):
     x = data[i, j]
     y = data[i, j + 1]

@@ -113,11 +113,11 @@ def make_table(kind: Sequence[int] | IntArray, lengths: Sequence[float] | FloatA
     ``bound``: the segments' bounding spheres (n, 4), computed if absent, from which the
     search's other rows are built; or all of a table's rows (3n - 1, ``NB``), taken as given.
     """
-    kind_arr = np.ascontiguousarray(kind, dtype=np.int64)
+    kind_arr = _frozen(kind, np.int64)
     lens = np.asarray(lengths, dtype=np.float64)
-    s0 = np.concatenate(([0.0], np.cumsum(lens)))
-    rows = np.ascontiguousarray(data, dtype=np.float64).reshape(-1, NCOL)
-    if bound is None:
+    s0 = _frozen(np.concatenate(([0.0], np.cumsum(lens))), np.float64)
+    rows = _frozen(np.asarray(data, dtype=np.float64).reshape(-1, NCOL), np.float64)
+    if bound is None:  # on read-only arrays, as every other builder: one compile of each callee
         bound = _batch.compute_bounds(kind_arr, s0, rows)
     return PathTable(kind_arr, s0, rows, bound, dim)
 
