@@ -17,7 +17,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from contour_gym._memory import check_size
+from contour_gym.limits import check_size
 
 
 class OutputPathError(ValueError):

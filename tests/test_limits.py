@@ -9,7 +9,7 @@ from matplotlib.figure import Figure
 
 from agents._files import save_figure
 from agents.parallel import WORKERS_PER_CPU, available_cpus, resolve_workers
-from contour_gym._memory import available_bytes, check_size, gigabytes
+from contour_gym.limits import available_bytes, check_size, gigabytes
 
 
 def test_sizes_in_words() -> None:
