@@ -9,11 +9,12 @@ the compiled kernel (:mod:`contour_gym.loop.kernel`) on them. Its parts:
   parameters they may set: the loop's one boundary;
 * :mod:`~contour_gym.loop.build`: how the arrays are sized and first filled;
 * :mod:`~contour_gym.loop.views`: the arrays as attributes, and the state's read-outs;
-* :mod:`~contour_gym.loop.bank`: the members' paths (the path bank);
-* :mod:`~contour_gym.loop.parameters`: the parameter setters;
+* :mod:`~contour_gym.loop.bank`: the members' paths (the path bank, ``loop.bank``);
+* :mod:`~contour_gym.loop.parameters`: the parameter setter (``loop.parameters``);
 * :mod:`~contour_gym.loop.noise`, :mod:`~contour_gym.loop.record`,
   :mod:`~contour_gym.loop.threads`, :mod:`~contour_gym.loop.options`: random numbers, the
-  per-tick record, members on threads, the loop's options.
+  per-tick record, members on threads, the loop's options;
+* :mod:`~contour_gym.loop.axis`: one axis driven open-loop through the loop's plant step.
 """
 
 from contour_gym.loop.core import (
