@@ -435,3 +435,14 @@ def test_a_hyperparameter_the_algorithm_refuses_is_named_and_no_run_folder_is_le
     assert err == ["contour-gym: error: ppo refuses its hyperparameters: `n_steps * n_envs` "
                    "must be greater than 1. Currently n_steps=-1 and n_envs=16"]
     assert not any((tmp_path / "runs").rglob("args.yml"))
+
+
+def test_a_run_shorter_than_a_rollout_trains_that_many_steps(tmp_path: Path) -> None:
+    from agents.rl.train import read_curve, train
+
+    with pytest.warns(UserWarning, match="256 timesteps is less than one rollout .* this run "
+                                         r"collects 16 steps x 16 envs \(n_steps 16, batch_size"):
+        run = train("contour_gym/CCC-v1", "ppo", 256, seed=0, out_dir=tmp_path, progress=False)
+    rows = read_curve(run / "eval.csv")
+    assert rows[-1]["timesteps"] == 256 and len(rows) <= 12
+    assert [r["timesteps"] for r in rows] == sorted({r["timesteps"] for r in rows})

@@ -39,11 +39,13 @@ one). The same arguments give the same run: the same weights, bit for bit (torch
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 import pickle
 import re
 import sys
 import time
+import warnings
 import zipfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -127,7 +129,7 @@ def train(
     if not isinstance(env_id, str):
         raise ValueError(f"env_id must be a registered id, got {env_id!r}")
     given = {} if total_timesteps is None else {"n_timesteps": total_timesteps}
-    config = load_config(algo, env_id, config_file, {**overrides, **given})
+    config = _within(load_config(algo, env_id, config_file, {**overrides, **given}))
     args = _new_run_args(config, env_id, algo, seed, eval_every, eval_episodes, checkpoint_every)
     run = Path(out_dir) / run_name(env_id, algo, seed)
     _check_new(run)
@@ -136,6 +138,35 @@ def train(
     _new_run_folder(run, config, args, command or _call_repr(args, config_file, overrides))
     _learn(model, run, config, args, args["total_timesteps"], progress)
     return run
+
+
+ON_POLICY_BATCH = 64  # PPO's batch size when its config gives none (SB3's default)
+
+
+def _within(config: RunConfig) -> RunConfig:
+    """The config, its rollout shortened to fit the run's timesteps (saying so).
+
+    An on-policy algorithm collects ``n_steps`` per env before it stops, whatever the total:
+    a run shorter than one rollout collects ``total // n_envs`` steps per env instead (at
+    least 2), and its batch size fits in them (the whole rollout, unless the batch size divides
+    it).
+    """
+    block, total, n_envs = config.block, config.n_timesteps, config.n_envs
+    n_steps = block.get("n_steps")
+    if n_steps is None or n_steps * n_envs <= total:
+        return config
+    steps = max(2, total // n_envs)
+    new = {**block, "n_steps": steps}
+    said = f"n_steps {steps}"
+    if "batch_size" in block or config.algo == "ppo":
+        rollout = steps * n_envs
+        batch = min(int(block.get("batch_size", ON_POLICY_BATCH)), rollout)
+        new["batch_size"] = batch if rollout % batch == 0 else rollout  # no truncated batch
+        said += f", batch_size {new['batch_size']}"
+    warnings.warn(f"{total} timesteps is less than one rollout ({n_steps} steps x {n_envs} "
+                  f"envs): this run collects {steps} steps x {n_envs} envs ({said})",
+                  stacklevel=2)
+    return dataclasses.replace(config, block=new)
 
 
 def _new_run_args(
