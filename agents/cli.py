@@ -20,6 +20,7 @@ import argparse
 import math
 import os
 import shlex
+import signal
 import sys
 import warnings
 from collections.abc import Iterator, Sequence
@@ -470,6 +471,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     command = {"simulate": simulate_command, "train": train_command,
                "tune": tune_command, "bench": bench_command}[args.command]
+    signal.signal(signal.SIGTERM, _interrupted)  # `kill PID` ends as Ctrl-C does: files whole
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _show_warning
@@ -501,6 +503,11 @@ KEPT = {
             "from them",
     "train": "see the run folder",
 }
+
+
+def _interrupted(signum: int, frame: object) -> None:
+    """SIGTERM as Ctrl-C: the command's finally clauses run (no temp file left behind)."""
+    raise KeyboardInterrupt
 
 
 def _check_outputs(args: argparse.Namespace) -> None:

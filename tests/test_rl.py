@@ -202,6 +202,8 @@ def test_interrupt_saves_and_resume_continues_the_step_count(tmp_path, monkeypat
     assert stats.count > 128  # the saved statistics, not a fresh start (count 1e-4)
 
     monkeypatch.setattr(rl_train.EvalCurve, "evaluate", evaluate)
+    # a row of steps the checkpoint does not hold (a run killed after evaluating at 200)
+    rl_train.append_row(run / "eval.csv", {k: 200.0 for k in rl_train.EVAL_COLUMNS})
     train(resume=run, progress=False)
     assert algo_class("sac").load(run / "model.zip").num_timesteps == 256
     assert latest_checkpoint(run).name == "model_256_steps.zip"

@@ -244,8 +244,19 @@ def _resume(run: Path, total_timesteps: int | None, progress: bool, threads: int
         raise ValueError(f"cannot resume {run}: {checkpoint} (or its statistics or buffer) "
                          f"cannot be loaded ({exc}); remove it to resume from the checkpoint "
                          "before") from None
+    _forget_after(run / "eval.csv", model.num_timesteps)
     _learn(model, run, config, args, _positive(total, "total_timesteps"), progress)
     return run
+
+
+def _forget_after(path: Path, steps: int) -> None:
+    """Drop ``eval.csv``'s rows past ``steps`` (the checkpoint resumed): none go back later."""
+    if not path.is_file():
+        return
+    lines = path.read_text(encoding="utf-8").splitlines(keepends=True)
+    kept = lines[:1] + [line for line in lines[1:] if float(line.split(",")[0]) <= steps]
+    if len(kept) < len(lines):
+        write_text(path, "".join(kept))
 
 
 def _run_args(args_file: Path) -> dict[str, Any]:
