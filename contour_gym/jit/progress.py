@@ -18,8 +18,8 @@ from numba.core import event
 
 OWN_KERNEL_SECONDS = 35.0
 """About how long one kernel compiles in-process on a 2-core machine, for the progress line: the
-servo loop's kernel, typing and LLVM, in a fresh-cache ``contour-gym simulate`` (the rest of its
-first run builds the path's tables; docs/measurements.md)."""
+servo loop's kernel of a fresh-cache ``contour-gym simulate`` (the rest of its first run builds
+the path's tables; docs/measurements.md)."""
 
 
 class Line:
@@ -34,8 +34,7 @@ class Line:
     def __init__(self, desc: str, bar_format: str, total: int | None = None) -> None:
         from tqdm.auto import tqdm
 
-        self.bar = tqdm(total=total, file=sys.stderr, desc=desc, bar_format=bar_format,
-                        unit="group")
+        self.bar = tqdm(total=total, file=sys.stderr, desc=desc, bar_format=bar_format)
         self.stop = threading.Event()
         self.thread = threading.Thread(target=self._tick, daemon=True)
         self.thread.start()
