@@ -5,7 +5,7 @@ functions) through a cache keyed on the compiler's flags
 (``numba.core.typing.templates._OverloadFunctionTemplate._get_impl``), and a compile makes new
 flags objects of equal value, so each lookup compares two objects by
 ``TargetConfig.__eq__``: a dictionary of every option (~20 attribute reads) built for each
-side, ~22 us a comparison. Typing ``contour-gym simulate``'s kernels made ~120 000 of them.
+side (the counts and times are in docs/measurements.md).
 
 :func:`install` answers from the options set explicitly first: two flags of one class whose
 explicitly set options are equal are equal (every other option has its class's default on
