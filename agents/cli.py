@@ -29,7 +29,7 @@ from pathlib import Path as FilePath
 
 import numpy as np
 
-from agents._files import output_file, output_folder, save_figure
+from agents._files import check_plot, output_file, output_folder, save_figure
 from agents.parallel import exit_quickly
 from agents.rl.algorithms import ALGORITHMS
 from contour_gym import precompile
@@ -411,7 +411,7 @@ def _train_one(args: argparse.Namespace) -> int:
               resume=args.resume, config_file=args.config, progress=not args.quiet,
               command=shlex.join(argv))
     except KeyboardInterrupt:
-        print(f"interrupted: model and checkpoint saved in {run}; continue with "
+        print(f"contour-gym: interrupted; model and checkpoint saved in {run}; continue with "
               f"contour-gym train --resume {shlex.quote(str(run))}", file=sys.stderr)
         return 130
     print(f"run written to {run} (model.zip, eval.csv, eval.png, checkpoints/, tensorboard/)")
@@ -501,7 +501,8 @@ KEPT = {
              "from them",
     "tune": "the generations so far are kept in the run folder; the same command resumes "
             "from them",
-    "train": "see the run folder",
+    "train": "each run's model and checkpoints so far are kept in its folder under --out; "
+             "continue one with contour-gym train --resume FOLDER",
 }
 
 
@@ -514,6 +515,10 @@ def _check_outputs(args: argparse.Namespace) -> None:
     """Refuse an ``--out`` where nothing may be written, before any work (agents._files)."""
     if args.command == "simulate":
         output_file(args.out, "--out")
+        from contour_gym.render import CONTOUR_INCHES, PART_HEIGHT  # matplotlib: when needed
+
+        # before the run: the plot simulate draws is at least this size
+        check_plot(CONTOUR_INCHES if args.gcode is None else (PART_HEIGHT,) * 2, args.dpi)
     elif args.out is not None:
         output_folder(args.out, "--out")
 

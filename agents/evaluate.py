@@ -14,8 +14,8 @@ that needs the same env arguments) or keeps a member's per-tick trace.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any, cast
+from collections.abc import Iterator, Mapping, Sequence
+from typing import Any, cast, overload
 
 import gymnasium as gym
 import numpy as np
@@ -24,7 +24,13 @@ from numpy.typing import NDArray
 import contour_gym  # noqa: F401  (registers the ids)
 from agents.policies import Policy, make
 from contour_gym.envs.base import ContourVectorEnv
+from contour_gym.limits import check_size
 from contour_gym.loop import Trace
+
+EVAL_ROUND = 1024
+"""Members of the vector env an evaluation of many episodes runs at a time: its memory is one
+round's, and its results one array per key (:class:`Episodes`)."""
+EPISODE_BYTES = 256  # an episode's results: about 20 values of 8 bytes
 
 EnvSpec = str | Mapping[str, Any]
 
@@ -238,8 +244,9 @@ def evaluate(
 ) -> dict[str, Any]:
     """Run ``n_episodes`` episodes of ``policy`` to their ends and average their metrics.
 
-    The episodes are the members of one native vector env (:func:`run_policy_batch`; episode
-    i is seeded ``seed + i``, so it equals ``run_policy(env, policy, seed=seed + i)``).
+    The episodes are the members of native vector envs of at most :data:`EVAL_ROUND` members,
+    one round after another (:func:`run_policy_batch`; episode i is seeded ``seed + i``, so it
+    equals ``run_policy(env, policy, seed=seed + i)``, whatever the round).
 
     Args:
         policy: A policy, or a registered policy's name (made with its default parameters
@@ -257,12 +264,13 @@ def evaluate(
         ``cycle_time`` s, ``max_contour_error`` m, ``finished``, ...; plus ``return``,
         ``failed``, ``truncated``, ``steps``, ``tolerance``) as the mean over the episodes, a
         float (booleans as the fraction of episodes; a ``cycle_time`` of ``inf``, an episode
-        that did not arrive, makes the mean ``inf``), and ``"episodes"``: the list of the
-        episodes' own dicts, as :func:`run_policy` returns them.
+        that did not arrive, makes the mean ``inf``), and ``"episodes"``: the episodes' own
+        dicts, as :func:`run_policy` returns them (:class:`Episodes`, a sequence).
 
     Raises:
-        ValueError: for ``n_episodes`` < 1, an unknown policy name, an env that is not
-            built as the policy needs (naming the argument); see :func:`env_arguments`.
+        ValueError: for ``n_episodes`` < 1 or more than the memory holds, an unknown policy
+            name, an env that is not built as the policy needs (naming the argument); see
+            :func:`env_arguments`.
 
     >>> m = evaluate("constant_feedrate", "contour_gym/Feedrate-Corner-v0", n_episodes=2)
     >>> len(m["episodes"]), m["finished"], m["max_contour_error"] <= m["tolerance"]
@@ -270,22 +278,76 @@ def evaluate(
     """
     if isinstance(n_episodes, bool) or not isinstance(n_episodes, int) or n_episodes < 1:
         raise ValueError(f"n_episodes must be a positive int, got {n_episodes!r}")
+    check_size(n_episodes * EPISODE_BYTES, f"the results of {n_episodes} episodes", "n_episodes")
     if isinstance(policy, str):
         policy = make(policy)
     if isinstance(env, (gym.Env, gym.vector.VectorEnv)):
-        batch = _run_on_instance(env, policy, n_episodes, seed)
+        rounds = _rounds_on_instance(env, policy, n_episodes, seed)
     else:
-        batch = run_policy_batch(env, policy, num_envs=n_episodes, seed=seed)
+        rounds = ((first, run_policy_batch(env, policy, seed=seed + first,
+                                           num_envs=min(EVAL_ROUND, n_episodes - first)))
+                  for first in range(0, n_episodes, EVAL_ROUND))
+    batch = _gathered(rounds, n_episodes)
     out: dict[str, Any] = {key: float(np.mean(value)) for key, value in batch.items()}
-    out["episodes"] = [_episode(batch, i) for i in range(n_episodes)]
+    out["episodes"] = Episodes(batch)
     return out
 
 
-def _run_on_instance(
-    env: gym.Env[Any, Any] | gym.vector.VectorEnv, policy: Policy, n: int, seed: int
+def _gathered(
+    rounds: Iterator[tuple[int, dict[str, NDArray[Any]]]], n: int
 ) -> dict[str, NDArray[Any]]:
+    # the rounds' arrays (episodes first:first + len) into one array (n,) per key
+    out: dict[str, NDArray[Any]] = {}
+    for first, batch in rounds:
+        for key, value in batch.items():
+            if key not in out:
+                out[key] = np.empty(n, dtype=value.dtype)
+            part = value[: n - first]
+            out[key][first : first + len(part)] = part
+    return out
+
+
+class Episodes(Sequence[dict[str, Any]]):
+    """Each episode's values of an evaluation (:func:`evaluate`), a dict made when read.
+
+    Held as one array per key (not a dict per episode), so that a long evaluation's results
+    stay small; compares equal to the list of the same dicts.
+    """
+
+    def __init__(self, batch: Mapping[str, NDArray[Any]]) -> None:
+        self._batch = batch
+        self._n = len(next(iter(batch.values()))) if batch else 0
+
+    def __len__(self) -> int:
+        return self._n
+
+    @overload
+    def __getitem__(self, i: int) -> dict[str, Any]: ...
+
+    @overload
+    def __getitem__(self, i: slice) -> list[dict[str, Any]]: ...
+
+    def __getitem__(self, i: int | slice) -> dict[str, Any] | list[dict[str, Any]]:
+        if isinstance(i, slice):
+            return [self[k] for k in range(*i.indices(self._n))]
+        if not -self._n <= i < self._n:
+            raise IndexError(f"episode {i} of {self._n}")
+        return _episode(self._batch, i % self._n)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Sequence) and list(self) == list(other)
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return f"Episodes({self._n} episodes)"
+
+
+def _rounds_on_instance(
+    env: gym.Env[Any, Any] | gym.vector.VectorEnv, policy: Policy, n: int, seed: int
+) -> Iterator[tuple[int, dict[str, NDArray[Any]]]]:
     # n episodes on a user's env: a native vector env in rounds of its members, a single env
-    # as a vector env of one (both seeded seed + i for episode i)
+    # as a vector env of one (both seeded seed + i for episode i); (first episode, arrays)
     unwrapped: Any = env.unwrapped
     config = getattr(unwrapped, "config", None)
     if config is None:
@@ -298,11 +360,8 @@ def _run_on_instance(
             raise ValueError(f"policy {policy.name!r} needs the env built with {key}={value!r}; "
                              f"the env has {key}={have!r}")
     venv = env if isinstance(env, gym.vector.VectorEnv) else _OneMember(env)
-    rounds = []
     for first in range(0, n, venv.num_envs):
-        batch, _ = run_episodes(venv, policy, seed=seed + first)
-        rounds.append(batch)
-    return {key: np.concatenate([r[key] for r in rounds])[:n] for key in rounds[0]}
+        yield first, run_episodes(venv, policy, seed=seed + first)[0]
 
 
 class _OneMember(gym.vector.VectorEnv):

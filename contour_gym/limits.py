@@ -29,8 +29,10 @@ def available_bytes() -> int:
 
 
 def gigabytes(n: float) -> str:
-    """``n`` bytes in words: ``"3.4 GB"``, ``"120 MB"``."""
-    return f"{n / 1e9:.3g} GB" if n >= 1e9 else f"{n / 1e6:.3g} MB"
+    """``n`` bytes in words: ``"3.4 GB"``, ``"120 MB"``, ``"7.8 kB"``."""
+    if n >= 1e9:
+        return f"{n / 1e9:.3g} GB"
+    return f"{n / 1e6:.3g} MB" if n >= 1e6 else f"{n / 1e3:.3g} kB"
 
 
 def check_size(need: float, what: str, lower: str, cap: float | None = None) -> None:

@@ -18,6 +18,9 @@ from numpy.typing import NDArray
 from contour_gym.loop import Trace
 from contour_gym.paths import Path
 
+CONTOUR_INCHES = (11.0, 4.6)  # the size of :func:`contour_figure`, inches
+PART_HEIGHT = 4.6  # the height of :func:`part_figure`, inches (its width grows with its runs)
+
 
 def _path_positions(
     path: Path, trace: Trace, axes: tuple[int, ...], offset: tuple[float, ...], member: int
@@ -76,7 +79,7 @@ def contour_figure(
     Returns:
         The figure (caller saves or converts it).
     """
-    fig = Figure(figsize=(11, 4.6), layout="constrained")
+    fig = Figure(figsize=CONTOUR_INCHES, layout="constrained")
     FigureCanvasAgg(fig)
     left, right = fig.subplots(1, 2)
     dense = path.point(np.linspace(0.0, path.length, 2000))
@@ -173,7 +176,8 @@ def part_figure(
     idle = _idle_points(path, cutting) * 1e3
     width, height = np.ptp(path.point(np.linspace(0.0, path.length, 2000))[:, :2], axis=0)
     aspect = float(np.clip(width / max(height, 1e-9), 0.5, 2.5))  # panel shape, as drawn
-    fig = Figure(figsize=(len(drawn) * (3.3 * aspect + 0.7) + 1.0, 4.6), layout="compressed")
+    inches = (len(drawn) * (3.3 * aspect + 0.7) + 1.0, PART_HEIGHT)
+    fig = Figure(figsize=inches, layout="compressed")
     FigureCanvasAgg(fig)
     panels = fig.subplots(1, len(drawn), squeeze=False)[0]
     for ax, (label, (strokes, err)) in zip(panels, drawn.items(), strict=True):

@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+import resource
 from pathlib import Path
 
+import gymnasium as gym
 import pytest
 from matplotlib.figure import Figure
 
+import agents.evaluate as ev
+import contour_gym  # noqa: F401  (registers the ids)
 from agents._files import save_figure
+from agents.cli import main
 from agents.parallel import WORKERS_PER_CPU, available_cpus, resolve_workers
 from contour_gym.limits import available_bytes, check_size, gigabytes
 
@@ -43,3 +48,40 @@ def test_the_check_names_what_it_needs_and_the_machine_has() -> None:
                                          r"lower it"):
         check_size(need, "a thing", "it")
     check_size(1e6, "a small thing", "it")
+
+
+def test_a_loop_too_large_for_the_memory_is_refused_before_it_is_made() -> None:
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    with pytest.raises(ValueError, match=r"a loop of 10000000 members \(.* each\) would need "
+                                         r".* GB, more than .*: lower the number of members"):
+        gym.make_vec("contour_gym/CCC-v1", num_envs=10**7)
+    grown_mb = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) / 1e3
+    assert grown_mb < 500  # refused before its arrays were made (they would be ~60 GB)
+
+
+def test_recording_members_are_checked_for_the_record_of_an_episode() -> None:
+    with pytest.raises(ValueError, match=r"20000 members recording episodes of up to \d+ steps: "
+                                         r"recording it needs .* GiB, more than 2 GiB; render "
+                                         r"fewer members \(num_envs\)"):
+        gym.make_vec("contour_gym/CCC-v1", num_envs=20000, render_mode="rgb_array")
+
+
+def test_evaluate_refuses_results_past_the_memory_and_runs_in_rounds(monkeypatch) -> None:
+    with pytest.raises(ValueError, match=r"the results of 1000000000 episodes would need 256 GB"
+                                         r".*: lower n_episodes"):
+        ev.evaluate("pid_ccc", "contour_gym/CCC-v1", n_episodes=10**9)
+    env = {"id": "contour_gym/CCC-v1", "path": "random", "decision_ticks": 50}
+    whole = ev.evaluate("pid_ccc", env, n_episodes=3, seed=5)
+    monkeypatch.setattr(ev, "EVAL_ROUND", 2)  # rounds of 2 members, then 1
+    rounds = ev.evaluate("pid_ccc", env, n_episodes=3, seed=5)
+    assert rounds["episodes"] == whole["episodes"] and len(rounds["episodes"]) == 3
+    assert rounds["max_contour_error"] == whole["max_contour_error"]
+    assert rounds["episodes"][-1] == rounds["episodes"][2] and rounds["episodes"][:1] == [
+        whole["episodes"][0]]
+
+
+def test_simulate_refuses_a_plot_too_large_before_it_runs(capsys) -> None:
+    assert main(["simulate", "--dpi", "20000", "--out", "never.png"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["contour-gym: error: a 220000 x 92000 pixel plot (dpi 20000) is more than "
+                   "65536 pixels on a side: lower --dpi"]

@@ -92,6 +92,11 @@ class ContourTask:
         self._reward, weights = self._resolve_reward()
         self._fixed_limit = config.step_limit
         self.max_episode_steps = config.step_limit or self._step_limit()
+        if record:  # an episode's record is kept until the member's next reset
+            self.loop.check_record(
+                self.max_episode_steps * config.decision_ticks,
+                f"{batch} members recording episodes of up to {self.max_episode_steps} steps",
+                "render fewer members (num_envs), or set max_episode_steps")
         self._build_blob(weights)
         self._specialise()
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -43,6 +43,7 @@ from contour_gym.servo.compensation import STATE as COMP_STATE
 
 if TYPE_CHECKING:
     from contour_gym.loop.options import LoopOptions
+    from contour_gym.servo import PIDGains
 
 Array = NDArray[np.float64]
 Shape = tuple[int, ...]
@@ -195,3 +196,16 @@ def config_row(stage: Stage, path: Path, opts: LoopOptions, record: bool, search
         law_dt=1.0 if path.time_law is None else path.time_law.dt,
         sample_every=every, search=float(search), **codes,
     )
+
+
+def check_sizes(stage: Stage, path: Path, axis_gains: Sequence[PIDGains], batch: Any) -> None:
+    """Raise ValueError unless the batch size, path dimension and axis gains fit the stage."""
+    if not isinstance(batch, (int, np.integer)) or batch < 1:
+        raise ValueError(f"batch_size must be a positive int, got {batch!r}")
+    if path.dim != stage.dim:
+        raise ValueError(
+            f"path {path.name!r} is {path.dim}-D but stage {stage.name!r} draws "
+            f"{stage.dim}-D contours"
+        )
+    if len(axis_gains) != stage.n_axes:
+        raise ValueError(f"need {stage.n_axes} axis gains, got {len(axis_gains)}")

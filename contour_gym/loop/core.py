@@ -39,10 +39,12 @@ from contour_gym.contour import ESTIMATORS, Estimator, get_estimator
 from contour_gym.contour.base import ESTIMATOR_FAMILY
 from contour_gym.jit import precompile, tiers
 from contour_gym.jit.stack import on_reserved_stack
+from contour_gym.limits import check_size, gigabytes
 from contour_gym.loop.axis import LOOP_TEMPLATE, simulate_axis
 from contour_gym.loop.bank import PathBank
 from contour_gym.loop.build import (
     axis_arrays,
+    check_sizes,
     config_row,
     contour_axes,
     contour_offsets,
@@ -89,6 +91,10 @@ Array = NDArray[np.float64]
 _CODED = {"ctrl": CONTROLLER_FAMILY, "est": ESTIMATOR_FAMILY, "ccc": CCC_FAMILY,
           "comp": COMPENSATION_FAMILY}
 MAX_RUN_TICKS = 200_000_000  # ticks one run() may take (55 h of machine time at 1 kHz)
+CHECKED_ABOVE = 1024  # members above which a loop's memory is checked before it is made
+MEMBER_OBJECT_BYTES = 3000
+"""Memory of a member's Python objects beside its arrays, bytes: its random generators and
+their seed sequences (0.57 + 0.48 kB each, measured with numpy 2), the loop's and an env's."""
 
 
 class ServoLoop(LoopViews):
@@ -136,7 +142,9 @@ class ServoLoop(LoopViews):
         threads: int | None = 1,
         **options: Any,
     ) -> None:
-        _check_sizes(stage, path, axis_gains, batch_size)
+        check_sizes(stage, path, axis_gains, batch_size)
+        if batch_size > CHECKED_ABOVE:  # before any array of B members is made
+            _check_memory(stage, path, axis_gains, interpolator, int(batch_size), options)
         self.threads = check_threads(threads, int(batch_size))
         self._parts = split(int(batch_size), self.threads)
         # the default's threads are timed against one thread, the faster kept (ThreadChoice)
@@ -577,6 +585,13 @@ class ServoLoop(LoopViews):
             self._recorder.check_size(ticks, what)
         return ticks
 
+    def check_record(self, ticks: int, what: str, lower: str) -> None:
+        """Refuse (ValueError) a recorded stretch of ``ticks`` ticks over the record's cap.
+
+        ``what`` starts the message, ``lower`` ends it (what to do instead).
+        """
+        self._recorder.check_size(ticks, what, lower)
+
     def _fail(self, members: NDArray[np.bool_], reason: float) -> None:
         # end these members now as failed, for this reason
         self.status[members] = STATUS_FAILED
@@ -642,17 +657,20 @@ class ServoLoop(LoopViews):
         self.trace_start = self.tick
 
 
-def _check_sizes(stage: Stage, path: Path, axis_gains: Sequence[PIDGains], batch: Any) -> None:
-    """Raise ValueError unless the batch size, path dimension and axis gains fit the stage."""
-    if not isinstance(batch, (int, np.integer)) or batch < 1:
-        raise ValueError(f"batch_size must be a positive int, got {batch!r}")
-    if path.dim != stage.dim:
-        raise ValueError(
-            f"path {path.name!r} is {path.dim}-D but stage {stage.name!r} draws "
-            f"{stage.dim}-D contours"
-        )
-    if len(axis_gains) != stage.n_axes:
-        raise ValueError(f"need {stage.n_axes} axis gains, got {len(axis_gains)}")
+def _check_memory(
+    stage: Stage, path: Path, axis_gains: Sequence[PIDGains],
+    interpolator: motion.Interpolator, batch: int, options: dict[str, Any],
+) -> None:
+    """Refuse a loop of ``batch`` members whose arrays would not fit in the memory available.
+
+    A member's share is measured on a loop of one: its arrays, and its Python objects
+    (:data:`MEMBER_OBJECT_BYTES`).
+    """
+    one = ServoLoop(stage, path, axis_gains, interpolator, **options)
+    arrays = (one._fblob.buffer, one._iblob.buffer, one._noise.buf, *one.bank.blobs())
+    member = sum(a.nbytes for a in arrays) + MEMBER_OBJECT_BYTES
+    check_size(batch * member, f"a loop of {batch} members ({gigabytes(member)} each)",
+               "the number of members (num_envs, batch_size, members)")
 
 
 def _options(options: dict[str, Any]) -> LoopOptions:

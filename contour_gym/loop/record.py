@@ -110,18 +110,20 @@ class Recorder:
             else:
                 self.calls[0], rows = first[:, rows:].copy(), 0
 
-    def check_size(self, ticks: int, what: str) -> None:
+    def check_size(
+        self, ticks: int, what: str, lower: str = "run without record=True, or a shorter max_time"
+    ) -> None:
         """Raise ValueError if recording ``ticks`` ticks would exceed MAX_RECORD_BYTES.
 
         Args:
             ticks: Ticks of the run.
             what: The run's length in words, to start the message.
+            lower: What the user can do instead, to end it.
         """
         need = ticks * self.batch * self.width * 8
         if need > MAX_RECORD_BYTES:
             raise ValueError(f"{what}: recording it needs {need / 2**30:.3g} GiB, more than "
-                             f"{MAX_RECORD_BYTES / 2**30:.3g} GiB; run without record=True, or "
-                             "a shorter max_time")
+                             f"{MAX_RECORD_BYTES / 2**30:.3g} GiB; {lower}")
 
     def trace(self, ts: float, member: int | None = None) -> Trace:
         """The kept calls as one :class:`Trace`, at ``ts`` seconds per tick.
