@@ -308,8 +308,10 @@ def test_train_killed_by_sigkill_resumes_from_its_checkpoint(tmp_path: Path) -> 
     _killed_when(code, lambda: any(tmp_path.rglob("model_256_steps.zip")))
     run = next(p for p in tmp_path.iterdir() if p.is_dir())
     assert not (run / MODEL_FILE).exists() and latest_checkpoint(run) is not None
+    (run / ".eval.png.k1ll3d.tmp").write_bytes(b"")  # a write the kill cut short, as it can
     train(resume=run, progress=False)
     assert algo_class("ppo").load(run / MODEL_FILE).num_timesteps == 4096
+    assert not list(run.rglob(".*.tmp"))  # no half-written file outlives the resume
 
 
 @pytest.mark.parametrize(

@@ -56,7 +56,13 @@ import yaml
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 
 import contour_gym  # noqa: F401  (registers the ids)
-from agents._files import save_figure, write_atomically, write_handle_atomically, write_text
+from agents._files import (
+    remove_temporaries,
+    save_figure,
+    write_atomically,
+    write_handle_atomically,
+    write_text,
+)
 from agents.evaluate import run_policy_batch
 from agents.rl.algorithms import algorithm
 from agents.rl.config import RunConfig, algo_class, dump_block, load_config
@@ -245,6 +251,7 @@ def _resume(run: Path, total_timesteps: int | None, progress: bool, threads: int
                          f"cannot be loaded ({exc}); remove it to resume from the checkpoint "
                          "before") from None
     _forget_after(run / "eval.csv", model.num_timesteps)
+    remove_temporaries(run)  # a killed run's half-written files (the run is this process's)
     _learn(model, run, config, args, _positive(total, "total_timesteps"), progress)
     return run
 
