@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import resource
 from pathlib import Path
 
@@ -85,3 +86,19 @@ def test_simulate_refuses_a_plot_too_large_before_it_runs(capsys) -> None:
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["contour-gym: error: a 220000 x 92000 pixel plot (dpi 20000) is more than "
                    "65536 pixels on a side: lower --dpi"]
+
+
+@pytest.mark.parametrize(("algo", "key", "said"), [
+    ("sac", "buffer_size=1000000000", r"a replay buffer of 1000000000 transitions would need "
+                                      r".* GB, .*: lower buffer_size"),
+    ("ppo", "n_steps=100000000", r"a rollout of 1600000000 transitions would need .* GB, .*: "
+                                 r"lower n_steps or n_envs"),
+])
+def test_a_buffer_too_large_is_refused_before_the_model_and_its_folder(
+    tmp_path: Path, capsys, algo: str, key: str, said: str
+) -> None:
+    args = ["train", "contour_gym/CCC-v1", "--algo", algo, "--sweep", key, "--timesteps",
+            str(10**10), "--out", str(tmp_path / "runs"), "--quiet"]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert re.search(said, err[-1]) and not (tmp_path / "runs").exists()

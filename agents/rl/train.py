@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import inspect
 import math
 import pickle
 import re
@@ -51,6 +52,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 import yaml
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
@@ -69,6 +71,7 @@ from agents.rl.config import RunConfig, algo_class, dump_block, load_config
 from agents.rl.observation import FLATTEN_WRAPPER
 from agents.rl.saved import SB3Policy
 from agents.rl.vec_env import make_native_vec_env
+from contour_gym.limits import check_size
 
 EVAL_SEED = 1_000_000  # eval member i is seeded EVAL_SEED + seed + i (apart from training's)
 EVAL_COLUMNS = ("timesteps", "max_contour_error_um", "mean_contour_error_um", "cycle_time_s",
@@ -221,6 +224,11 @@ def _new_model(config: RunConfig, algo: str, seed: int, run: Path) -> Any:
     cls = algo_class(algo)
     kwargs = config.model_kwargs(_n_actions(venv))
     try:
+        _check_buffer(cls, kwargs, venv)
+    except ValueError:
+        venv.close()
+        raise
+    try:
         return cls(env=venv, seed=seed, verbose=0, tensorboard_log=str(run / "tensorboard"),
                    device="cpu", **kwargs)
     except (AssertionError, ValueError, TypeError) as exc:  # SB3 checks by assert
@@ -319,6 +327,24 @@ def flattens(config: RunConfig) -> bool:
                      f"native vector env, which flattens the observation itself "
                      f"({FLATTEN_WRAPPER}) and takes no other single-env wrapper (rl_zoo3 "
                      f"does); got {wrapper!r}")
+
+
+def _check_buffer(cls: Any, kwargs: Mapping[str, Any], venv: Any) -> None:
+    """Refuse a rollout or replay buffer the memory cannot hold, before SB3 allocates it.
+
+    A transition holds the observation (and a replay buffer the next one), the action and
+    four scalars, as float32: ``n_steps`` x envs of them on-policy, ``buffer_size`` off-policy
+    (the algorithm's defaults where the config gives none).
+    """
+    defaults = inspect.signature(cls).parameters
+    obs = gym.spaces.flatdim(venv.observation_space)
+    if "buffer_size" in defaults:
+        rows = int(kwargs.get("buffer_size", defaults["buffer_size"].default))
+        what, width, lower = f"a replay buffer of {rows} transitions", 2 * obs, "buffer_size"
+    else:
+        rows = int(kwargs.get("n_steps", defaults["n_steps"].default)) * venv.num_envs
+        what, width, lower = f"a rollout of {rows} transitions", obs, "n_steps or n_envs"
+    check_size(rows * 4.0 * (width + _n_actions(venv) + 4), what, lower)
 
 
 def _n_actions(venv: Any) -> int:
