@@ -29,7 +29,9 @@ def available_bytes() -> int:
 
 
 def gigabytes(n: float) -> str:
-    """``n`` bytes in words: ``"3.4 GB"``, ``"120 MB"``, ``"7.8 kB"``."""
+    """``n`` bytes in words: ``"2 TB"``, ``"3.4 GB"``, ``"120 MB"``, ``"7.8 kB"``."""
+    if n >= 1e12:
+        return f"{n / 1e12:.3g} TB"
     if n >= 1e9:
         return f"{n / 1e9:.3g} GB"
     return f"{n / 1e6:.3g} MB" if n >= 1e6 else f"{n / 1e3:.3g} kB"

@@ -20,6 +20,7 @@ from contour_gym.limits import available_bytes, check_size, gigabytes
 
 def test_sizes_in_words() -> None:
     assert gigabytes(3.4e9) == "3.4 GB" and gigabytes(1.2e8) == "120 MB"
+    assert gigabytes(1.98e12) == "1.98 TB" and gigabytes(7760) == "7.76 kB"
 
 
 def test_workers_are_at_most_two_per_cpu() -> None:
@@ -102,3 +103,15 @@ def test_a_buffer_too_large_is_refused_before_the_model_and_its_folder(
     assert main(args) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert re.search(said, err[-1]) and not (tmp_path / "runs").exists()
+
+
+def test_a_tuning_population_past_the_memory_is_refused_before_its_folder(
+    tmp_path: Path, capsys
+) -> None:
+    args = ["tune", "000", "--population", str(10**8), "--out", str(tmp_path / "run"), "--quiet"]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert re.fullmatch(r"contour-gym: error: a population of 100000000 candidates \(3 "
+                        r"scenario\(s\) each\) would need .* TB, more than .*: lower "
+                        r"--population", err[-1])
+    assert not (tmp_path / "run").exists()

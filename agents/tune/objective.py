@@ -22,7 +22,7 @@ import math
 import threading
 import time
 import weakref
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -48,7 +48,8 @@ from agents.tune.setters import SETTERS
 from contour_gym.api import Scenario
 from contour_gym.envs.config import EnvConfig
 from contour_gym.envs.core import member_rngs
-from contour_gym.loop import ServoLoop
+from contour_gym.limits import check_size
+from contour_gym.loop import ServoLoop, member_bytes
 from contour_gym.loop.threads import available_cpus
 from contour_gym.tasks import TASKS
 
@@ -63,6 +64,11 @@ class _Case:
     hard_limit: float
     chatter_cap: float = math.inf
     scale: float = 1.0  # the reference point's fitness here (Protocol.relative), else 1
+
+
+def _loops_of(case: _Case) -> Callable[[int], ServoLoop]:
+    """A maker of loops of ``case``'s scenario, by batch size."""
+    return lambda batch: case.scenario.loop(batch_size=batch)
 
 
 def _case(
@@ -90,6 +96,7 @@ def _case(
 
 MEMO_SIZE = 100_000  # candidates a PopulationObjective remembers (a few hundred bytes each)
 RECENT = 400  # recent candidates a PopulationObjective predicts the work of new ones from
+OPTIMIZER_ROWS = 16  # (population, parameters) float arrays an optimiser holds at most at once
 
 
 class Memo:
@@ -195,6 +202,18 @@ class PopulationObjective:
         if proto.chatter_bound is not None or proto.relative:
             self._run_reference()
         self._remote = None if ray is None else RemoteSlices(self.protocol, self.ideal, ray)
+
+    def check_population(self, population: int) -> None:
+        """Refuse (ValueError) a population whose generation would not fit in the memory.
+
+        Each candidate is a member of every scenario's loop
+        (:func:`contour_gym.loop.member_bytes`) and a row of the optimiser's arrays
+        (:data:`OPTIMIZER_ROWS` floats per parameter).
+        """
+        member = 8.0 * OPTIMIZER_ROWS * len(self.protocol.params)
+        member += sum(member_bytes(_loops_of(c)) for c in self.cases)
+        check_size(population * member, f"a population of {population} candidates "
+                   f"({len(self.cases)} scenario(s) each)", "--population")
 
     def keep(self, target: Path) -> None:
         """Write every remembered candidate and its results to ``target`` (``.npz``, atomic)."""

@@ -135,6 +135,11 @@ def tune(
     settings = _settings(proto, name, options, m, t, ideal,
                          command or _command(proto.name, name, seed, m, t, ideal, out))
     objective = PopulationObjective(proto, ideal=ideal, workers=workers, ray=ray)
+    try:
+        objective.check_population(m)
+    except ValueError:
+        objective.close()
+        raise
     settings["penalty"] = objective.penalty
     run = _Run(proto, name, seed, settings, folder)
     run.recall(objective, replay=not overwrite)

@@ -26,6 +26,7 @@ from contour_gym.loop.core import (
     LoopOptions,
     ServoLoop,
     Trace,
+    member_bytes,
     simulate_axis,
 )
 from contour_gym.loop.state import REASON_HARD_LIMIT
@@ -33,5 +34,5 @@ from contour_gym.loop.state import REASON_HARD_LIMIT
 __all__ = [
     "DEFAULT_SETTLE", "MAX_RECORD_BYTES", "MAX_RUN_TICKS", "NOISE_CHUNK", "REASON_HARD_LIMIT",
     "REASON_NAMES",
-    "LoopOptions", "ServoLoop", "Trace", "simulate_axis",
+    "LoopOptions", "ServoLoop", "Trace", "member_bytes", "simulate_axis",
 ]

@@ -585,6 +585,11 @@ class ServoLoop(LoopViews):
             self._recorder.check_size(ticks, what)
         return ticks
 
+    def array_bytes(self) -> int:
+        """Bytes of the loop's arrays (its blobs, noise buffer and path bank; not the record)."""
+        arrays = (self._fblob.buffer, self._iblob.buffer, self._noise.buf, *self.bank.blobs())
+        return sum(a.nbytes for a in arrays)
+
     def check_record(self, ticks: int, what: str, lower: str) -> None:
         """Refuse (ValueError) a recorded stretch of ``ticks`` ticks over the record's cap.
 
@@ -657,18 +662,22 @@ class ServoLoop(LoopViews):
         self.trace_start = self.tick
 
 
+def member_bytes(make: Callable[[int], ServoLoop]) -> float:
+    """Memory one more member costs a loop, bytes: measured on ``make(2)`` against ``make(1)``.
+
+    Its arrays (:meth:`ServoLoop.array_bytes`; a loop's tables and scratch are shared) and
+    :data:`MEMBER_OBJECT_BYTES` of Python objects.
+    """
+    return make(2).array_bytes() - make(1).array_bytes() + MEMBER_OBJECT_BYTES
+
+
 def _check_memory(
     stage: Stage, path: Path, axis_gains: Sequence[PIDGains],
     interpolator: motion.Interpolator, batch: int, options: dict[str, Any],
 ) -> None:
-    """Refuse a loop of ``batch`` members whose arrays would not fit in the memory available.
-
-    A member's share is measured on a loop of one: its arrays, and its Python objects
-    (:data:`MEMBER_OBJECT_BYTES`).
-    """
-    one = ServoLoop(stage, path, axis_gains, interpolator, **options)
-    arrays = (one._fblob.buffer, one._iblob.buffer, one._noise.buf, *one.bank.blobs())
-    member = sum(a.nbytes for a in arrays) + MEMBER_OBJECT_BYTES
+    """Refuse a loop of ``batch`` members whose memory (:func:`member_bytes`) would not fit."""
+    member = member_bytes(lambda b: ServoLoop(stage, path, axis_gains, interpolator,
+                                              batch_size=b, **options))
     check_size(batch * member, f"a loop of {batch} members ({gigabytes(member)} each)",
                "the number of members (num_envs, batch_size, members)")
 
