@@ -134,12 +134,7 @@ def tune(
     folder = _run_folder(m, t, seed, out, overwrite)
     settings = _settings(proto, name, options, m, t, ideal,
                          command or _command(proto.name, name, seed, m, t, ideal, out))
-    objective = PopulationObjective(proto, ideal=ideal, workers=workers, ray=ray)
-    try:
-        objective.check_population(m)
-    except ValueError:
-        objective.close()
-        raise
+    objective = _objective(proto, m, ideal, workers, ray)
     settings["penalty"] = objective.penalty
     run = _Run(proto, name, seed, settings, folder)
     run.recall(objective, replay=not overwrite)
@@ -147,6 +142,19 @@ def tune(
         return run.finish(run.search(objective, m, t, options, progress), objective)
     finally:
         objective.close()
+
+
+def _objective(
+    proto: Protocol, population: int, ideal: bool, workers: int | None, ray: str | None
+) -> PopulationObjective:
+    """The protocol's objective, its population checked against the memory."""
+    objective = PopulationObjective(proto, ideal=ideal, workers=workers, ray=ray)
+    try:
+        objective.check_population(population)
+    except ValueError:
+        objective.close()
+        raise
+    return objective
 
 
 def _run_folder(

@@ -49,6 +49,7 @@ from contour_gym.loop.build import (
     contour_axes,
     contour_offsets,
     filled_blob,
+    member_bytes,
     state_shapes,
 )
 from contour_gym.loop.noise import NOISE_CHUNK as NOISE_CHUNK  # re-exported
@@ -92,9 +93,6 @@ _CODED = {"ctrl": CONTROLLER_FAMILY, "est": ESTIMATOR_FAMILY, "ccc": CCC_FAMILY,
           "comp": COMPENSATION_FAMILY}
 MAX_RUN_TICKS = 200_000_000  # ticks one run() may take (55 h of machine time at 1 kHz)
 CHECKED_ABOVE = 1024  # members above which a loop's memory is checked before it is made
-MEMBER_OBJECT_BYTES = 3000
-"""Memory of a member's Python objects beside its arrays, bytes: its random generators and
-their seed sequences (0.57 + 0.48 kB each, measured with numpy 2), the loop's and an env's."""
 
 
 class ServoLoop(LoopViews):
@@ -660,15 +658,6 @@ class ServoLoop(LoopViews):
         """
         self._recorder.clear()
         self.trace_start = self.tick
-
-
-def member_bytes(make: Callable[[int], ServoLoop]) -> float:
-    """Memory one more member costs a loop, bytes: measured on ``make(2)`` against ``make(1)``.
-
-    Its arrays (:meth:`ServoLoop.array_bytes`; a loop's tables and scratch are shared) and
-    :data:`MEMBER_OBJECT_BYTES` of Python objects.
-    """
-    return make(2).array_bytes() - make(1).array_bytes() + MEMBER_OBJECT_BYTES
 
 
 def _check_memory(
