@@ -56,7 +56,6 @@ from typing import Any
 
 import numpy as np
 
-from agents._files import write_atomically, write_handle_atomically, write_text
 from agents.bench_plots import scenario_plots
 from agents.evaluate import env_arguments, make_vector_env, run_episodes
 from agents.generalization import format_value, summary_rows
@@ -65,6 +64,7 @@ from agents.parallel import Runner, runner
 from agents.policies import Policy
 from agents.suites import PolicySpec, ScenarioSpec, Suite, load_suite
 from contour_gym.envs.core import FEEDRATE
+from contour_gym.files import write_atomically, write_handle_atomically, write_text
 from contour_gym.loop import Trace
 
 DEFAULT_RUNS = Path("runs") / "bench"

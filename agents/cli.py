@@ -29,11 +29,12 @@ from pathlib import Path as FilePath
 
 import numpy as np
 
-from agents._files import check_plot, output_file, output_folder, save_figure
+from agents._files import check_plot, save_figure
 from agents.parallel import exit_quickly
 from agents.rl.algorithms import ALGORITHMS
 from contour_gym import precompile
 from contour_gym.api import Scenario, make_scenario, run_trace
+from contour_gym.files import output_file, output_folder
 from contour_gym.loop import REASON_NAMES
 from contour_gym.params import choice
 from contour_gym.paths import WORK_SYSTEMS, GcodeError, GcodePath, from_gcode

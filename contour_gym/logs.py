@@ -26,7 +26,6 @@ import csv
 import itertools
 import os
 import re
-import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,6 +33,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from contour_gym.files import write_text
 
 __all__ = [
     "DEFAULT_JOINTS", "LENGTH_UNITS", "MIN_SAMPLES", "STILL_BELOW", "AxisLog", "LogError",
@@ -560,22 +561,6 @@ def read_log(path: PathLike, *, columns: str | Sequence[str] | None = None,
     return read_halsampler(path, columns, period, joints, length_unit)
 
 
-def _write_atomically(path: PathLike, text: str) -> None:
-    """Write ``text`` to a temp file beside ``path``, then rename it over ``path``."""
-    target = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
-            f.write(text)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # a plain new file's mode, not mkstemp's 0600
-        os.replace(tmp, target)
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-
-
 def _axis_columns(axis: AxisLog, scale: float) -> list[tuple[str, NDArray[np.float64]]]:
     """(kind, values in the file's unit) of an axis's logged signals."""
     out = [("cmd", axis.cmd / scale), ("fb", axis.fb / scale)]
@@ -602,7 +587,7 @@ def write_csv(log: ServoLog, path: PathLike, length_unit: str = "m") -> None:
         for kind, values in _axis_columns(axis, scale):
             names.append(f"{axis.name}_{kind}")
             columns.append(values)
-    _write_atomically(path, "\n".join([",".join(names), *_lines(columns, ",")]) + "\n")
+    write_text(Path(path), "\n".join([",".join(names), *_lines(columns, ",")]) + "\n")
 
 
 def _pin(axis: str, kind: str, joint: int | None) -> str:
@@ -646,7 +631,7 @@ def write_halsampler(log: ServoLog, path: PathLike, joints: Joints = None,
     lines = _lines(columns, " ")
     if tag:
         lines = [f"{int(k)} {line}" for k, line in zip(steps.tolist(), lines, strict=True)]
-    _write_atomically(path, "\n".join(lines) + "\n")
+    write_text(Path(path), "\n".join(lines) + "\n")
     return ",".join(pins)
 
 

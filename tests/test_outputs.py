@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from agents._files import OutputPathError, output_file, output_folder, write_atomically
 from agents.cli import main
+from contour_gym.files import OutputPathError, output_file, output_folder, write_atomically
 
 
 def _write(target: Path, text: str) -> None:

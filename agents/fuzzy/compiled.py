@@ -20,7 +20,6 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from agents._files import write_handle_atomically
 from agents.fuzzy.kernels import Surface, _mamdani_exact_batch, _product_batch, _surface_batch
 from agents.fuzzy.system import (
     PRODUCT,
@@ -31,6 +30,7 @@ from agents.fuzzy.system import (
     check_inputs,
     register_compiler,
 )
+from contour_gym.files import write_handle_atomically
 from contour_gym.params import as_finite_array, choice
 
 

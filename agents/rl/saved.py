@@ -45,7 +45,6 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
-from agents._files import write_text
 from agents.parallel import limit_new_torch
 from agents.policy_base import (
     POLICIES,
@@ -58,6 +57,7 @@ from agents.policy_base import (
 from agents.rl.algorithms import Algorithm, algorithm
 from agents.rl.observation import flatten_obs
 from contour_gym.envs.config import EnvConfig
+from contour_gym.files import write_text
 
 TRAINED_DIR = Path(__file__).resolve().parent.parent / "trained"
 # env kwargs that vary the training, not the agent's interface (observation, action, machine)

@@ -58,19 +58,19 @@ import yaml
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 
 import contour_gym  # noqa: F401  (registers the ids)
-from agents._files import (
-    remove_temporaries,
-    save_figure,
-    write_atomically,
-    write_handle_atomically,
-    write_text,
-)
+from agents._files import save_figure
 from agents.evaluate import run_policy_batch
 from agents.rl.algorithms import algorithm
 from agents.rl.config import RunConfig, algo_class, dump_block, load_config
 from agents.rl.observation import FLATTEN_WRAPPER
 from agents.rl.saved import SB3Policy
 from agents.rl.vec_env import make_native_vec_env
+from contour_gym.files import (
+    remove_temporaries,
+    write_atomically,
+    write_handle_atomically,
+    write_text,
+)
 from contour_gym.limits import check_size
 
 EVAL_SEED = 1_000_000  # eval member i is seeded EVAL_SEED + seed + i (apart from training's)

@@ -34,7 +34,6 @@ from typing import Any
 
 import yaml
 
-from agents._files import write_atomically, write_text
 from agents.rl.algorithms import ALGORITHMS
 from agents.rl.saved import META_FILE, MODEL_FILE, STATS_FILE, TRAINED_DIR, file_digest
 from agents.rl.train import (
@@ -46,6 +45,7 @@ from agents.rl.train import (
     run_name,
     train,
 )
+from contour_gym.files import write_atomically, write_text
 
 ENTRY_KEYS = {"algo": str, "env_id": str, "seed": int, "timesteps": int, "env_kwargs": dict,
               "hyperparams": dict, "eval_episodes": int, "act_env_kwargs": dict}

@@ -34,7 +34,6 @@ from numpy.typing import ArrayLike, NDArray
 
 import agents.ccc_laws  # noqa: F401  (registers the fuzzy_pid law)
 import contour_gym  # noqa: F401  (registers the env ids)
-from agents._files import write_atomically
 from agents.parallel import RAY_RETRIES, RayRunner, _init_worker
 from agents.tune.fitness import (
     FITNESS_TERMS,
@@ -48,6 +47,7 @@ from agents.tune.setters import SETTERS
 from contour_gym.api import Scenario
 from contour_gym.envs.config import EnvConfig
 from contour_gym.envs.core import member_rngs
+from contour_gym.files import write_atomically
 from contour_gym.limits import check_size
 from contour_gym.loop import ServoLoop, member_bytes
 from contour_gym.loop.threads import available_cpus

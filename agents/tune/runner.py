@@ -32,7 +32,6 @@ from typing import Any
 
 import numpy as np
 
-from agents._files import write_text
 from agents.optim import OPTIMIZERS, OptimResult, minimize, options_of
 from agents.optim._base import make_rng, positive_int
 from agents.optim.pso import schedules
@@ -41,6 +40,7 @@ from agents.tune.objective import PopulationObjective
 from agents.tune.plots import write_plots
 from agents.tune.protocols import Protocol, get_protocol
 from agents.tune.result import TuneResult
+from contour_gym.files import write_text
 from contour_gym.params import choice
 
 PSO_FAMILY = ("pso", "improved_pso")
@@ -368,7 +368,7 @@ def check_run_folder(folder: Path, overwrite: bool) -> None:
 
 
 def _write_json(target: Path, data: Mapping[str, Any]) -> None:
-    """Write ``data`` as JSON, whole or not at all (:func:`agents._files.write_atomically`)."""
+    """Write ``data`` as JSON, whole or not at all (:func:`contour_gym.files.write_atomically`)."""
     text = json.dumps(data, indent=2) + "\n"
     write_text(target, text)
 
