@@ -36,6 +36,7 @@ from contour_gym import precompile
 from contour_gym.api import Scenario, make_scenario, run_trace
 from contour_gym.files import output_file, output_folder
 from contour_gym.loop import REASON_NAMES
+from contour_gym.machines import is_machine_file
 from contour_gym.params import choice
 from contour_gym.paths import WORK_SYSTEMS, GcodeError, GcodePath, from_gcode
 from contour_gym.presets import PRESETS
@@ -72,6 +73,15 @@ def _positive(text: str) -> float:
     if value <= 0.0:
         raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
     return value
+
+
+def _plant(text: str) -> str:
+    """A preset's name or a machine file's path (contour_gym.machines), as given."""
+    if is_machine_file(text) or text in PRESETS.names():
+        return text
+    raise argparse.ArgumentTypeError(
+        f"{text!r} is neither a preset ({', '.join(sorted(PRESETS.names()))}) nor a machine "
+        "file (.yaml)")
 
 
 def _key_value(text: str, form: str) -> tuple[str, str]:
@@ -115,9 +125,9 @@ def _parser() -> argparse.ArgumentParser:
 def _add_simulate_parser(sub: argparse._SubParsersAction) -> None:
     sim = sub.add_parser("simulate", help="no CCC vs PID CCC on one preset and path or part")
     sim.add_argument(
-        "--plant", default=None, choices=PRESETS,
-        help=f"machine (default: {DEFAULT_PLANT}; for a part, {PART_PLANTS[2]} if it is 2-D, "
-        f"{PART_PLANTS[3]} if 3-D)",
+        "--plant", default=None, type=_plant, metavar="PRESET|MACHINE.yaml",
+        help=f"a preset ({', '.join(sorted(PRESETS.names()))}) or a machine file (default: "
+        f"{DEFAULT_PLANT}; for a part, {PART_PLANTS[2]} if it is 2-D, {PART_PLANTS[3]} if 3-D)",
     )
     where = sim.add_mutually_exclusive_group()
     where.add_argument("--path", default=None, help="library path name (default: the paper's)")

@@ -13,13 +13,16 @@ Add your machine with one module and one call::
 and use it by name everywhere (``simulate(plant="my_mill")``, the envs' ``plant=``). A dict
 ``{"preset": name, **field_overrides}`` passed as ``plant=`` overrides fields of a registered
 preset (nested dicts override nested dataclasses; axes are keyed by name or index), e.g.
-``plant={"preset": "xy_dc_servo", "feedrate": 0.02, "stage": {"axes": {"x": {"mass": 40.0}}}}``.
+``plant={"preset": "xy_dc_servo", "feedrate": 0.02, "stage": {"axes": {"x": {"mass": 40.0}}}}``
+(axis gains keyed by axis name too; a friction mapping with a ``law`` key replaces the model).
+The same dict in a YAML file is a machine file (:mod:`contour_gym.machines`): pass its path.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -27,7 +30,9 @@ from typing import Any
 from contour_gym._registry import Registry
 from contour_gym._validate import choice, positive
 from contour_gym.ccc import INJECTIONS, CCCGains, set_machine_lookup
+from contour_gym.machines import is_machine_file, read_machine
 from contour_gym.plant import (
+    FRICTION_LAWS,
     AxisParams,
     Contour,
     Disturbance,
@@ -425,14 +430,24 @@ def get_preset(name: str) -> Preset:
     return preset
 
 
-def resolve_preset(plant: str | Preset | Mapping[str, Any]) -> Preset:
-    """A preset from a name, a :class:`Preset`, or ``{"preset": name, **overrides}``.
+def resolve_preset(plant: str | os.PathLike[str] | Preset | Mapping[str, Any]) -> Preset:
+    """A preset from a name, a machine file, a :class:`Preset`, or a dict of overrides.
+
+    The dict is ``{"preset": name, **overrides}``; a machine file is a ``.yaml`` path holding
+    one (:mod:`contour_gym.machines`).
 
     Raises:
         ValueError: for an unknown name or field, or an override its dataclass rejects.
     """
     if isinstance(plant, Preset):
         return plant
+    if is_machine_file(plant):
+        try:
+            return resolve_preset(read_machine(str(plant)))
+        except ValueError as exc:
+            said = str(exc)
+            raise ValueError(said if str(plant) in said else f"machine file {plant}: {said}"
+                             ) from None
     if isinstance(plant, str):
         return get_preset(plant)
     if isinstance(plant, Mapping):
@@ -440,11 +455,22 @@ def resolve_preset(plant: str | Preset | Mapping[str, Any]) -> Preset:
         base = changes.pop("preset", None)
         if not isinstance(base, str):
             raise ValueError("a plant dict needs 'preset': the name of the preset it overrides")
-        return override(get_preset(base), changes)
-    raise ValueError(f"plant must be a preset name, a Preset or a dict, got {plant!r}")
+        preset = get_preset(base)
+        return override(preset, _gains_by_index(preset, changes))
+    raise ValueError(f"plant must be a preset name, a machine file (.yaml), a Preset or a "
+                     f"dict, got {plant!r}")
 
 
 set_machine_lookup(resolve_preset)  # the machines the CCC laws' units are read on
+
+
+def _gains_by_index(preset: Preset, changes: dict[str, Any]) -> dict[str, Any]:
+    """``changes`` with ``axis_gains`` keyed by axis name turned to the axes' indices."""
+    gains = changes.get("axis_gains")
+    if not isinstance(gains, Mapping):
+        return changes
+    names = {axis.name: i for i, axis in enumerate(preset.stage.axes)}
+    return {**changes, "axis_gains": {names.get(k, k): v for k, v in gains.items()}}
 
 
 def override(obj: Any, changes: Any, where: str = "plant") -> Any:
@@ -454,6 +480,10 @@ def override(obj: Any, changes: Any, where: str = "plant") -> Any:
     """
     if not isinstance(changes, Mapping):
         return changes
+    if where.endswith(".friction") and "law" in changes:  # another friction model
+        fields = dict(changes)
+        model = FRICTION_LAWS.get(fields.pop("law")).model
+        return None if model is type(None) else model(**fields)
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
         names = {f.name for f in dataclasses.fields(obj)}
         unknown = sorted(set(changes) - names)
