@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
+from agents.twin.fit import identify
 from agents.twin.generate import excitation, machine_log, perturbed_plant
 from agents.twin.replay import command_path, replay, replay_loop
+from contour_gym.api import make_scenario
 from contour_gym.logs import ServoLog, read_csv, write_csv
+from contour_gym.plant.friction import law_for
 from contour_gym.presets import resolve_preset
 
 
@@ -67,3 +71,53 @@ def test_a_log_that_cannot_drive_the_machine_is_named() -> None:
     with pytest.raises(ValueError, match=r"slow\.csv: a sample every 0\.002 s; the machine's "
                                          r"servo tick is 0\.001 s"):
         command_path(slow, "xy_dc_servo")
+
+
+def _ratios(values: dict, plant: Any, like: str) -> dict:
+    # identified values over the preset's force constant against the hidden machine's ratios
+    # (positions and control see mass, damping and friction only over the force constant)
+    true, base = resolve_preset(plant), resolve_preset(like)
+    out = {}
+    for t, b in zip(true.stage.axes, base.stage.axes, strict=True):
+        for name, value in values[t.name].items():
+            hidden = getattr(t, name) if name in ("mass", "damping") else getattr(t.friction, name)
+            out[(t.name, name)] = (value / b.force_constant) / (hidden / t.force_constant) - 1.0
+    return out
+
+
+@pytest.mark.parametrize(("ideal", "seconds", "within"), [
+    (True, 4.0, 0.01),
+    pytest.param(False, 30.0, 0.05, marks=pytest.mark.slow),  # the 30 s log
+])
+def test_identify_recovers_a_hidden_machine(ideal: bool, seconds: float, within: float) -> None:
+    rng = np.random.default_rng(5)
+    plant = perturbed_plant("xy_servo_coulomb", rng)
+    log = machine_log(plant, excitation(resolve_preset(plant), rng, seconds=seconds), seed=5,
+                      ideal=ideal)
+    twin = identify([log], "xy_servo_coulomb", ideal=ideal)
+    errors = _ratios(twin.values, plant, "xy_servo_coulomb")
+    assert max(abs(e) for e in errors.values()) < within, errors
+    assert twin.fixed == {"force_constant": twin.fixed["force_constant"]}
+    assert resolve_preset(twin.plant).stage.axes[0].mass == twin.values["x"]["mass"]
+    if ideal:
+        assert max(twin.nrmse.values()) < 0.01
+
+
+def test_single_friction_parameters_scale_by_name() -> None:
+    loop = make_scenario("xy_servo_coulomb").loop(batch_size=2)
+    fc = law_for(loop.stage.axes[0].friction).params.names.index("fc")
+    before = loop.fr_p.copy()
+    loop.set_plant_scaling([1], friction_params={"fc": [[2.0, 3.0]]})
+    assert np.array_equal(loop.fr_p[0], before[0])
+    assert loop.fr_p[1, 0, fc] == 2.0 * before[1, 0, fc]
+    assert loop.fr_p[1, 1, fc] == 3.0 * before[1, 1, fc]
+    with pytest.raises(ValueError, match=r"friction_params: no axis's friction law has 'sigma0'"):
+        loop.set_plant_scaling([0], friction_params={"sigma0": 2.0})
+
+
+def test_a_gantrys_two_motors_are_drawn_alike() -> None:
+    drawn = resolve_preset(perturbed_plant("xyy_gantry", np.random.default_rng(1))).stage.axes
+    base = resolve_preset("xyy_gantry").stage.axes
+    factors = [(d.mass / b.mass, d.damping / b.damping, d.friction.fc / b.friction.fc)  # type: ignore[union-attr]
+               for d, b in zip(drawn, base, strict=True)]
+    assert np.allclose(factors[1], factors[2]) and not np.allclose(factors[0], factors[1])

@@ -33,30 +33,42 @@ def perturbed_plant(
     """A hidden machine: ``preset`` with each axis parameter scaled by a factor in [low, high].
 
     Scaled: :data:`SCALED` and every positive friction parameter but a Stribeck exponent (the
-    static force keeps its excess over the Coulomb force, scaled by its own factor).
+    static force keeps its excess over the Coulomb force, scaled by its own factor). Axes that
+    drive the same coordinate (a gantry's two motors on one beam) share their factors.
 
     Returns:
         The plant dict (``{"preset": preset, "stage": {"axes": {...}}}``, a machine file's).
     """
     base = resolve_preset(preset)
+    drawn: dict[int, dict[str, float]] = {}
     axes: dict[str, Any] = {}
-    for axis in base.stage.axes:
-        changes: dict[str, Any] = {k: getattr(axis, k) * rng.uniform(low, high) for k in SCALED}
+    for a, axis in enumerate(base.stage.axes):
+        factors = drawn.setdefault(_coordinate(base, a), _factors(axis, rng, low, high))
+        changes: dict[str, Any] = {k: getattr(axis, k) * factors[k] for k in SCALED}
         if axis.friction is not None:
-            changes["friction"] = _scaled_friction(axis.friction, rng, low, high)
+            changes["friction"] = _scaled_friction(axis.friction, factors)
         axes[axis.name] = changes
     return {"preset": preset, "name": f"{preset}_hidden", "stage": {"axes": axes}}
 
 
-def _scaled_friction(model: Any, rng: np.random.Generator, low: float, high: float
-                     ) -> dict[str, Any]:
+def _coordinate(preset: Preset, axis: int) -> int:
+    # the contour coordinate an axis drives (its index in the first contour that has it)
+    return next(c.axes.index(axis) for c in preset.stage.contours if axis in c.axes)
+
+
+def _factors(axis: Any, rng: np.random.Generator, low: float, high: float) -> dict[str, float]:
+    names = [*SCALED, *(dataclasses.asdict(axis.friction) if axis.friction else {})]
+    return {name: float(rng.uniform(low, high)) for name in names}
+
+
+def _scaled_friction(model: Any, factors: dict[str, float]) -> dict[str, Any]:
     fields = dataclasses.asdict(model)
     out: dict[str, Any] = {"law": law_for(model).name, **fields}
     for key, value in fields.items():
         if isinstance(value, float) and value > 0.0 and key not in ("delta", "fs"):
-            out[key] = value * rng.uniform(low, high)
+            out[key] = value * factors[key]
     if isinstance(fields.get("fs"), float) and isinstance(fields.get("fc"), float):
-        out["fs"] = out["fc"] + (fields["fs"] - fields["fc"]) * rng.uniform(low, high)
+        out["fs"] = out["fc"] + (fields["fs"] - fields["fc"]) * factors["fs"]
     return out
 
 

@@ -314,7 +314,7 @@ class ServoLoop(LoopViews):
         """Set per-member axis controller parameters, broadcastable to (B, A, P)."""
         self.parameters.set_controller_params(params)
 
-    def set_plant_scaling(self, members: ArrayLike, **factors: ArrayLike) -> None:
+    def set_plant_scaling(self, members: ArrayLike, **factors: Any) -> None:
         """Scale members' axis parameters (:meth:`Parameters.set_plant_scaling`)."""
         self.parameters.set_plant_scaling(members, **factors)
 

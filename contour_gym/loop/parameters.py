@@ -8,6 +8,8 @@ domain randomisation need them to differ.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -17,7 +19,7 @@ from contour_gym.loop.views import Array, LoopViews, member_indices
 from contour_gym.motion import IP, Interpolator
 from contour_gym.plant._kernel import AX, DISTURBANCE
 from contour_gym.plant.friction import law_for
-from contour_gym.plant.stage import zoh_matrices
+from contour_gym.plant.stage import Stage, zoh_matrices
 
 
 class Parameters:
@@ -121,18 +123,22 @@ class Parameters:
         force_constant: ArrayLike = 1.0,
         friction: ArrayLike = 1.0,
         disturbance: ArrayLike = 1.0,
+        friction_params: Mapping[str, ArrayLike] | None = None,
     ) -> None:
         """Scale members' axis parameters relative to the stage's nominal values.
 
         Domain randomisation (axis mismatch, friction and disturbance levels; 002 section 4.2
-        analyses gain and time-constant mismatch). Each factor broadcasts to (len(members),
-        n_axes) and must be finite and > 0 (friction/disturbance >= 0); friction scales the
-        parameters each law names in its ``scale``.
+        analyses gain and time-constant mismatch) and identification (a candidate machine per
+        member). Each factor broadcasts to (len(members), n_axes) and must be finite and > 0
+        (friction/disturbance >= 0); friction scales the parameters each law names in its
+        ``scale``; ``friction_params`` scales single friction parameters by name (``fc``,
+        ``sigma0``, ...) on the axes whose law has them, on top of ``friction``.
         """
         idx = self._members(members)
-        f = _scale_factors((len(idx), self.stage.n_axes), mass=mass, damping=damping,
-                           force_constant=force_constant, friction=friction,
-                           disturbance=disturbance)
+        shape = (len(idx), self.stage.n_axes)
+        f = _scale_factors(shape, mass=mass, damping=damping, force_constant=force_constant,
+                           friction=friction, disturbance=disturbance)
+        one = _friction_factors(self.stage, shape, friction_params or {})
         ax_p, fr_p, dist = (arr[idx].copy() for arr in self._nominal)
         ax_p[..., AX.m] *= f["mass"]
         ax_p[..., AX.b] *= f["damping"]
@@ -141,6 +147,9 @@ class Parameters:
             law = law_for(axis.friction)
             for name in law.scale:
                 fr_p[:, a, law.params.names.index(name)] *= f["friction"][:, a]
+            for name, factor in one.items():
+                if name in law.params.names:
+                    fr_p[:, a, law.params.names.index(name)] *= factor[:, a]
         for name in ("step_a", "sin_a", "rnd_std"):
             dist[..., DISTURBANCE.names.index(name)] *= f["disturbance"]
         loop = self.loop
@@ -158,6 +167,22 @@ def _scale_factors(shape: tuple[int, int], **factors: ArrayLike) -> dict[str, Ar
         if np.any(f[k] < 0):
             raise ValueError(f"{k} scale must be >= 0, got {f[k].min()}")
     return f
+
+
+def _friction_factors(
+    stage: Stage, shape: tuple[int, int], factors: Mapping[str, ArrayLike]
+) -> dict[str, Array]:
+    """Per-parameter friction factors broadcast to ``shape``, checked (>= 0, known names)."""
+    known = {n for axis in stage.axes for n in law_for(axis.friction).params.names}
+    out = {}
+    for name, value in factors.items():
+        if name not in known:
+            raise ValueError(f"friction_params: no axis's friction law has {name!r}; the laws "
+                             f"here have {', '.join(sorted(known)) or 'no parameters'}")
+        out[name] = np.broadcast_to(as_finite_array(value, name), shape)
+        if np.any(out[name] < 0):
+            raise ValueError(f"friction_params[{name!r}] must be >= 0, got {out[name].min()}")
+    return out
 
 
 def _assign(target: Array, value: ArrayLike, name: str) -> None:

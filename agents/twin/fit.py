@@ -1,0 +1,290 @@
+"""Identify a twin: the plant whose closed loop, replaying the logs' commands, measures the same.
+
+Output error (:mod:`agents.twin.replay`): the logs' commands drive a loop of the preset the
+machine is like, each member a candidate plant, and the simulated axis positions are matched
+to the logged feedback by :func:`scipy.optimize.least_squares` (bounded, from several starts).
+The unknowns are factors on the preset's values, searched in log space: per axis its mass,
+viscous damping and the friction parameters :data:`FITTED_FRICTION` names for its law. The
+force constant is fixed at the preset's: with the axis controller's gains known, positions
+and the control signal depend on mass, damping and friction only through their ratios to it.
+A Jacobian's columns are members of one run (axis ``a``'s residual depends on axis ``a``'s
+factors only, so parameter ``j`` of every axis moves in the same member).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+
+from agents.twin.replay import replay_loop
+from contour_gym.logs import ServoLog
+from contour_gym.loop import ServoLoop
+from contour_gym.plant.friction import law_for
+from contour_gym.presets import Preset, resolve_preset
+
+Array = NDArray[np.float64]
+FITTED_FRICTION = {"none": (), "coulomb": ("fc",), "stribeck": ("fc", "fs", "vs", "fv"),
+                   "lugre": ("sigma0", "sigma1", "sigma2", "fc", "fs", "vs")}
+"""Per friction law, the parameters identified (those the preset gives a value > 0: a factor
+cannot move a zero); the others stay the preset's."""
+FIXED = ("force_constant",)
+BOUNDS = (0.2, 5.0)  # factors on the preset's values searched within
+STEP = 2e-2  # the Jacobian's step in log factor
+
+
+@dataclass(frozen=True)
+class Identified:
+    """A twin found from logs.
+
+    Attributes:
+        plant: The machine file's plant dict (``{"preset": like, "stage": {"axes": ...}}``).
+        values: Per axis, each identified parameter's value (SI).
+        std: Per axis, each one's standard deviation (from the Jacobian at the solution).
+        fixed: The parameters kept at the preset's values, and why.
+        nrmse: Per axis, the RMS of the twin's following error minus the measured one, over
+            the RMS of the measured one, on the logs fitted.
+        cost: The final least-squares cost.
+    """
+
+    plant: dict[str, Any]
+    values: dict[str, dict[str, float]]
+    std: dict[str, dict[str, float]]
+    fixed: dict[str, str]
+    nrmse: dict[str, float]
+    cost: float
+
+
+def fitted_names(preset: Preset) -> list[tuple[str, ...]]:
+    """Per axis, the parameters identified: mass, damping and its law's :data:`FITTED_FRICTION`."""
+    out = []
+    for axis in preset.stage.axes:
+        law = law_for(axis.friction).name
+        given = dataclasses.asdict(axis.friction) if axis.friction is not None else {}
+        friction = [n for n in FITTED_FRICTION.get(law, ()) if (given.get(n) or 0.0) > 0.0]
+        out.append(("mass", "damping", *friction))
+    return out
+
+
+class _Problem:
+    """The logs replayed on candidate plants: residuals and Jacobians by runs of members."""
+
+    def __init__(self, logs: Sequence[ServoLog], like: Any, members: int, ideal: bool) -> None:
+        self.preset = resolve_preset(like)
+        self.names = fitted_names(self.preset)
+        self.n_params = max(len(n) for n in self.names)
+        self.logs = list(logs)
+        self.loops = [replay_loop(log, like, members=members, ideal=ideal) for log in self.logs]
+        axes = [a.name for a in self.preset.stage.axes]
+        self.fb = [np.stack([log.axis(n).fb for n in axes], axis=1) for log in self.logs]
+        self.cmd = [np.stack([log.axis(n).cmd for n in axes], axis=1) for log in self.logs]
+        err = np.concatenate([c - f for c, f in zip(self.cmd, self.fb, strict=True)])
+        self.scale = np.sqrt(np.mean(err**2, axis=0)) + 1e-12  # each axis's RMS following error
+        self._last: tuple[bytes, Array, Array] | None = None
+
+    def positions(self, theta: Array) -> list[Array]:
+        """(M, N, A) per log: the positions of members with log factors ``theta`` (M, A, P)."""
+        m = theta.shape[0]
+        factors = np.exp(theta)
+        fric: dict[str, Array] = {}
+        for a, names in enumerate(self.names):
+            for j, name in enumerate(names[2:], start=2):
+                fric.setdefault(name, np.ones((m, len(self.names))))[:, a] = factors[:, a, j]
+        out = []
+        for loop, log in zip(self.loops, self.logs, strict=True):
+            _scale(loop, factors, fric)
+            loop.reset(0)
+            loop.step(len(log.time), skip=np.arange(m, loop.batch_size))  # the rest sit out
+            out.append(loop.trace().x[:m])
+        return out
+
+    def residuals(self, x: list[Array]) -> Array:
+        """(M, R) each member's residuals: (position - feedback) / the axis's scale."""
+        rows = [(xi - fb[None]) / self.scale for xi, fb in zip(x, self.fb, strict=True)]
+        return np.concatenate([r.reshape(r.shape[0], -1, order="F") for r in rows], axis=1)
+
+    def run(self, flat: Array) -> tuple[Array, Array]:
+        """Residuals (R,) at ``flat`` and the Jacobian (R, A P), from one run of 1 + P members."""
+        key = flat.tobytes()
+        if self._last is not None and self._last[0] == key:
+            return self._last[1], self._last[2]
+        a, p = len(self.names), self.n_params
+        theta = np.repeat(flat.reshape(1, a, p), p + 1, axis=0)
+        for j in range(p):
+            theta[j + 1, :, j] += STEP
+        res = self.residuals(self.positions(theta))
+        jac = np.zeros((res.shape[1], a * p))
+        per_axis = self.axis_rows(res.shape[1])
+        for j in range(p):
+            for ax in range(a):
+                rows = per_axis[ax]
+                jac[rows, ax * p + j] = (res[j + 1, rows] - res[0, rows]) / STEP
+        self._last = (key, res[0], jac)
+        return res[0], jac
+
+    def axis_rows(self, total: int) -> list[NDArray[np.intp]]:
+        """The residual rows of each axis (per log, axis-major blocks)."""
+        a = len(self.names)
+        idx, start = [np.zeros(0, dtype=np.intp) for _ in range(a)], 0
+        for fb in self.fb:
+            n = fb.shape[0]
+            for ax in range(a):
+                idx[ax] = np.r_[idx[ax], np.arange(start + ax * n, start + (ax + 1) * n)]
+            start += a * n
+        assert start == total
+        return idx
+
+
+def _scale(loop: ServoLoop, factors: Array, fric: dict[str, Array]) -> None:
+    m = factors.shape[0]
+    loop.set_plant_scaling(np.arange(m), mass=factors[:, :, 0], damping=factors[:, :, 1],
+                           friction_params=fric)
+
+
+def identify(
+    logs: Sequence[ServoLog], like: Any, *, starts: int = 3, screen: int = 128, seed: int = 0,
+    ideal: bool = False,
+) -> Identified:
+    """Fit a twin of the machine that wrote ``logs``, starting from the preset ``like``.
+
+    Args:
+        logs: Servo logs of the machine (one sample per servo tick).
+        like: The preset (or machine file) whose structure, controllers and fixed values the
+            twin keeps.
+        starts: Least-squares runs, from the best points of the screen.
+        screen: Random points (log factors within :data:`BOUNDS`) simulated at once to pick
+            the starts from (the preset's own values among them).
+        seed: Seed of the screen.
+        ideal: Replay without encoder, noise or delay (logs made with ``ideal=True``).
+
+    Returns:
+        The twin (:class:`Identified`).
+    """
+    problem = _Problem(logs, like, max(screen, 1 + max(len(n) for n in fitted_names(
+        resolve_preset(like)))), ideal)
+    a, p = len(problem.names), problem.n_params
+    lo, hi = np.log(BOUNDS[0]), np.log(BOUNDS[1])
+    rng = np.random.default_rng(seed)
+    points = rng.uniform(lo, hi, size=(screen, a, p))
+    points[0] = 0.0
+    points[1] = np.clip(inverse_dynamics(problem), lo, hi)  # with effort logged: the regression
+    res = problem.residuals(problem.positions(points))
+    rows = problem.axis_rows(res.shape[1])
+    # the axes are fitted apart (each one's residuals follow its own factors only): start k
+    # takes each axis's k-th best point of the screen
+    ranked = [np.argsort((res[:, r] ** 2).sum(axis=1)) for r in rows]
+    best = None
+    for k in range(starts):
+        start = np.stack([points[ranked[ax][k], ax] for ax in range(a)])
+        fit = least_squares(lambda f: problem.run(f)[0], start.ravel(),
+                            jac=lambda f: problem.run(f)[1], bounds=(lo, hi), x_scale=1.0,
+                            max_nfev=60)
+        if best is None or fit.cost < best.cost:
+            best = fit
+    assert best is not None
+    return _result(problem, best)
+
+
+def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Array:
+    """(A, P) log factors from the logged effort by linear least squares (0 without effort).
+
+    The axis's force balance ``K u = m a + b v + fc sgn(v)`` holds at every sample: with the
+    effort ``u`` logged and ``v``, ``a`` differenced from the feedback (smoothed over
+    ``smooth`` samples, the effort read one tick earlier: the loop's delay), ``m/K``, ``b/K``
+    and ``fc/K`` follow from one regression (the inverse dynamic model of the EMPS
+    benchmark); each is turned into a factor on the preset's value. Friction parameters other
+    than ``fc`` start at the factor ``fc`` got.
+    """
+    a_n, p = len(problem.names), problem.n_params
+    theta = np.zeros((a_n, p))
+    for ax, (axis, names) in enumerate(zip(problem.preset.stage.axes, problem.names,
+                                           strict=True)):
+        rows = [_regressors(log, axis.name, problem.preset.stage.ts, smooth)
+                for log in problem.logs]
+        if any(r is None for r in rows):
+            continue
+        x = np.concatenate([r[0] for r in rows if r is not None])
+        y = np.concatenate([r[1] for r in rows if r is not None])
+        coef = np.linalg.lstsq(x, y * axis.force_constant, rcond=None)[0]
+        nominal = {"mass": axis.mass, "damping": axis.damping,
+                   **(dataclasses.asdict(axis.friction) if axis.friction else {})}
+        fc = coef[2] / nominal["fc"] if nominal.get("fc") else 1.0
+        for j, name in enumerate(names):
+            ratio = {"mass": coef[0] / axis.mass, "damping": coef[1] / max(axis.damping, 1e-12)
+                     }.get(name, fc)
+            theta[ax, j] = math.log(ratio) if ratio > 0.0 else 0.0
+    return theta
+
+
+def _regressors(log: ServoLog, name: str, ts: float, smooth: int
+                ) -> tuple[Array, Array] | None:
+    # [a, v, sgn v] and u of the moving samples, or None without effort
+    axis = log.axis(name)
+    if axis.effort is None:
+        return None
+    kernel = np.ones(smooth) / smooth
+    x = np.convolve(axis.fb, kernel, mode="same")
+    v = np.gradient(x, ts)
+    acc = np.gradient(v, ts)
+    u = np.r_[axis.effort[0], axis.effort[:-1]]  # the loop's one-tick delay
+    keep = np.abs(v) > 1e-3 * max(np.abs(v).max(), 1e-12)
+    keep[: smooth] = keep[-smooth:] = False
+    return np.stack([acc, v, np.sign(v)], axis=1)[keep], u[keep]
+
+
+def _result(problem: _Problem, fit: Any) -> Identified:
+    a, p = len(problem.names), problem.n_params
+    res, jac = problem.run(fit.x)
+    dof = max(res.size - fit.x.size, 1)
+    cov = np.linalg.pinv(jac.T @ jac) * float(res @ res) / dof
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None)).reshape(a, p)
+    factors = np.exp(fit.x.reshape(a, p))
+    values: dict[str, dict[str, float]] = {}
+    std: dict[str, dict[str, float]] = {}
+    axes: dict[str, Any] = {}
+    for ax, (axis, names) in enumerate(zip(problem.preset.stage.axes, problem.names,
+                                           strict=True)):
+        nominal = {"mass": axis.mass, "damping": axis.damping,
+                   **(dataclasses.asdict(axis.friction) if axis.friction else {})}
+        values[axis.name] = {n: float(nominal[n] * factors[ax, j]) for j, n in enumerate(names)}
+        std[axis.name] = {n: float(values[axis.name][n] * sd[ax, j]) for j, n in enumerate(names)}
+        axes[axis.name] = _axis_changes(axis, values[axis.name])
+    x = problem.positions(np.repeat(fit.x.reshape(1, a, p), 1, axis=0))
+    return Identified(
+        plant={"preset": problem.preset.name, "stage": {"axes": axes}},
+        values=values, std=std,
+        fixed={n: "not separable from the mass by positions and control (kept the preset's)"
+               for n in FIXED},
+        nrmse=_nrmse(problem, x), cost=float(fit.cost),
+    )
+
+
+def _axis_changes(axis: Any, values: dict[str, float]) -> dict[str, Any]:
+    # the machine file's changes of one axis: mass, damping, its friction model
+    out: dict[str, Any] = {"mass": values["mass"], "damping": values["damping"]}
+    if axis.friction is not None:
+        fields = {**dataclasses.asdict(axis.friction),
+                  **{k: v for k, v in values.items() if k not in ("mass", "damping")}}
+        if "fs" in fields and fields.get("fc") is not None and fields["fs"] is not None:
+            fields["fs"] = max(fields["fs"], fields["fc"])
+        out["friction"] = {"law": law_for(axis.friction).name, **fields}
+    return out
+
+
+def _nrmse(problem: _Problem, x: list[Array]) -> dict[str, float]:
+    # per axis: RMS(twin's following error - measured) / RMS(measured)
+    out = {}
+    for ax, axis in enumerate(problem.preset.stage.axes):
+        diff = np.concatenate([xi[0, :, ax] - fb[:, ax] for xi, fb in zip(x, problem.fb,
+                                                                           strict=True)])
+        out[axis.name] = float(math.sqrt(np.mean(diff**2)) / problem.scale[ax])
+    return out
+
+
+__all__ = ["BOUNDS", "FITTED_FRICTION", "FIXED", "Identified", "fitted_names", "identify"]
