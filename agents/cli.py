@@ -35,8 +35,9 @@ from agents.rl.algorithms import ALGORITHMS
 from contour_gym import precompile
 from contour_gym.api import Scenario, make_scenario, run_trace
 from contour_gym.files import output_file, output_folder
+from contour_gym.logs import LENGTH_UNITS, read_log
 from contour_gym.loop import REASON_NAMES
-from contour_gym.machines import is_machine_file
+from contour_gym.machines import is_machine_file, write_machine
 from contour_gym.params import choice
 from contour_gym.paths import WORK_SYSTEMS, GcodeError, GcodePath, from_gcode
 from contour_gym.presets import PRESETS
@@ -119,7 +120,30 @@ def _parser() -> argparse.ArgumentParser:
     _add_train_parser(sub)
     _add_tune_parser(sub)
     _add_bench_parser(sub)
+    _add_identify_parser(sub)
     return parser
+
+
+def _add_identify_parser(sub: argparse._SubParsersAction) -> None:
+    ident = sub.add_parser("identify", help="a twin of your machine from its servo logs, as a "
+                           "machine file (--plant MACHINE.yaml then runs on it)")
+    ident.add_argument("logs", nargs="+", metavar="LOG",
+                       help="servo logs: CSV (time, <axis>_cmd, <axis>_fb[, <axis>_effort]) or "
+                       "halsampler output (with --columns and --period)")
+    ident.add_argument("--like", required=True, choices=sorted(PRESETS.names()),
+                       metavar="PRESET", help="the preset whose structure and controllers the "
+                       "twin keeps")
+    ident.add_argument("--out", required=True, metavar="MACHINE.yaml", help="the machine file")
+    ident.add_argument("--length-unit", default="m", choices=list(LENGTH_UNITS),
+                       help="the logs' length unit (default m)")
+    ident.add_argument("--columns", default=None, metavar="PIN[,PIN...]",
+                       help="halsampler: each column's HAL pin, e.g. joint.0.motor-pos-cmd")
+    ident.add_argument("--period", type=_positive, default=None, metavar="S",
+                       help="halsampler: the sampler's thread period, s")
+    ident.add_argument("--joints", default=None, metavar="0=x,1=y",
+                       help="halsampler: joint number to axis name (default 0=x,1=y,2=z)")
+    ident.add_argument("--ideal", action="store_true",
+                       help="replay without encoder, noise or delay (logs of ideal runs)")
 
 
 def _add_simulate_parser(sub: argparse._SubParsersAction) -> None:
@@ -354,6 +378,25 @@ def _compile_up_front(args: argparse.Namespace, *groups: str) -> None:
     precompile(groups, progress=not getattr(args, "quiet", False))
 
 
+def identify_command(args: argparse.Namespace) -> int:
+    """Run ``contour-gym identify``: the machine file, and the fit per axis on stdout."""
+    from agents.twin.fit import identify
+
+    logs = [read_log(p, columns=args.columns, period=args.period, joints=args.joints,
+                     length_unit=args.length_unit) for p in args.logs]
+    twin = identify(logs, args.like, ideal=args.ideal)
+    record = {"logs": list(args.logs), "values": twin.values, "std": twin.std,
+              "fixed": twin.fixed, "nrmse": twin.nrmse}
+    write_machine(args.out, {**twin.plant, "name": FilePath(args.out).stem}, identified=record)
+    for axis, values in twin.values.items():
+        fitted = ", ".join(f"{k} {v:.5g} +- {twin.std[axis][k]:.2g}" for k, v in values.items())
+        print(f"{axis}: {fitted}; fits the logs to {100 * twin.nrmse[axis]:.2g} % (NRMSE)")
+    for name, why in twin.fixed.items():
+        print(f"{name}: {why}")
+    print(f"machine file written to {args.out}; run on it with --plant {args.out}")
+    return 0
+
+
 def simulate_command(args: argparse.Namespace) -> int:
     """Run ``contour-gym simulate``."""
     from contour_gym.render import contour_figure, part_figure
@@ -480,8 +523,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``contour-gym`` command."""
     exit_quickly()
     args = _parser().parse_args(argv)
-    command = {"simulate": simulate_command, "train": train_command,
-               "tune": tune_command, "bench": bench_command}[args.command]
+    command = {"simulate": simulate_command, "train": train_command, "tune": tune_command,
+               "bench": bench_command, "identify": identify_command}[args.command]
     signal.signal(signal.SIGTERM, _interrupted)  # `kill PID` ends as Ctrl-C does: files whole
     try:
         with warnings.catch_warnings():
@@ -512,6 +555,7 @@ KEPT = {
              "from them",
     "tune": "the generations so far are kept in the run folder; the same command resumes "
             "from them",
+    "identify": "nothing was written",
     "train": "each run's model and checkpoints so far are kept in its folder under --out; "
              "continue one with contour-gym train --resume FOLDER",
 }
@@ -524,7 +568,11 @@ def _interrupted(signum: int, frame: object) -> None:
 
 def _check_outputs(args: argparse.Namespace) -> None:
     """Refuse an ``--out`` where nothing may be written, before any work (agents._files)."""
-    if args.command == "simulate":
+    if args.command == "identify":
+        if not is_machine_file(args.out):
+            raise ValueError(f"--out {args.out}: a machine file's name ends in .yaml or .yml")
+        output_file(args.out, "--out")
+    elif args.command == "simulate":
         output_file(args.out, "--out")
         from contour_gym.render import CONTOUR_INCHES, PART_HEIGHT  # matplotlib: when needed
 

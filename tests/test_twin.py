@@ -8,11 +8,12 @@ from typing import Any
 import numpy as np
 import pytest
 
+from agents.cli import main
 from agents.twin.fit import identify
 from agents.twin.generate import excitation, machine_log, perturbed_plant
 from agents.twin.replay import command_path, replay, replay_loop
 from contour_gym.api import make_scenario
-from contour_gym.logs import ServoLog, read_csv, write_csv
+from contour_gym.logs import ServoLog, read_csv, write_csv, write_halsampler
 from contour_gym.plant.friction import law_for
 from contour_gym.presets import resolve_preset
 
@@ -121,3 +122,35 @@ def test_a_gantrys_two_motors_are_drawn_alike() -> None:
     factors = [(d.mass / b.mass, d.damping / b.damping, d.friction.fc / b.friction.fc)  # type: ignore[union-attr]
                for d, b in zip(drawn, base, strict=True)]
     assert np.allclose(factors[1], factors[2]) and not np.allclose(factors[0], factors[1])
+
+
+def test_identify_writes_a_machine_file_every_command_runs_on(tmp_path: Path, capsys) -> None:
+    rng = np.random.default_rng(5)
+    plant = perturbed_plant("xy_servo_coulomb", rng)
+    log = machine_log(plant, excitation(resolve_preset(plant), rng, seconds=4.0), seed=5,
+                      ideal=True)
+    columns = write_halsampler(log, tmp_path / "log.hal", length_unit="mm", tag=True)
+    out = tmp_path / "mine.yaml"
+    assert main(["identify", str(tmp_path / "log.hal"), "--columns", columns, "--period",
+                 "0.001", "--length-unit", "mm", "--like", "xy_servo_coulomb", "--ideal",
+                 "--out", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert "x: mass" in said and "force_constant: not separable" in said
+    twin = resolve_preset(str(out))
+    assert twin.name == "mine" and twin.stage.axes[0].mass != resolve_preset(
+        "xy_servo_coulomb").stage.axes[0].mass
+    assert main(["simulate", "--plant", str(out), "--out", str(tmp_path / "p.png")]) == 0
+
+
+def test_identify_writes_nothing_from_a_bad_log(tmp_path: Path, capsys) -> None:
+    (tmp_path / "bad.csv").write_text("time,x_cmd\n0,1\n")
+    out = tmp_path / "mine.yaml"
+    assert main(["identify", str(tmp_path / "bad.csv"), "--like", "xy_servo_coulomb",
+                 "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert "bad.csv, line 1, column 2 (x_cmd): axis 'x' has cmd but no fb" in err[0]
+    assert not out.exists()
+    assert main(["identify", str(tmp_path / "bad.csv"), "--like", "xy_servo_coulomb",
+                 "--out", str(tmp_path / "mine.txt")]) == 2
+    assert "a machine file's name ends in .yaml" in capsys.readouterr().err
