@@ -26,6 +26,7 @@ import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path as FilePath
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -34,13 +35,16 @@ from agents.parallel import exit_quickly
 from agents.rl.algorithms import ALGORITHMS
 from contour_gym import precompile
 from contour_gym.api import Scenario, make_scenario, run_trace
-from contour_gym.files import output_file, output_folder
+from contour_gym.files import output_file, output_folder, write_text
 from contour_gym.logs import LENGTH_UNITS, read_log
 from contour_gym.loop import REASON_NAMES
 from contour_gym.machines import is_machine_file, write_machine
 from contour_gym.params import choice
 from contour_gym.paths import WORK_SYSTEMS, GcodeError, GcodePath, from_gcode
 from contour_gym.presets import PRESETS
+
+if TYPE_CHECKING:
+    from agents.twin.fit import Identified
 
 DEFAULT_PLANT = "xy_dc_servo"
 PART_PLANTS = {2: "xy_servo_coulomb", 3: "xyz_pmlsm"}  # default machine of a part, by its dim
@@ -379,22 +383,39 @@ def _compile_up_front(args: argparse.Namespace, *groups: str) -> None:
 
 
 def identify_command(args: argparse.Namespace) -> int:
-    """Run ``contour-gym identify``: the machine file, and the fit per axis on stdout."""
+    """Run ``contour-gym identify``: the machine file, its report, and the fit on stdout."""
+    from agents.twin.check import following_nrmse, split_at_rest, verdict
     from agents.twin.fit import identify
 
     logs = [read_log(p, columns=args.columns, period=args.period, joints=args.joints,
                      length_unit=args.length_unit) for p in args.logs]
-    twin = identify(logs, args.like, ideal=args.ideal)
+    fit_logs, held = (logs[:-1], logs[-1]) if len(logs) > 1 else split_at_rest(logs[0])
+    fit_logs = list(fit_logs) if isinstance(fit_logs, list) else [fit_logs]
+    twin = identify(fit_logs, args.like, ideal=args.ideal)
+    plant = {**twin.plant, "name": FilePath(args.out).stem}
+    held_nrmse = following_nrmse(held, plant, ideal=args.ideal)
+    said = verdict(twin.nrmse, held_nrmse)
     record = {"logs": list(args.logs), "values": twin.values, "std": twin.std,
-              "fixed": twin.fixed, "nrmse": twin.nrmse}
-    write_machine(args.out, {**twin.plant, "name": FilePath(args.out).stem}, identified=record)
-    for axis, values in twin.values.items():
-        fitted = ", ".join(f"{k} {v:.5g} +- {twin.std[axis][k]:.2g}" for k, v in values.items())
-        print(f"{axis}: {fitted}; fits the logs to {100 * twin.nrmse[axis]:.2g} % (NRMSE)")
-    for name, why in twin.fixed.items():
-        print(f"{name}: {why}")
+              "fixed": twin.fixed, "nrmse_fit": twin.nrmse, "nrmse_held_out": held_nrmse,
+              "verdict": said}
+    write_machine(args.out, plant, identified=record)
+    report = _identify_report(twin, held_nrmse, said)
+    write_text(FilePath(args.out).with_name(f"{FilePath(args.out).stem}_report.md"), report)
+    print(report, end="")
     print(f"machine file written to {args.out}; run on it with --plant {args.out}")
     return 0
+
+
+def _identify_report(twin: Identified, held: dict[str, float], said: str) -> str:
+    # the parameter table, the fit and held-out NRMSE per axis, and the verdict (Markdown)
+    lines = ["| axis | parameter | value | std |", "|---|---|---|---|"]
+    for axis, values in twin.values.items():
+        sd = twin.std[axis]
+        lines += [f"| {axis} | {k} | {v:.6g} | {sd[k]:.2g} |" for k, v in values.items()]
+    lines += ["", "| axis | NRMSE, fitted | NRMSE, held out |", "|---|---|---|"]
+    lines += [f"| {a} | {100 * twin.nrmse[a]:.3g} % | {100 * held[a]:.3g} % |" for a in held]
+    lines += ["", *(f"{k}: {why}" for k, why in twin.fixed.items()), f"verdict: {said}", ""]
+    return "\n".join(lines)
 
 
 def simulate_command(args: argparse.Namespace) -> int:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -9,6 +10,7 @@ import numpy as np
 import pytest
 
 from agents.cli import main
+from agents.twin.check import REST_SAMPLES, split_at_rest, verdict
 from agents.twin.fit import identify
 from agents.twin.generate import excitation, machine_log, perturbed_plant
 from agents.twin.replay import command_path, replay, replay_loop
@@ -135,7 +137,10 @@ def test_identify_writes_a_machine_file_every_command_runs_on(tmp_path: Path, ca
                  "0.001", "--length-unit", "mm", "--like", "xy_servo_coulomb", "--ideal",
                  "--out", str(out)]) == 0
     said = capsys.readouterr().out
-    assert "x: mass" in said and "force_constant: not separable" in said
+    assert "| x | mass |" in said and "force_constant: not separable" in said
+    assert "verdict: fits to" in said  # the held-out part (after the circles' stop) fits too
+    report = (tmp_path / "mine_report.md").read_text()
+    assert "NRMSE, held out" in report and report in said
     twin = resolve_preset(str(out))
     assert twin.name == "mine" and twin.stage.axes[0].mass != resolve_preset(
         "xy_servo_coulomb").stage.axes[0].mass
@@ -154,3 +159,17 @@ def test_identify_writes_nothing_from_a_bad_log(tmp_path: Path, capsys) -> None:
     assert main(["identify", str(tmp_path / "bad.csv"), "--like", "xy_servo_coulomb",
                  "--out", str(tmp_path / "mine.txt")]) == 2
     assert "a machine file's name ends in .yaml" in capsys.readouterr().err
+
+
+
+def test_a_log_is_held_out_after_a_stop_and_judged() -> None:
+    _, log = _hidden_log("xy_dc_servo", True)
+    fit, held = split_at_rest(log)
+    assert fit.time[-1] < held.time[0] and len(fit.time) + len(held.time) == len(log.time)
+    assert np.all(held.axes[0].cmd[:REST_SAMPLES] == held.axes[0].cmd[0])  # it starts at rest
+    assert verdict({"x": 0.01}, {"x": 0.05}) == "fits to 5 % on held-out data"
+    assert verdict({"x": 0.01}, {"x": 0.3}).startswith("the held-out error is 30.0x the fit's")
+    still = ServoLog(log.time, tuple(dataclasses.replace(a, cmd=a.cmd + 1e-9 * np.arange(
+        len(a.cmd))) for a in log.axes), source="moving.csv")
+    with pytest.raises(ValueError, match=r"moving\.csv: the machine never stands still"):
+        split_at_rest(still)

@@ -1,0 +1,68 @@
+"""Check a twin on what it was not fitted to: a held-out stretch of the log, or another log.
+
+:func:`split_at_rest` cuts a log where the machine stands still (so that the held-out part
+starts at rest, as a replay does); :func:`following_nrmse` replays a log on a plant and
+compares its following error to the measured one; :func:`verdict` says what a user can do.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from agents.twin.replay import replay, replay_loop
+from contour_gym.logs import ServoLog
+
+REST_SAMPLES = 5  # samples of an unchanged command that count as a stop (a program's exact stop)
+GOOD = 0.10  # a held-out NRMSE under this fits
+DRIFT = 2.0  # held-out NRMSE over this times the fit's: the structure misses something
+
+
+def split_at_rest(log: ServoLog, fraction: float = 2.0 / 3.0) -> tuple[ServoLog, ServoLog]:
+    """The log cut at the rest nearest ``fraction`` of it: (fit part, held-out part).
+
+    Raises:
+        ValueError: when the command never rests for :data:`REST_SAMPLES` samples in the
+            middle half of the log (record a stop, or give a second log to hold out).
+    """
+    cmd = np.stack([a.cmd for a in log.axes], axis=1)
+    still = np.r_[False, np.all(np.diff(cmd, axis=0) == 0.0, axis=1)]
+    run = np.convolve(still.astype(float), np.ones(REST_SAMPLES), mode="full")[: len(still)]
+    n = len(log.time)
+    rests = np.flatnonzero(run >= REST_SAMPLES)
+    rests = rests[(rests > n // 4) & (rests < 3 * n // 4)]
+    if rests.size == 0:
+        raise ValueError(f"{log.source}: the machine never stands still in the middle of the log "
+                         "(hold out a second log instead: give two or more)")
+    cut = int(rests[np.argmin(np.abs(rests - fraction * n))])
+    t = log.time
+    return log.window(t[0], t[cut]), log.window(t[cut], t[-1] + 1.0)
+
+
+def following_nrmse(log: ServoLog, plant: Any, ideal: bool = False) -> dict[str, float]:
+    """Per axis: RMS(twin's following error - measured) / RMS(measured), replaying ``log``."""
+    x = replay(replay_loop(log, plant, ideal=ideal), log)[0]
+    out = {}
+    for a, axis in enumerate(log.axes):
+        measured = axis.cmd - axis.fb
+        diff = x[:, a] - axis.fb
+        out[axis.name] = float(math.sqrt(np.mean(diff**2) / max(np.mean(measured**2), 1e-30)))
+    return out
+
+
+def verdict(fit: dict[str, float], held: dict[str, float]) -> str:
+    """What the fit and held-out NRMSE mean, in a line a user can act on."""
+    worst_fit, worst_held = max(fit.values()), max(held.values())
+    if worst_held > DRIFT * max(worst_fit, 1e-3) and worst_held > GOOD:
+        return (f"the held-out error is {worst_held / max(worst_fit, 1e-3):.1f}x the fit's: the "
+                "structure misses something (another friction law, a disturbance, the delay); "
+                "check the log and try another --like")
+    if worst_held > GOOD:
+        return (f"fits to {100 * worst_held:.2g} % on held-out data: usable, but record a longer "
+                "log with more reversals to tighten it")
+    return f"fits to {100 * worst_held:.2g} % on held-out data"
+
+
+__all__ = ["following_nrmse", "split_at_rest", "verdict"]
