@@ -393,7 +393,8 @@ def identify_command(args: argparse.Namespace) -> int:
     fit_logs = list(fit_logs) if isinstance(fit_logs, list) else [fit_logs]
     twin = identify(fit_logs, args.like, ideal=args.ideal)
     plant = {**twin.plant, "name": FilePath(args.out).stem}
-    held_nrmse = following_nrmse(held, plant, ideal=args.ideal)
+    held_nrmse = {a: v for a, v in following_nrmse(held, plant, ideal=args.ideal).items()
+                  if a in twin.nrmse}
     said = verdict(twin.nrmse, held_nrmse)
     record = {"logs": list(args.logs), "values": twin.values, "std": twin.std,
               "fixed": twin.fixed, "nrmse_fit": twin.nrmse, "nrmse_held_out": held_nrmse,

@@ -45,7 +45,8 @@ __all__ = [
 MIN_SAMPLES = 100
 """Fewest samples a log may have (a tenth of a second at 1 kHz): fewer cannot fit an axis."""
 STILL_BELOW = 1e-6
-"""An axis whose command spans less than this (m, peak to peak) never moved: it is refused."""
+"""An axis whose command spans less than this (m, peak to peak) never moved
+(:attr:`ServoLog.still`); a log in which no axis moved is refused."""
 LENGTH_UNITS: dict[str, float] = {"m": 1.0, "mm": 1e-3, "inch": 0.0254}
 """The length units a log may be in, in metres each."""
 DEFAULT_JOINTS = "xyzabcuvw"
@@ -186,6 +187,11 @@ class ServoLog:
     def period(self) -> float:
         """The median time step, s."""
         return float(np.median(np.diff(self.time)))
+
+    @property
+    def still(self) -> tuple[str, ...]:
+        """The axes whose command never moved (spans under :data:`STILL_BELOW`)."""
+        return tuple(a.name for a in self.axes if float(np.ptp(a.cmd)) < STILL_BELOW)
 
     @property
     def duration(self) -> float:
@@ -330,19 +336,15 @@ def _check_time(source: str, time: NDArray[np.float64], linenos: NDArray[np.int6
 
 
 def _build(source: str, time: NDArray[np.float64], data: NDArray[np.float64], layout: Layout,
-           scale: float, drop: str) -> ServoLog:
-    """The log of the parsed ``data``; refused if an axis never moved."""
+           scale: float) -> ServoLog:
+    """The log of the parsed ``data``; refused if no axis moved (:attr:`ServoLog.still`)."""
     axes = [AxisLog(name, **{k: data[:, j] * (1.0 if k == "effort" else scale)
                              for k, j in cols.items()}) for name, cols in layout.items()]
     spans = {a.name: float(np.ptp(a.cmd)) for a in axes}
-    still = [name for name, span in spans.items() if span < STILL_BELOW]
-    need = f"{STILL_BELOW * 1e6:g} um"
-    if len(still) == len(axes):
+    if all(span < STILL_BELOW for span in spans.values()):
         each = ", ".join(f"{n} {s * 1e6:.3f} um" for n, s in spans.items())
-        raise LogError(source, f"no axis moved: the commands span {each} (each needs {need})")
-    if still:
-        raise LogError(source, f"axis {still[0]!r} never moved: its command spans "
-                       f"{spans[still[0]] * 1e6:.3f} um (under {need}); {drop}")
+        raise LogError(source, f"no axis moved: the commands span {each} (each needs "
+                       f"{STILL_BELOW * 1e6:g} um)")
     return ServoLog(time, tuple(axes), source)
 
 
@@ -374,7 +376,7 @@ def read_csv(path: PathLike, length_unit: str = "m") -> ServoLog:
                   range(len(names)))
     time = data[:, time_col].copy()
     _check_time(source, time, linenos, _label(time_col, names[time_col]))
-    return _build(source, time, data, layout, scale, "leave its columns out of the file")
+    return _build(source, time, data, layout, scale)
 
 
 def _csv_layout(source: str, names: list[str], header: str, line: int) -> tuple[int, Layout]:
@@ -520,7 +522,7 @@ def read_halsampler(path: PathLike, columns: str | Sequence[str], period: float,
     data = _parse(source, rows, linenos, names, None, expect, used)
     tags = data[:, 0] if tag else np.arange(len(rows), dtype=np.float64)
     time = _tag_time(source, tags, linenos, period)
-    return _build(source, time, data[:, tag:], layout, scale, "name its columns '-'")
+    return _build(source, time, data[:, tag:], layout, scale)
 
 
 def _has_time_header(path: PathLike) -> bool:

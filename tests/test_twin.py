@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from agents.cli import main
-from agents.twin.check import REST_SAMPLES, split_at_rest, verdict
+from agents.twin.check import REST_SAMPLES, following_nrmse, split_at_rest, verdict
 from agents.twin.fit import identify
 from agents.twin.generate import excitation, machine_log, perturbed_plant
 from agents.twin.replay import command_path, replay, replay_loop
 from contour_gym.api import make_scenario
-from contour_gym.logs import ServoLog, read_csv, write_csv, write_halsampler
+from contour_gym.logs import AxisLog, ServoLog, read_csv, write_csv, write_halsampler
 from contour_gym.plant.friction import law_for
 from contour_gym.presets import resolve_preset
 
@@ -173,3 +173,17 @@ def test_a_log_is_held_out_after_a_stop_and_judged() -> None:
         len(a.cmd))) for a in log.axes), source="moving.csv")
     with pytest.raises(ValueError, match=r"moving\.csv: the machine never stands still"):
         split_at_rest(still)
+
+
+def test_an_axis_that_never_moved_keeps_the_presets_values() -> None:
+    _, log = _hidden_log("xy_dc_servo", True)
+    rest = np.zeros(len(log.time))
+    y_still = ServoLog(log.time, (AxisLog("y", rest, rest), log.axis("x")), source="x_only")
+    assert y_still.still == ("y",)
+    twin = identify([y_still], "xy_dc_servo", ideal=True)
+    assert "never moved" in twin.fixed["y"] and list(twin.values) == ["x"]
+    assert list(twin.plant["stage"]["axes"]) == ["x"] and list(twin.nrmse) == ["x"]
+    assert list(following_nrmse(y_still, twin.plant, ideal=True)) == ["x"]
+    nothing = ServoLog(log.time, (AxisLog("x", rest, rest), AxisLog("y", rest, rest)), "none")
+    with pytest.raises(ValueError, match=r"no axis of 'xy_dc_servo' moved in the logs"):
+        identify([nothing], "xy_dc_servo", ideal=True)

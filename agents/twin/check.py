@@ -14,6 +14,7 @@ import numpy as np
 
 from agents.twin.replay import replay, replay_loop
 from contour_gym.logs import ServoLog
+from contour_gym.presets import resolve_preset
 
 REST_SAMPLES = 5  # samples of an unchanged command that count as a stop (a program's exact stop)
 GOOD = 0.10  # a held-out NRMSE under this fits
@@ -42,10 +43,13 @@ def split_at_rest(log: ServoLog, fraction: float = 2.0 / 3.0) -> tuple[ServoLog,
 
 
 def following_nrmse(log: ServoLog, plant: Any, ideal: bool = False) -> dict[str, float]:
-    """Per axis: RMS(twin's following error - measured) / RMS(measured), replaying ``log``."""
+    """Per axis that moved: RMS(twin's following error - measured) / RMS(measured), replayed."""
     x = replay(replay_loop(log, plant, ideal=ideal), log)[0]
     out = {}
-    for a, axis in enumerate(log.axes):
+    for a, stage_axis in enumerate(resolve_preset(plant).stage.axes):
+        axis = log.axis(stage_axis.name)
+        if axis.name in log.still:
+            continue
         measured = axis.cmd - axis.fb
         diff = x[:, a] - axis.fb
         out[axis.name] = float(math.sqrt(np.mean(diff**2) / max(np.mean(measured**2), 1e-30)))

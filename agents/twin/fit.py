@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from agents.twin.replay import replay_loop
-from contour_gym.logs import ServoLog
+from contour_gym.logs import STILL_BELOW, ServoLog
 from contour_gym.loop import ServoLoop
 from contour_gym.plant.friction import law_for
 from contour_gym.presets import Preset, resolve_preset
@@ -47,7 +47,8 @@ class Identified:
         plant: The machine file's plant dict (``{"preset": like, "stage": {"axes": ...}}``).
         values: Per axis, each identified parameter's value (SI).
         std: Per axis, each one's standard deviation (from the Jacobian at the solution).
-        fixed: The parameters kept at the preset's values, and why.
+        fixed: What was kept at the preset's values (a parameter, or an axis that never
+            moved), and why.
         nrmse: Per axis, the RMS of the twin's following error minus the measured one, over
             the RMS of the measured one, on the logs fitted.
         cost: The final least-squares cost.
@@ -80,10 +81,14 @@ class _Problem:
         self.names = fitted_names(self.preset)
         self.n_params = max(len(n) for n in self.names)
         self.logs = list(logs)
-        self.loops = [replay_loop(log, like, members=members, ideal=ideal) for log in self.logs]
         axes = [a.name for a in self.preset.stage.axes]
         self.fb = [np.stack([log.axis(n).fb for n in axes], axis=1) for log in self.logs]
         self.cmd = [np.stack([log.axis(n).cmd for n in axes], axis=1) for log in self.logs]
+        moved = np.concatenate([np.ptp(c, axis=0)[None] for c in self.cmd]).max(axis=0)
+        self.still = [a for a, span in enumerate(moved) if span < STILL_BELOW]
+        if len(self.still) == len(axes):
+            raise ValueError(f"no axis of {like!r} moved in the logs: nothing to identify")
+        self.loops = [replay_loop(log, like, members=members, ideal=ideal) for log in self.logs]
         err = np.concatenate([c - f for c, f in zip(self.cmd, self.fb, strict=True)])
         self.scale = np.sqrt(np.mean(err**2, axis=0)) + 1e-12  # each axis's RMS following error
         self._last: tuple[bytes, Array, Array] | None = None
@@ -91,6 +96,8 @@ class _Problem:
     def positions(self, theta: Array) -> list[Array]:
         """(M, N, A) per log: the positions of members with log factors ``theta`` (M, A, P)."""
         m = theta.shape[0]
+        theta = theta.copy()
+        theta[:, self.still] = 0.0  # an axis that never moved keeps the preset's values
         factors = np.exp(theta)
         fric: dict[str, Array] = {}
         for a, names in enumerate(self.names):
@@ -256,11 +263,17 @@ def _result(problem: _Problem, fit: Any) -> Identified:
         std[axis.name] = {n: float(values[axis.name][n] * sd[ax, j]) for j, n in enumerate(names)}
         axes[axis.name] = _axis_changes(axis, values[axis.name])
     x = problem.positions(np.repeat(fit.x.reshape(1, a, p), 1, axis=0))
+    fixed = {n: "not separable from the mass by positions and control (kept the preset's)"
+             for n in FIXED}
+    for ax in problem.still:
+        name = problem.preset.stage.axes[ax].name
+        fixed[name] = "never moved in the logs (kept the preset's values)"
+        axes.pop(name)
+        values.pop(name)
+        std.pop(name)
     return Identified(
         plant={"preset": problem.preset.name, "stage": {"axes": axes}},
-        values=values, std=std,
-        fixed={n: "not separable from the mass by positions and control (kept the preset's)"
-               for n in FIXED},
+        values=values, std=std, fixed=fixed,
         nrmse=_nrmse(problem, x), cost=float(fit.cost),
     )
 
@@ -281,6 +294,8 @@ def _nrmse(problem: _Problem, x: list[Array]) -> dict[str, float]:
     # per axis: RMS(twin's following error - measured) / RMS(measured)
     out = {}
     for ax, axis in enumerate(problem.preset.stage.axes):
+        if ax in problem.still:
+            continue
         diff = np.concatenate([xi[0, :, ax] - fb[:, ax] for xi, fb in zip(x, problem.fb,
                                                                            strict=True)])
         out[axis.name] = float(math.sqrt(np.mean(diff**2)) / problem.scale[ax])
