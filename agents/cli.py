@@ -389,8 +389,11 @@ def identify_command(args: argparse.Namespace) -> int:
 
     logs = [read_log(p, columns=args.columns, period=args.period, joints=args.joints,
                      length_unit=args.length_unit) for p in args.logs]
-    fit_logs, held = (logs[:-1], logs[-1]) if len(logs) > 1 else split_at_rest(logs[0])
-    fit_logs = list(fit_logs) if isinstance(fit_logs, list) else [fit_logs]
+    if len(logs) > 1:
+        fit_logs, held = logs[:-1], logs[-1]
+    else:
+        first, held = split_at_rest(logs[0])
+        fit_logs = [first]
     twin = identify(fit_logs, args.like, ideal=args.ideal)
     plant = {**twin.plant, "name": FilePath(args.out).stem}
     held_nrmse = {a: v for a, v in following_nrmse(held, plant, ideal=args.ideal).items()

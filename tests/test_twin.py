@@ -187,3 +187,15 @@ def test_an_axis_that_never_moved_keeps_the_presets_values() -> None:
     nothing = ServoLog(log.time, (AxisLog("x", rest, rest), AxisLog("y", rest, rest)), "none")
     with pytest.raises(ValueError, match=r"no axis of 'xy_dc_servo' moved in the logs"):
         identify([nothing], "xy_dc_servo", ideal=True)
+
+
+def test_a_candidate_that_failed_is_a_bad_fit_not_nan() -> None:
+    from agents.twin.fit import FAILED, _Problem
+
+    _, log = _hidden_log("xy_dc_servo", True)
+    problem = _Problem([log], "xy_dc_servo", 2, ideal=True)
+    x = problem.positions(np.zeros((2, 2, problem.n_params)))
+    x[0][1, 100:, 0] = np.nan  # member 1's x axis ended (failed) at sample 100
+    res = problem.residuals(x)
+    assert np.all(np.isfinite(res)) and np.all(res[1, 100 : len(log.time)] == FAILED)
+    assert np.array_equal(res[0], problem.residuals(problem.positions(np.zeros((1, 2, 2))))[0])

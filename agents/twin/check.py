@@ -39,7 +39,7 @@ def split_at_rest(log: ServoLog, fraction: float = 2.0 / 3.0) -> tuple[ServoLog,
                          "(hold out a second log instead: give two or more)")
     cut = int(rests[np.argmin(np.abs(rests - fraction * n))])
     t = log.time
-    return log.window(t[0], t[cut]), log.window(t[cut], t[-1] + 1.0)
+    return log.window(t[0], t[cut]), log.window(t[cut], math.inf)
 
 
 def following_nrmse(log: ServoLog, plant: Any, ideal: bool = False) -> dict[str, float]:

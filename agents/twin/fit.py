@@ -37,6 +37,7 @@ cannot move a zero); the others stay the preset's."""
 FIXED = ("force_constant",)
 BOUNDS = (0.2, 5.0)  # factors on the preset's values searched within
 STEP = 2e-2  # the Jacobian's step in log factor
+FAILED = 1e3  # the residual of a sample a failed candidate did not reach (in following errors)
 
 
 @dataclass(frozen=True)
@@ -62,12 +63,18 @@ class Identified:
     cost: float
 
 
+def _nominal(axis: Any) -> dict[str, Any]:
+    """The preset's values of an axis's identified parameters (and its friction model's)."""
+    friction = dataclasses.asdict(axis.friction) if axis.friction is not None else {}
+    return {"mass": axis.mass, "damping": axis.damping, **friction}
+
+
 def fitted_names(preset: Preset) -> list[tuple[str, ...]]:
     """Per axis, the parameters identified: mass, damping and its law's :data:`FITTED_FRICTION`."""
     out = []
     for axis in preset.stage.axes:
         law = law_for(axis.friction).name
-        given = dataclasses.asdict(axis.friction) if axis.friction is not None else {}
+        given = _nominal(axis)
         friction = [n for n in FITTED_FRICTION.get(law, ()) if (given.get(n) or 0.0) > 0.0]
         out.append(("mass", "damping", *friction))
     return out
@@ -76,10 +83,11 @@ def fitted_names(preset: Preset) -> list[tuple[str, ...]]:
 class _Problem:
     """The logs replayed on candidate plants: residuals and Jacobians by runs of members."""
 
-    def __init__(self, logs: Sequence[ServoLog], like: Any, members: int, ideal: bool) -> None:
+    def __init__(self, logs: Sequence[ServoLog], like: Any, screen: int, ideal: bool) -> None:
         self.preset = resolve_preset(like)
         self.names = fitted_names(self.preset)
         self.n_params = max(len(n) for n in self.names)
+        members = max(screen, 1 + self.n_params)  # the screen at once, or a Jacobian's run
         self.logs = list(logs)
         axes = [a.name for a in self.preset.stage.axes]
         self.fb = [np.stack([log.axis(n).fb for n in axes], axis=1) for log in self.logs]
@@ -114,7 +122,9 @@ class _Problem:
     def residuals(self, x: list[Array]) -> Array:
         """(M, R) each member's residuals: (position - feedback) / the axis's scale."""
         rows = [(xi - fb[None]) / self.scale for xi, fb in zip(x, self.fb, strict=True)]
-        return np.concatenate([r.reshape(r.shape[0], -1, order="F") for r in rows], axis=1)
+        res = np.concatenate([r.reshape(r.shape[0], -1, order="F") for r in rows], axis=1)
+        # a candidate whose loop failed (diverged: NaN rows after its end) is a bad fit
+        return np.nan_to_num(res, nan=FAILED, posinf=FAILED, neginf=-FAILED)
 
     def run(self, flat: Array) -> tuple[Array, Array]:
         """Residuals (R,) at ``flat`` and the Jacobian (R, A P), from one run of 1 + P members."""
@@ -173,8 +183,7 @@ def identify(
     Returns:
         The twin (:class:`Identified`).
     """
-    problem = _Problem(logs, like, max(screen, 1 + max(len(n) for n in fitted_names(
-        resolve_preset(like)))), ideal)
+    problem = _Problem(logs, like, screen, ideal)
     a, p = len(problem.names), problem.n_params
     lo, hi = np.log(BOUNDS[0]), np.log(BOUNDS[1])
     rng = np.random.default_rng(seed)
@@ -219,8 +228,7 @@ def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Array:
         x = np.concatenate([r[0] for r in rows if r is not None])
         y = np.concatenate([r[1] for r in rows if r is not None])
         coef = np.linalg.lstsq(x, y * axis.force_constant, rcond=None)[0]
-        nominal = {"mass": axis.mass, "damping": axis.damping,
-                   **(dataclasses.asdict(axis.friction) if axis.friction else {})}
+        nominal = _nominal(axis)
         fc = coef[2] / nominal["fc"] if nominal.get("fc") else 1.0
         for j, name in enumerate(names):
             ratio = {"mass": coef[0] / axis.mass, "damping": coef[1] / max(axis.damping, 1e-12)
@@ -257,12 +265,10 @@ def _result(problem: _Problem, fit: Any) -> Identified:
     axes: dict[str, Any] = {}
     for ax, (axis, names) in enumerate(zip(problem.preset.stage.axes, problem.names,
                                            strict=True)):
-        nominal = {"mass": axis.mass, "damping": axis.damping,
-                   **(dataclasses.asdict(axis.friction) if axis.friction else {})}
+        nominal = _nominal(axis)
         values[axis.name] = {n: float(nominal[n] * factors[ax, j]) for j, n in enumerate(names)}
         std[axis.name] = {n: float(values[axis.name][n] * sd[ax, j]) for j, n in enumerate(names)}
         axes[axis.name] = _axis_changes(axis, values[axis.name])
-    x = problem.positions(np.repeat(fit.x.reshape(1, a, p), 1, axis=0))
     fixed = {n: "not separable from the mass by positions and control (kept the preset's)"
              for n in FIXED}
     for ax in problem.still:
@@ -274,7 +280,7 @@ def _result(problem: _Problem, fit: Any) -> Identified:
     return Identified(
         plant={"preset": problem.preset.name, "stage": {"axes": axes}},
         values=values, std=std, fixed=fixed,
-        nrmse=_nrmse(problem, x), cost=float(fit.cost),
+        nrmse=_nrmse(problem, res), cost=float(fit.cost),
     )
 
 
@@ -290,16 +296,12 @@ def _axis_changes(axis: Any, values: dict[str, float]) -> dict[str, Any]:
     return out
 
 
-def _nrmse(problem: _Problem, x: list[Array]) -> dict[str, float]:
-    # per axis: RMS(twin's following error - measured) / RMS(measured)
-    out = {}
-    for ax, axis in enumerate(problem.preset.stage.axes):
-        if ax in problem.still:
-            continue
-        diff = np.concatenate([xi[0, :, ax] - fb[:, ax] for xi, fb in zip(x, problem.fb,
-                                                                           strict=True)])
-        out[axis.name] = float(math.sqrt(np.mean(diff**2)) / problem.scale[ax])
-    return out
+def _nrmse(problem: _Problem, res: Array) -> dict[str, float]:
+    # per axis that moved: RMS(twin's following error - measured) / RMS(measured), from the
+    # residuals at the solution ((position - feedback) / that RMS)
+    rows = problem.axis_rows(res.size)
+    return {axis.name: float(math.sqrt(np.mean(res[rows[ax]] ** 2)))
+            for ax, axis in enumerate(problem.preset.stage.axes) if ax not in problem.still}
 
 
 __all__ = ["BOUNDS", "FITTED_FRICTION", "FIXED", "Identified", "fitted_names", "identify"]
