@@ -483,7 +483,13 @@ def override(obj: Any, changes: Any, where: str = "plant") -> Any:
     if where.endswith(".friction") and "law" in changes:  # another friction model
         fields = dict(changes)
         model = FRICTION_LAWS.get(fields.pop("law")).model
-        return None if model is type(None) else model(**fields)
+        if model is type(None):
+            return None
+        names = {f.name for f in dataclasses.fields(model)}
+        unknown = sorted(set(fields) - names)
+        if unknown:
+            raise ValueError(f"unknown field(s) {unknown} of {where}; accepted: {sorted(names)}")
+        return model(**fields)
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
         names = {f.name for f in dataclasses.fields(obj)}
         unknown = sorted(set(changes) - names)

@@ -56,6 +56,10 @@ def test_every_entry_point_takes_a_machine_file(tmp_path: Path, capsys) -> None:
     ("preset: xy_dc_servo\nstage: {axes: {x: {friction: {law: bogus}}}}",
      r"machine file .*none\.yaml: unknown friction law 'bogus'"),
     ("preset: xy_dc_servo\nstage: {axes: {x: {mass: -1}}}", r"none\.yaml: .*mass"),
+    ("preset: xy_dc_servo\nstage: {axes: {x: {friction: {law: coulomb, bogus: 1}}}}",
+     r"none\.yaml: unknown field\(s\) \['bogus'\] of plant\.stage\.axes\['x'\]\.friction"),
+    ("preset: xy_dc_servo\nstage: {axes: {x: {friction: {law: coulomb, fc: .nan}}}}",
+     r"none\.yaml: fc must be finite"),
 ])
 def test_a_bad_machine_file_is_named(tmp_path: Path, text: str | None, said: str) -> None:
     path = tmp_path / "none.yaml"
