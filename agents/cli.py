@@ -38,7 +38,7 @@ from contour_gym.api import Scenario, make_scenario, run_trace
 from contour_gym.files import output_file, output_folder, write_text
 from contour_gym.logs import LENGTH_UNITS, read_log
 from contour_gym.loop import REASON_NAMES
-from contour_gym.machines import is_machine_file, write_machine
+from contour_gym.machines import is_machine_file, plant_of, write_machine
 from contour_gym.params import choice
 from contour_gym.paths import WORK_SYSTEMS, GcodeError, GcodePath, from_gcode
 from contour_gym.presets import PRESETS
@@ -203,6 +203,8 @@ def _add_train_parser(sub: argparse._SubParsersAction) -> None:
                        "e.g. learning_rate=1e-4,3e-4; runs go in OUT/KEY=VALUE/")
     _add_parallel_arguments(train, "runs trained at once, in worker processes (Ray Tune "
                             "trials with --ray)")
+    _add_plant_argument(train, "train on this machine instead of the id's (a twin from "
+                        "contour-gym identify); the run's config records it")
     train.add_argument("--out", default="runs", help="parent folder of the run folder")
     train.add_argument("--resume", default=None, metavar="RUN",
                        help="continue the run folder RUN from its latest checkpoint")
@@ -222,8 +224,11 @@ def _add_tune_parser(sub: argparse._SubParsersAction) -> None:
                       help="generations after the initial one (default: the protocol's)")
     tune.add_argument("--population", type=int, default=None, metavar="M",
                       help="candidates per generation (default: the protocol's)")
+    _add_plant_argument(tune, "run the protocol's scenarios on this machine (a twin from "
+                        "contour-gym identify) and say how to carry the result to it")
     tune.add_argument("--out", default=None, metavar="DIR",
-                      help="run folder (default runs/tune/PROTOCOL-OPTIMIZER-seedN[-ideal])")
+                      help="run folder (default runs/tune/PROTOCOL-OPTIMIZER-seedN[-ideal]"
+                      "[-on-MACHINE])")
     tune.add_argument("--ideal", action="store_true",
                       help="no encoder, noise or delay (the papers' pure simulations)")
     _add_parallel_arguments(tune, "threads running the population (with --ray: the "
@@ -231,6 +236,11 @@ def _add_tune_parser(sub: argparse._SubParsersAction) -> None:
     tune.add_argument("--quiet", action="store_true", help="no progress bar")
     tune.add_argument("--overwrite", action="store_true",
                       help="replace a finished result in the run folder")
+
+
+def _add_plant_argument(parser: argparse.ArgumentParser, what: str) -> None:
+    parser.add_argument("--plant", default=None, type=_plant, metavar="PRESET|MACHINE.yaml",
+                        help=what)
 
 
 def _add_bench_parser(sub: argparse._SubParsersAction) -> None:
@@ -462,13 +472,17 @@ def train_command(args: argparse.Namespace) -> int:
 
     if (args.env is None) == (args.resume is None):
         raise ValueError("give an ENV_ID to train, or --resume RUN to continue a run (not both)")
+    if args.resume is not None and args.plant is not None:
+        raise ValueError("--resume continues a run on its own machine (its config.yml): "
+                         "not with --plant")
     if args.resume is not None and (args.seeds or args.sweep or len(args.algo) > 1 or args.ray):
         raise ValueError("--resume continues one run; run a sweep again to resume it (not "
                          "--resume with --seeds, --sweep, several --algo or --ray)")
     seeds = args.seeds or [0 if args.seed is None else args.seed]
     grid = parse_grid(args.sweep)
     if args.resume is None and (len(seeds) > 1 or len(args.algo) > 1 or grid or args.ray):
-        todo = trials(args.env, args.algo, seeds, grid, args.out, args.timesteps, args.config)
+        todo = trials(args.env, args.algo, seeds, grid, args.out, args.timesteps, args.config,
+                      args.plant)
         print(f"training {len(todo)} run(s) of {args.env}", file=sys.stderr)
         for folder in run_trials(todo, args.workers, args.ray):
             print(f"run written to {folder}")
@@ -484,11 +498,13 @@ def _train_one(args: argparse.Namespace) -> int:
     argv += ["--algo", args.algo, "--seed", str(args.seed), "--out", args.out]
     argv += ["--timesteps", str(args.timesteps)] if args.timesteps is not None else []
     argv += ["--config", args.config] if args.config is not None else []
-    run = args.resume or os.path.join(args.out, run_name(args.env, args.algo, args.seed))
+    argv += ["--plant", args.plant] if args.plant is not None else []
+    machine = None if args.plant is None else plant_of(args.plant)[1]
+    run = args.resume or os.path.join(args.out, run_name(args.env, args.algo, args.seed, machine))
     try:
         train(args.env, args.algo, args.timesteps, seed=args.seed, out_dir=args.out,
               resume=args.resume, config_file=args.config, progress=not args.quiet,
-              command=shlex.join(argv))
+              command=shlex.join(argv), plant=args.plant)
     except KeyboardInterrupt:
         print(f"contour-gym: interrupted; model and checkpoint saved in {run}; continue with "
               f"contour-gym train --resume {shlex.quote(str(run))}", file=sys.stderr)
@@ -501,19 +517,24 @@ def tune_command(args: argparse.Namespace) -> int:
     """Run ``contour-gym tune``: writes the run folder and prints the best parameters."""
     from agents.optim import OPTIMIZERS
     from agents.tune import get_protocol, tune
+    from agents.tune.result import carry_to_machine
 
     protocol = get_protocol(args.protocol)  # unknown names list the accepted ones
     optimizer = choice(args.optimizer or protocol.optimizer, "optimizer", OPTIMIZERS)
+    plant, machine = (None, "") if args.plant is None else plant_of(args.plant)
     out = args.out
     if out is None:
-        suffix = "-ideal" if args.ideal else ""
+        suffix = ("-ideal" if args.ideal else "") + (f"-on-{machine}" if machine else "")
         out = os.path.join("runs", "tune", f"{protocol.name}-{optimizer}-seed{args.seed}{suffix}")
+    if plant is not None:
+        protocol = protocol.on_plant(plant, machine)
     argv = ["contour-gym", "tune", protocol.name, "--optimizer", optimizer, "--seed",
             str(args.seed)]
     for flag, value in (("--population", args.population), ("--iterations", args.iterations)):
         if value is not None:
             argv += [flag, str(value)]
-    argv += ["--ideal"] * args.ideal + ["--out", out]
+    argv += ["--ideal"] * args.ideal + (["--plant", args.plant] if plant is not None else [])
+    argv += ["--out", out]
     result = tune(protocol, optimizer, seed=args.seed, population=args.population,
                   iterations=args.iterations, ideal=args.ideal, out=out,
                   progress=not args.quiet, command=shlex.join(argv),
@@ -527,6 +548,8 @@ def tune_command(args: argparse.Namespace) -> int:
         print("  (the start point, the untuned law: no candidate beat it)")
     for env_id, value in result.per_scenario.items():
         print(f"  {env_id}: {value * 1e6:.6g} um")
+    if plant is not None:
+        print("\n".join(carry_to_machine(result.params, protocol, plant)))
     print(f"results written to {out}")
     return 0
 

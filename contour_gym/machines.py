@@ -23,6 +23,7 @@ suites) or ``--plant`` (the command line).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -60,6 +61,25 @@ def read_machine(path: str | Path) -> dict[str, Any]:
     return {k: v for k, v in data.items() if k not in NOT_LOADED}
 
 
+def plant_of(plant: str | Path | Mapping[str, Any]) -> tuple[str | dict[str, Any], str]:
+    """A plant as envs and scenarios take it, and its name: a machine file is read now.
+
+    Args:
+        plant: A preset name, a machine file's path, or a plant dict.
+
+    Returns:
+        ``(plant, name)``: the preset name or plant dict (a machine file's content, so that
+        what ran is recorded whole), and the name reports and run folders use (the file's
+        ``name``, else its stem; a dict's ``name``, else its ``preset``).
+    """
+    if is_machine_file(plant):
+        data = read_machine(plant)  # type: ignore[arg-type]
+        return data, str(data.get("name") or Path(plant).stem)  # type: ignore[arg-type]
+    if isinstance(plant, Mapping):
+        return dict(plant), str(plant.get("name") or plant.get("preset"))
+    return str(plant), str(plant)
+
+
 def write_machine(path: str | Path, plant: dict[str, Any], identified: Any = None) -> Path:
     """Write a machine file (whole or not at all) and return its path.
 
@@ -81,4 +101,4 @@ def write_machine(path: str | Path, plant: dict[str, Any], identified: Any = Non
     return target
 
 
-__all__ = ["SUFFIXES", "is_machine_file", "read_machine", "write_machine"]
+__all__ = ["SUFFIXES", "is_machine_file", "plant_of", "read_machine", "write_machine"]

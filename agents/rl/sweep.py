@@ -25,6 +25,7 @@ from typing import Any
 import yaml
 
 from agents.parallel import RAY_RETRIES, RayRunner, _init_worker, runner
+from contour_gym.machines import plant_of
 
 
 @dataclass(frozen=True)
@@ -39,6 +40,8 @@ class Trial:
         out_dir: The folder its run folder goes in.
         timesteps: Env steps (None: the config's).
         config_file: The rl-zoo YAML (None: the shipped one).
+        plant: The machine to train on instead of the id's (:func:`agents.rl.train.train`'s
+            ``plant``; None: the id's).
     """
 
     env_id: str
@@ -48,13 +51,15 @@ class Trial:
     out_dir: str = "runs"
     timesteps: int | None = None
     config_file: str | None = None
+    plant: Any = None
 
     @property
     def run(self) -> Path:
         """The trial's run folder."""
         from agents.rl.train import run_name
 
-        return Path(self.out_dir) / run_name(self.env_id, self.algo, self.seed)
+        machine = None if self.plant is None else plant_of(self.plant)[1]
+        return Path(self.out_dir) / run_name(self.env_id, self.algo, self.seed, machine)
 
 
 def parse_grid(items: Sequence[str]) -> dict[str, list[Any]]:
@@ -88,7 +93,7 @@ def _value(text: str) -> Any:
 def trials(
     env_id: str, algos: Sequence[str], seeds: Sequence[int], grid: Mapping[str, Sequence[Any]],
     out_dir: str | Path = "runs", timesteps: int | None = None,
-    config_file: str | Path | None = None,
+    config_file: str | Path | None = None, plant: Any = None,
 ) -> list[Trial]:
     """Every combination of algorithm, swept values and seed (in that nesting order).
 
@@ -109,7 +114,8 @@ def trials(
             label = ",".join(f"{k}={v}" for k, v in overrides.items())
             folder = Path(out_dir) / label if label else Path(out_dir)
             out += [Trial(env_id, algo, int(s), overrides, str(folder), timesteps,
-                          None if config_file is None else str(config_file)) for s in seeds]
+                          None if config_file is None else str(config_file), plant)
+                    for s in seeds]
     return out
 
 
@@ -130,7 +136,7 @@ def run_trial(trial: Trial) -> str:
         (run / "args.yml").unlink()
     return str(train(trial.env_id, trial.algo, trial.timesteps, seed=trial.seed,
                      out_dir=trial.out_dir, config_file=trial.config_file, progress=False,
-                     **trial.overrides))
+                     plant=trial.plant, **trial.overrides))
 
 
 def run_trials(

@@ -72,6 +72,7 @@ from contour_gym.files import (
     write_text,
 )
 from contour_gym.limits import check_size
+from contour_gym.machines import plant_of
 
 EVAL_SEED = 1_000_000  # eval member i is seeded EVAL_SEED + seed + i (apart from training's)
 EVAL_COLUMNS = ("timesteps", "max_contour_error_um", "mean_contour_error_um", "cycle_time_s",
@@ -83,9 +84,10 @@ EVAL_LABELS = {"max_contour_error_um": "max |contour error| (um), mean",
 _CHECKPOINT = re.compile(r"model_(\d+)_steps\.zip")
 
 
-def run_name(env_id: str, algo: str, seed: int) -> str:
-    """The run folder's name, e.g. ``CCC-Circle-v0_ppo_seed0``."""
-    return f"{env_id.split('/')[-1]}_{algo}_seed{seed}"
+def run_name(env_id: str, algo: str, seed: int, machine: str | None = None) -> str:
+    """The run folder's name, e.g. ``CCC-Circle-v0_ppo_seed0``, ``..._on_my_mill_ppo_seed0``."""
+    on = "" if machine is None else f"_on_{machine}"
+    return f"{env_id.split('/')[-1]}{on}_{algo}_seed{seed}"
 
 
 def train(
@@ -103,6 +105,7 @@ def train(
     progress: bool = True,
     torch_threads: int = 1,
     command: str | None = None,
+    plant: str | Mapping[str, Any] | None = None,
     **overrides: Any,
 ) -> Path:
     """Train (or resume) a run and return its folder (see the module docstring).
@@ -123,6 +126,7 @@ def train(
         progress: Show the progress bar.
         torch_threads: torch's CPU threads (fixed, for reproducible weights).
         command: The command line to record (None: this call's repr).
+        plant: Train on this machine (preset, machine file or plant dict); config.yml keeps it.
         **overrides: Keys replacing the config block's (``n_envs``, ``env_kwargs``, SB3
             constructor arguments, ...), checked as the file's are.
 
@@ -137,16 +141,29 @@ def train(
         return _resume(Path(resume), total_timesteps, progress, torch_threads)
     if not isinstance(env_id, str):
         raise ValueError(f"env_id must be a registered id, got {env_id!r}")
-    given = {} if total_timesteps is None else {"n_timesteps": total_timesteps}
-    config = _within(load_config(algo, env_id, config_file, {**overrides, **given}))
+    config, machine = _new_config(algo, env_id, config_file, overrides, total_timesteps, plant)
     args = _new_run_args(config, env_id, algo, seed, eval_every, eval_episodes, checkpoint_every)
-    run = Path(out_dir) / run_name(env_id, algo, seed)
+    run = Path(out_dir) / run_name(env_id, algo, seed, machine)
     _check_new(run)
     _set_threads(torch_threads)
     model = _new_model(config, algo, seed, run)  # refuses bad hyperparameters: no folder yet
     _new_run_folder(run, config, args, command or _call_repr(args, config_file, overrides))
     _learn(model, run, config, args, args["total_timesteps"], progress)
     return run
+
+
+def _new_config(
+    algo: str, env_id: str, config_file: Any, overrides: Mapping[str, Any],
+    total_timesteps: int | None, plant: Any,
+) -> tuple[RunConfig, str | None]:
+    """A new run's config (on ``plant``'s machine when given) and that machine's name."""
+    given = {} if total_timesteps is None else {"n_timesteps": total_timesteps}
+    config = _within(load_config(algo, env_id, config_file, {**overrides, **given}))
+    if plant is None:
+        return config, None
+    spec, machine = plant_of(plant)
+    block = {**config.block, "env_kwargs": {**config.env_kwargs, "plant": spec}}
+    return dataclasses.replace(config, block=block), machine
 
 
 ON_POLICY_BATCH = 64  # PPO's batch size when its config gives none (SB3's default)

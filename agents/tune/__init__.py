@@ -13,6 +13,7 @@ The package's modules, each re-exported here:
 - :mod:`agents.tune.protocols`: :class:`TuneParam`, :class:`Protocol` and the registry.
 - :mod:`agents.tune.papers`: the papers' protocols ``000`` (fuzzy PID CCC, improved PSO) and
   ``003`` (ACC2PID, improved ABC), registered on import.
+- :mod:`agents.tune.general`: ``pid``, any machine's PID CCC gains (``--plant``).
 - :mod:`agents.tune.fitness`: the fitness functions, the failure penalty and :func:`combine`.
 - :mod:`agents.tune.setters`: how a candidate's parameters reach its batch member.
 - :mod:`agents.tune.objective`: :class:`PopulationObjective`, a whole population per call on
@@ -24,6 +25,7 @@ The package's modules, each re-exported here:
 
 from __future__ import annotations
 
+from agents.tune import general  # noqa: F401  (registers the protocol "pid")
 from agents.tune.fitness import FITNESS_TERMS, FITNESSES, PENALTY_HARD_LIMITS, combine
 from agents.tune.objective import PopulationObjective
 from agents.tune.papers import acc2pid_003_params, acc2pid_hand_tuned, fuzzy_pid_000_params

@@ -423,7 +423,7 @@ class PopulationObjective:
         n, size = x.shape[0], loop.batch_size
         if n < size:  # the spare members get the last candidate's values and sit out
             x = np.concatenate([x, np.repeat(x[-1:], size - n, axis=0)])
-        self._set(loop, self.protocol.names, x)
+        self._set(loop, self.protocol.names, x, case.base_gains)
         # every member from the same seed: a candidate's result is its own (loop docstring)
         loop.reset([self.protocol.episode_seed] * size)
         # a member past the hard limit stops on that tick, in the kernel: it fails whatever it

@@ -14,6 +14,7 @@ always reported in the parameters' own (SI) units.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -191,6 +192,22 @@ class Protocol:
         logs = self._logs()
         z[:, logs] = np.log10(z[:, logs])
         return z
+
+    def on_plant(self, plant: str | Mapping[str, Any], name: str) -> Protocol:
+        """This protocol with every scenario run on ``plant`` (a twin of your machine).
+
+        Args:
+            plant: A preset name or a machine file's plant dict
+                (:func:`contour_gym.machines.read_machine`): it replaces each scenario's
+                machine; the paths, fitness, box and budget stay the protocol's.
+            name: The machine's name, for the returned protocol's (``"000@my_mill"``).
+
+        Returns:
+            The protocol on that machine (not registered).
+        """
+        kwargs = {s: {**self.scenario_kwargs.get(s, {}), "plant": plant} for s in self.scenarios}
+        return dataclasses.replace(self, name=f"{self.name}@{name}", scenario_kwargs=kwargs,
+                       doc=f"{self.doc} (on the machine {name})")
 
 
 

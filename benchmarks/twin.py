@@ -1,0 +1,94 @@
+"""A twin against the machine it models, on paths it never saw (issue 64's Done means).
+
+For each preset named (default: all five), a hidden machine is drawn
+(``agents.twin.generate.perturbed_plant``: every axis parameter scaled by a factor in
+[0.6, 1.6]), a 30 s recording made on the rig (``excitation``, ``machine_log``) and a twin
+identified from it (``agents.twin.fit.identify``, ``--like`` the preset). Both machines then run
+held-out paths (the preset's paper path and a random path of another seed), without CCC and with
+the preset's PID CCC, on the same seed of noise and disturbances. Printed per run: the time to
+identify, the twin's fit, the largest error of an identified ratio to the force constant, and
+the twin's relative error on the held-out max contour error, max tracking error and cycle time
+(the targets: 10 %, 10 %, 1 %).
+
+    python benchmarks/twin.py [PRESET ...] [--seconds 30] [--seed 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from typing import Any
+
+import numpy as np
+
+from agents.twin.fit import identify
+from agents.twin.generate import excitation, machine_log, perturbed_plant
+from contour_gym.api import simulate
+from contour_gym.paths import Path, helix, random_path
+from contour_gym.presets import PRESETS, resolve_preset
+
+ALL = ("xy_dc_servo", "xyz_pmlsm", "lugre_linear_motor", "xyy_gantry", "xy_servo_coulomb")
+COMPARED = {"max_contour_error": "contour", "peak_tracking_error": "tracking",
+            "cycle_time": "cycle"}
+
+
+def worst_ratio(values: dict[str, dict[str, float]], plant: dict[str, Any], like: str) -> float:
+    """The largest relative error of an identified ratio to the force constant."""
+    true, base = resolve_preset(plant), resolve_preset(like)
+    worst = 0.0
+    for t, b in zip(true.stage.axes, base.stage.axes, strict=True):
+        for name, value in values.get(t.name, {}).items():
+            hidden = getattr(t, name) if name in ("mass", "damping") else getattr(t.friction, name)
+            ratio = (value / b.force_constant) / (hidden / t.force_constant) - 1.0
+            worst = max(worst, abs(ratio))
+    return worst
+
+
+def held_out(name: str, seed: int) -> dict[str, str | Path | None]:
+    """The paths the twin is checked on: the preset's paper path (on a 3-D machine a part of
+    the recording) and a random path of ``seed`` (3-D: a helix of another radius and pitch)."""
+    if resolve_preset(name).stage.dim == 3:
+        return {"paper (seen)": None, "helix r15": helix(0.015, 0.005, 1.5)}
+    return {"paper": None, "random": random_path(np.random.default_rng(seed))}
+
+
+def compare(hidden: dict[str, Any], twin: dict[str, Any], path: str | Path | None,
+            ccc: Any) -> dict[str, float]:
+    """The twin's relative error on each :data:`COMPARED` metric (inf when one failed)."""
+    true = simulate(hidden, path, ccc_gains=ccc, seed=1)
+    model = simulate(twin, path, ccc_gains=ccc, seed=1)
+    if true["failed"] or model["failed"]:
+        return {key: float("inf") for key in COMPARED}
+    return {key: abs(model[key] / true[key] - 1.0) for key in COMPARED}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("presets", nargs="*", default=list(ALL), choices=sorted(PRESETS.names()))
+    parser.add_argument("--seconds", type=float, default=30.0)
+    parser.add_argument("--seed", type=int, default=5)
+    args = parser.parse_args()
+    print("| preset | identify (s) | NRMSE per axis | worst ratio | held-out path | CCC | "
+          "contour | tracking | cycle |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name in args.presets:
+        rng = np.random.default_rng(args.seed)
+        hidden = perturbed_plant(name, rng)
+        log = machine_log(hidden, excitation(resolve_preset(hidden), rng, args.seconds),
+                          seed=args.seed)
+        start = time.perf_counter()
+        twin = identify([log], name)
+        wall = time.perf_counter() - start
+        nrmse = ", ".join(f"{100 * v:.2g} %" for v in twin.nrmse.values())
+        worst = f"{100 * worst_ratio(twin.values, hidden, name):.2g} %"
+        gains = resolve_preset(name).ccc_gains
+        for label, path in held_out(name, args.seed + 100).items():
+            for ccc_label, ccc in (("none", None), ("PID", gains)):
+                errors = compare(hidden, twin.plant, path, ccc)
+                cells = " | ".join(f"{100 * errors[k]:.2f} %" for k in COMPARED)
+                print(f"| {name} | {wall:.1f} | {nrmse} | {worst} | {label} | {ccc_label} | "
+                      f"{cells} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
