@@ -38,7 +38,8 @@ def test_a_hidden_machine_differs_from_its_preset_within_the_bounds() -> None:
 
 
 @pytest.mark.parametrize(("preset", "ideal"), [("xy_servo_coulomb", True),
-                                               ("xy_dc_servo", False)])
+                                               ("xy_dc_servo", False),
+                                               ("xyy_gantry", True)])  # contour offsets
 def test_replaying_a_log_on_its_own_machine_gives_back_its_feedback(
     preset: str, ideal: bool
 ) -> None:
@@ -50,6 +51,9 @@ def test_replaying_a_log_on_its_own_machine_gives_back_its_feedback(
         assert np.abs(reference[:, :, a] - axis.cmd).max() < 1e-12  # the command, tick by tick
         step = resolve_preset(plant).stage.axes[a].encoder_resolution
         bound = 1e-9 if ideal else 0.5 * step + 1e-12  # exact, or the encoder's rounding
+        if preset == "xyy_gantry":  # its 2PID reads the command's velocity: the replay's is
+            # the polyline's through the logged commands, not the interpolator's exact one
+            bound = 0.02 * np.abs(axis.cmd - axis.fb).max()
         assert np.abs(x[:, :, a] - axis.fb).max() <= bound
         assert np.array_equal(x[0], x[1])  # a member's replay does not depend on the others
     nominal = replay(replay_loop(log, preset, ideal=ideal), log)
@@ -194,8 +198,37 @@ def test_a_candidate_that_failed_is_a_bad_fit_not_nan() -> None:
 
     _, log = _hidden_log("xy_dc_servo", True)
     problem = _Problem([log], "xy_dc_servo", 2, ideal=True)
-    x = problem.positions(np.zeros((2, 2, problem.n_params)))
+    x = problem.outputs(np.zeros((2, 2, problem.n_params)))
     x[0][1, 100:, 0] = np.nan  # member 1's x axis ended (failed) at sample 100
     res = problem.residuals(x)
     assert np.all(np.isfinite(res)) and np.all(res[1, 100 : len(log.time)] == FAILED)
-    assert np.array_equal(res[0], problem.residuals(problem.positions(np.zeros((1, 2, 2))))[0])
+    assert np.array_equal(res[0], problem.residuals(problem.outputs(np.zeros((1, 2, 2))))[0])
+
+
+def test_a_replay_draws_no_random_disturbance_and_keeps_the_rest() -> None:
+    # 001's axes: a 2 N random disturbance (not drawn again) and a 2 N, 1 Hz sine (kept)
+    plant, log = _hidden_log("xyz_pmlsm", False)
+    loop = replay_loop(log, plant, members=2)
+    loop.reset([1, 2])  # other seeds: the same run
+    x = replay(loop, log)
+    assert np.array_equal(x[0], x[1])
+    without_sine = {**plant, "stage": {"axes": {
+        k: {**v, "disturbance": {"sin_amp": 0.0}} for k, v in plant["stage"]["axes"].items()}}}
+    assert not np.array_equal(x[0], replay(replay_loop(log, without_sine), log)[0])
+
+
+def test_the_regression_counts_the_known_forces_and_reads_the_command() -> None:
+    from agents.twin.fit import _Problem, inverse_dynamics
+
+    # a sine disturbance the twin keeps from the preset: its force is in the balance
+    rng = np.random.default_rng(5)
+    plant = perturbed_plant("xyz_pmlsm", rng)
+    plant["stage"]["axes"] = {k: {**v, "disturbance": {"random_std": 0.0}}
+                              for k, v in plant["stage"]["axes"].items()}
+    log = machine_log(plant, excitation(resolve_preset(plant), rng, seconds=30.0), seed=5,
+                      ideal=True)
+    theta = inverse_dynamics(_Problem([log], "xyz_pmlsm", 2, ideal=True))
+    true, base = resolve_preset(plant), resolve_preset("xyz_pmlsm")
+    for a, (t, b) in enumerate(zip(true.stage.axes, base.stage.axes, strict=True)):
+        assert np.exp(theta[a, 0]) * b.mass == pytest.approx(t.mass / t.force_constant
+                                                             * b.force_constant, rel=0.01)

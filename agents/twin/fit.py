@@ -1,8 +1,10 @@
 """Identify a twin: the plant whose closed loop, replaying the logs' commands, measures the same.
 
 Output error (:mod:`agents.twin.replay`): the logs' commands drive a loop of the preset the
-machine is like, each member a candidate plant, and the simulated axis positions are matched
-to the logged feedback by :func:`scipy.optimize.least_squares` (bounded, from several starts).
+machine is like, each member a candidate plant, and the simulated axis positions (and, when the
+logs hold it, the control signals) are matched to the logged ones by
+:func:`scipy.optimize.least_squares` (bounded, from several starts; with both, refitted once
+with each channel weighed by its residual at the first fit).
 The unknowns are factors on the preset's values, searched in log space: per axis its mass,
 viscous damping and the friction parameters :data:`FITTED_FRICTION` names for its law. The
 force constant is fixed at the preset's: with the axis controller's gains known, positions
@@ -27,6 +29,7 @@ from agents.twin.replay import replay_loop
 from contour_gym.logs import STILL_BELOW, ServoLog
 from contour_gym.loop import ServoLoop
 from contour_gym.plant.friction import law_for
+from contour_gym.plant.params import AxisParams
 from contour_gym.presets import Preset, resolve_preset
 
 Array = NDArray[np.float64]
@@ -81,7 +84,13 @@ def fitted_names(preset: Preset) -> list[tuple[str, ...]]:
 
 
 class _Problem:
-    """The logs replayed on candidate plants: residuals and Jacobians by runs of members."""
+    """The logs replayed on candidate plants: residuals and Jacobians by runs of members.
+
+    The residuals are, per log, channel-major blocks of samples: each axis's position, then
+    (when every log holds it) each axis's control signal, each channel divided by its
+    :attr:`scale` (first its RMS following error or RMS control signal; :meth:`reweight` sets
+    it to the channel's residual at a fit, so that every channel counts by its own noise).
+    """
 
     def __init__(self, logs: Sequence[ServoLog], like: Any, screen: int, ideal: bool) -> None:
         self.preset = resolve_preset(like)
@@ -90,19 +99,28 @@ class _Problem:
         members = max(screen, 1 + self.n_params)  # the screen at once, or a Jacobian's run
         self.logs = list(logs)
         axes = [a.name for a in self.preset.stage.axes]
-        self.fb = [np.stack([log.axis(n).fb for n in axes], axis=1) for log in self.logs]
-        self.cmd = [np.stack([log.axis(n).cmd for n in axes], axis=1) for log in self.logs]
-        moved = np.concatenate([np.ptp(c, axis=0)[None] for c in self.cmd]).max(axis=0)
+        cmd = [np.stack([log.axis(n).cmd for n in axes], axis=1) for log in self.logs]
+        fb = [np.stack([log.axis(n).fb for n in axes], axis=1) for log in self.logs]
+        moved = np.concatenate([np.ptp(c, axis=0)[None] for c in cmd]).max(axis=0)
         self.still = [a for a, span in enumerate(moved) if span < STILL_BELOW]
         if len(self.still) == len(axes):
             raise ValueError(f"no axis of {like!r} moved in the logs: nothing to identify")
+        self.effort = all(log.axis(n).effort is not None for log in self.logs for n in axes)
+        self.measured = fb
+        err = np.concatenate([c - f for c, f in zip(cmd, fb, strict=True)])
+        scale = np.sqrt(np.mean(err**2, axis=0)) + 1e-12  # each axis's RMS following error
+        if self.effort:
+            u = [np.stack([_effort(log, n) for n in axes], axis=1) for log in self.logs]
+            self.measured = [np.concatenate(pair, axis=1) for pair in zip(fb, u, strict=True)]
+            scale = np.r_[scale, np.sqrt(np.mean(np.concatenate(u) ** 2, axis=0)) + 1e-12]
+        self.scale: Array = scale
+        self.first_scale: Array = scale.copy()  # what the reported NRMSE divides by
+        self.channel_axis = np.tile(np.arange(len(axes)), 2 if self.effort else 1)
         self.loops = [replay_loop(log, like, members=members, ideal=ideal) for log in self.logs]
-        err = np.concatenate([c - f for c, f in zip(self.cmd, self.fb, strict=True)])
-        self.scale = np.sqrt(np.mean(err**2, axis=0)) + 1e-12  # each axis's RMS following error
         self._last: tuple[bytes, Array, Array] | None = None
 
-    def positions(self, theta: Array) -> list[Array]:
-        """(M, N, A) per log: the positions of members with log factors ``theta`` (M, A, P)."""
+    def outputs(self, theta: Array) -> list[Array]:
+        """(M, N, C) per log: the channels of members with log factors ``theta`` (M, A, P)."""
         m = theta.shape[0]
         theta = theta.copy()
         theta[:, self.still] = 0.0  # an axis that never moved keeps the preset's values
@@ -116,15 +134,23 @@ class _Problem:
             _scale(loop, factors, fric)
             loop.reset(0)
             loop.step(len(log.time), skip=np.arange(m, loop.batch_size))  # the rest sit out
-            out.append(loop.trace().x[:m])
+            trace = loop.trace()
+            out.append(np.concatenate([trace.x[:m], trace.u[:m]], axis=2) if self.effort
+                       else trace.x[:m])
         return out
 
-    def residuals(self, x: list[Array]) -> Array:
-        """(M, R) each member's residuals: (position - feedback) / the axis's scale."""
-        rows = [(xi - fb[None]) / self.scale for xi, fb in zip(x, self.fb, strict=True)]
+    def residuals(self, out: list[Array]) -> Array:
+        """(M, R) each member's residuals: (simulated - logged) / the channel's scale."""
+        rows = [(o - meas[None]) / self.scale for o, meas in zip(out, self.measured, strict=True)]
         res = np.concatenate([r.reshape(r.shape[0], -1, order="F") for r in rows], axis=1)
         # a candidate whose loop failed (diverged: NaN rows after its end) is a bad fit
         return np.nan_to_num(res, nan=FAILED, posinf=FAILED, neginf=-FAILED)
+
+    def reweight(self, res: Array) -> None:
+        """Scale each channel by its RMS residual ``res`` (R,) at a fit: equal weight per noise."""
+        rms = np.array([math.sqrt(np.mean(res[r] ** 2)) for r in self.channel_rows(res.size)])
+        self.scale = self.scale * np.maximum(rms, 1e-9)
+        self._last = None
 
     def run(self, flat: Array) -> tuple[Array, Array]:
         """Residuals (R,) at ``flat`` and the Jacobian (R, A P), from one run of 1 + P members."""
@@ -135,7 +161,7 @@ class _Problem:
         theta = np.repeat(flat.reshape(1, a, p), p + 1, axis=0)
         for j in range(p):
             theta[j + 1, :, j] += STEP
-        res = self.residuals(self.positions(theta))
+        res = self.residuals(self.outputs(theta))
         jac = np.zeros((res.shape[1], a * p))
         per_axis = self.axis_rows(res.shape[1])
         for j in range(p):
@@ -145,23 +171,35 @@ class _Problem:
         self._last = (key, res[0], jac)
         return res[0], jac
 
-    def axis_rows(self, total: int) -> list[NDArray[np.intp]]:
-        """The residual rows of each axis (per log, axis-major blocks)."""
-        a = len(self.names)
-        idx, start = [np.zeros(0, dtype=np.intp) for _ in range(a)], 0
-        for fb in self.fb:
-            n = fb.shape[0]
-            for ax in range(a):
-                idx[ax] = np.r_[idx[ax], np.arange(start + ax * n, start + (ax + 1) * n)]
-            start += a * n
+    def channel_rows(self, total: int) -> list[NDArray[np.intp]]:
+        """The residual rows of each channel (per log, channel-major blocks)."""
+        c = len(self.channel_axis)
+        idx, start = [np.zeros(0, dtype=np.intp) for _ in range(c)], 0
+        for meas in self.measured:
+            n = meas.shape[0]
+            for ch in range(c):
+                idx[ch] = np.r_[idx[ch], np.arange(start + ch * n, start + (ch + 1) * n)]
+            start += c * n
         assert start == total
         return idx
+
+    def axis_rows(self, total: int) -> list[NDArray[np.intp]]:
+        """The residual rows of each axis (its position's and, when logged, its control's)."""
+        rows = self.channel_rows(total)
+        return [np.concatenate([r for r, a in zip(rows, self.channel_axis, strict=True)
+                                if a == ax]) for ax in range(len(self.names))]
+
+
+def _effort(log: ServoLog, name: str) -> Array:
+    effort = log.axis(name).effort
+    assert effort is not None
+    return effort
 
 
 def _scale(loop: ServoLoop, factors: Array, fric: dict[str, Array]) -> None:
     m = factors.shape[0]
     loop.set_plant_scaling(np.arange(m), mass=factors[:, :, 0], damping=factors[:, :, 1],
-                           friction_params=fric)
+                           friction_params=fric, random_disturbance=0.0)  # as replay_loop
 
 
 def identify(
@@ -190,7 +228,7 @@ def identify(
     points = rng.uniform(lo, hi, size=(screen, a, p))
     points[0] = 0.0
     points[1] = np.clip(inverse_dynamics(problem), lo, hi)  # with effort logged: the regression
-    res = problem.residuals(problem.positions(points))
+    res = problem.residuals(problem.outputs(points))
     rows = problem.axis_rows(res.shape[1])
     # the axes are fitted apart (each one's residuals follow its own factors only): start k
     # takes each axis's k-th best point of the screen
@@ -198,36 +236,44 @@ def identify(
     best = None
     for k in range(starts):
         start = np.stack([points[ranked[ax][k], ax] for ax in range(a)])
-        fit = least_squares(lambda f: problem.run(f)[0], start.ravel(),
-                            jac=lambda f: problem.run(f)[1], bounds=(lo, hi), x_scale=1.0,
-                            max_nfev=60)
+        fit = _solve(problem, start.ravel(), (lo, hi))
         if best is None or fit.cost < best.cost:
             best = fit
     assert best is not None
+    if problem.effort:  # positions and control signals: each weighed by its own noise
+        problem.reweight(best.fun)
+        best = _solve(problem, best.x, (lo, hi))
     return _result(problem, best)
 
 
-def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Array:
-    """(A, P) log factors from the logged effort by linear least squares (0 without effort).
+def _solve(problem: _Problem, start: Array, bounds: tuple[Array, Array]) -> Any:
+    return least_squares(lambda f: problem.run(f)[0], start, jac=lambda f: problem.run(f)[1],
+                         bounds=bounds, x_scale=1.0, max_nfev=60)
 
-    The axis's force balance ``K u = m a + b v + fc sgn(v)`` holds at every sample: with the
-    effort ``u`` logged and ``v``, ``a`` differenced from the feedback (smoothed over
+
+def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Array:
+    """(A, P) log factors from the logged effort by instrumental variables (0 without effort).
+
+    The axis's force balance ``K u = m a + b v + fc sgn(v) - d`` holds at every sample: with
+    the effort ``u`` logged and ``v``, ``a`` differenced from the feedback (smoothed over
     ``smooth`` samples, the effort read one tick earlier: the loop's delay), ``m/K``, ``b/K``
-    and ``fc/K`` follow from one regression (the inverse dynamic model of the EMPS
-    benchmark); each is turned into a factor on the preset's value. Friction parameters other
-    than ``fc`` start at the factor ``fc`` got.
+    and ``fc/K`` follow from one linear regression (the inverse dynamic model of the EMPS
+    benchmark). In closed loop the disturbance ``d`` moves ``a`` and ``v`` too, which biases
+    plain least squares (by 30-100 % on 001's 2 N random disturbance); the same quantities
+    differenced from the logged *command*, which ``d`` does not move, are the instruments
+    (IDIM-IV). Each ratio is turned into a factor on the preset's value; friction parameters
+    other than ``fc`` start at the factor ``fc`` got.
     """
     a_n, p = len(problem.names), problem.n_params
     theta = np.zeros((a_n, p))
     for ax, (axis, names) in enumerate(zip(problem.preset.stage.axes, problem.names,
                                            strict=True)):
-        rows = [_regressors(log, axis.name, problem.preset.stage.ts, smooth)
+        rows = [_regressors(log, axis, problem.preset.stage.ts, smooth)
                 for log in problem.logs]
         if any(r is None for r in rows):
             continue
-        x = np.concatenate([r[0] for r in rows if r is not None])
-        y = np.concatenate([r[1] for r in rows if r is not None])
-        coef = np.linalg.lstsq(x, y * axis.force_constant, rcond=None)[0]
+        x, z, y = (np.concatenate([r[i] for r in rows if r is not None]) for i in range(3))
+        coef = np.linalg.lstsq(z.T @ x, z.T @ y, rcond=None)[0]
         nominal = _nominal(axis)
         fc = coef[2] / nominal["fc"] if nominal.get("fc") else 1.0
         for j, name in enumerate(names):
@@ -237,20 +283,42 @@ def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Array:
     return theta
 
 
-def _regressors(log: ServoLog, name: str, ts: float, smooth: int
-                ) -> tuple[Array, Array] | None:
-    # [a, v, sgn v] and u of the moving samples, or None without effort
-    axis = log.axis(name)
-    if axis.effort is None:
+def _regressors(log: ServoLog, axis: AxisParams, ts: float, smooth: int
+                ) -> tuple[Array, Array, Array] | None:
+    # [a, v, sgn v] from the feedback, the same from the command (the instruments) and the
+    # force K u plus the known external forces, of the moving samples; None without effort
+    logged = log.axis(axis.name)
+    if logged.effort is None:
         return None
     kernel = np.ones(smooth) / smooth
-    x = np.convolve(axis.fb, kernel, mode="same")
-    v = np.gradient(x, ts)
-    acc = np.gradient(v, ts)
-    u = np.r_[axis.effort[0], axis.effort[:-1]]  # the loop's one-tick delay
+    columns = []
+    for signal in (logged.fb, logged.cmd):
+        v = np.gradient(np.convolve(signal, kernel, mode="same"), ts)
+        columns.append(np.stack([np.gradient(v, ts), v, np.sign(v)], axis=1))
+    u = np.r_[logged.effort[0], logged.effort[:-1]]  # the loop's one-tick delay
+    force = axis.force_constant * u + known_force(axis, log.time - log.time[0], logged.fb)
+    v = columns[1][:, 1]  # the samples kept by the command's speed, which d does not move
     keep = np.abs(v) > 1e-3 * max(np.abs(v).max(), 1e-12)
     keep[: smooth] = keep[-smooth:] = False
-    return np.stack([acc, v, np.sign(v)], axis=1)[keep], u[keep]
+    return columns[0][keep], columns[1][keep], force[keep]
+
+
+def known_force(axis: AxisParams, t: Array, x: Array) -> Array:
+    """The external force the twin keeps from ``axis``'s preset at times ``t``, positions ``x``.
+
+    The disturbance's step and sine (not its random part), less the force ripple, N (as
+    :func:`contour_gym.loop.kernel.axis_tick` applies them).
+    """
+    force = np.zeros_like(t)
+    d = axis.disturbance
+    if d is not None:
+        force += np.where(t >= d.step_time, d.step_amp, 0.0)
+        force += d.sin_amp * np.sin(2.0 * math.pi * d.sin_freq * t + d.sin_phase)
+    if axis.ripple is not None:
+        for a, b, w in zip(axis.ripple.sin_amp, axis.ripple.cos_amp, axis.ripple.wavenumber,
+                           strict=True):
+            force -= a * np.sin(w * x) + b * np.cos(w * x)
+    return force
 
 
 def _result(problem: _Problem, fit: Any) -> Identified:
@@ -298,9 +366,10 @@ def _axis_changes(axis: Any, values: dict[str, float]) -> dict[str, Any]:
 
 def _nrmse(problem: _Problem, res: Array) -> dict[str, float]:
     # per axis that moved: RMS(twin's following error - measured) / RMS(measured), from the
-    # residuals at the solution ((position - feedback) / that RMS)
-    rows = problem.axis_rows(res.size)
-    return {axis.name: float(math.sqrt(np.mean(res[rows[ax]] ** 2)))
+    # position residuals at the solution ((position - feedback) / the channel's scale)
+    rows = problem.channel_rows(res.size)
+    ratio = problem.scale / problem.first_scale
+    return {axis.name: float(math.sqrt(np.mean(res[rows[ax]] ** 2)) * ratio[ax])
             for ax, axis in enumerate(problem.preset.stage.axes) if ax not in problem.still}
 
 

@@ -18,12 +18,14 @@ import numpy as np
 
 from contour_gym.api import make_scenario
 from contour_gym.logs import AxisLog, ServoLog
-from contour_gym.paths import GcodePath, Path, circle, composite, load, random_path
+from contour_gym.paths import GcodePath, Path, circle, composite, helix, random_path
 from contour_gym.plant.friction import law_for
 from contour_gym.presets import Preset, resolve_preset
 
 SCALED = ("mass", "damping", "force_constant")  # the axis fields a hidden machine scales
 RADIUS = 0.01  # the circle test's radius, m
+ACCEL = 2.0  # the largest acceleration round the circle at the faster feed (chosen), m/s^2
+PITCH = 0.001  # a 3-D machine's circles advance this much per lap, m
 BOX = 0.03  # a random path is drawn within +-BOX of the circle's start, m
 
 
@@ -72,27 +74,71 @@ def _scaled_friction(model: Any, factors: dict[str, float]) -> dict[str, Any]:
     return out
 
 
+def excitation_feeds(preset: Preset) -> tuple[float, float]:
+    """The circle test's two feeds on ``preset``'s machine, m/s.
+
+    Half its feedrate and its feedrate, or a quarter and half of its largest feedrate where
+    those are faster (chosen: a machine with a strong disturbance, 001's 2 N on a 4 kg axis,
+    shows its inertia only at accelerations its paper's slow feed does not reach).
+    """
+    top = preset.max_feedrate or preset.feedrate
+    return max(0.5 * preset.feedrate, 0.25 * top), max(preset.feedrate, 0.5 * top)
+
+
 def excitation(preset: Preset, rng: np.random.Generator, seconds: float = 30.0) -> GcodePath:
     """The recording a user makes to identify ``preset``'s machine, about ``seconds`` long.
 
-    A 2-D machine: a circle of :data:`RADIUS` at half its feedrate, then at its feedrate (laps
-    enough for two thirds of the time), then a random path from the circle's start at its
-    feedrate; a 3-D one: its paper path at the two feeds, the second from where the first
-    ends. Each part ends at rest.
+    A circle of :data:`RADIUS` (larger where the faster feed would pull more than
+    :data:`ACCEL`, or the machine's acceleration limit, round it; smaller where the travel
+    ends nearer, the feeds then lowered to that acceleration) at each of
+    :func:`excitation_feeds`; a 2-D machine then runs a random path at the faster feed (a third
+    of the time each); a 3-D one runs its circles in the X-Y, Y-Z and Z-X planes (helices of
+    :data:`PITCH` per lap, a sixth of the time each).
+    Each part ends at rest.
     """
-    feed = preset.feedrate
+    slow, fast = excitation_feeds(preset)
+    accel = min(ACCEL, preset.accel, preset.part_accel or math.inf)
+    radius = min(max(RADIUS, fast**2 / accel), 0.5 * _room(preset))
+    slow, fast = (min(f, math.sqrt(accel * radius)) for f in (slow, fast))
     if preset.stage.dim == 3:
-        first = load(preset.path)
-        second = first.transformed(offset=first.point(first.length) - first.point(0.0))
-        return _program([(first, 0.5 * feed), (second, feed)], "excitation")
-    ring = circle(RADIUS)
+        return _program(_planes(radius, slow, fast, seconds / 6.0), "excitation")
+    ring = circle(radius)
     start = ring.point(0.0)
-    laps = max(1, math.ceil(seconds / 3.0 / (ring.length / feed)))  # each feed a third
-    tail = random_path(rng, within=[[-BOX, BOX], [-BOX, BOX]],
-                       length=min(feed * seconds / 3.0, 4.0 * BOX))
+    box = max(BOX, 0.5 * radius)
+    tail = random_path(rng, within=[[-box, box], [-box, box]],
+                       length=min(fast * seconds / 3.0, 4.0 * box))
     tail = tail.transformed(offset=start - tail.point(0.0))
-    return _program([(ring.repeat(laps), 0.5 * feed), (ring.repeat(laps), feed), (tail, feed)],
-                    "excitation")
+    parts = [(ring.repeat(_laps(ring, feed, seconds / 3.0)), feed) for feed in (slow, fast)]
+    return _program([*parts, (tail, fast)], "excitation")
+
+
+def _room(preset: Preset) -> float:
+    # the least distance from the path's origin to an end of an axis's travel, m
+    limits = [min(hi - off, off - lo) for _, _, off, (lo, hi)
+              in preset.stage.limited_coordinates()]
+    return min(limits, default=math.inf)
+
+
+def _laps(ring: Path, feed: float, seconds: float) -> int:
+    return max(1, math.ceil(seconds / (ring.length / feed)))
+
+
+def _planes(radius: float, slow: float, fast: float, seconds: float) -> list[tuple[Path, float]]:
+    # circles (flat helices) in the X-Y, Y-Z and Z-X planes at each feed, joined end to start
+    turns = (np.eye(3), np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+             np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]))
+    parts: list[tuple[Path, float]] = []
+    end = np.zeros(3)
+    for feed in (slow, fast):
+        laps = _laps(circle(radius), feed, seconds)
+        for rotation in turns:
+            coil = helix(radius, PITCH, float(laps))
+            if parts:
+                coil = coil.transformed(rotation=rotation,
+                                        offset=end - rotation @ coil.point(0.0))
+            parts.append((coil, feed))
+            end = coil.point(coil.length)
+    return parts
 
 
 def _program(parts: list[tuple[Path, float]], name: str) -> GcodePath:
@@ -143,4 +189,4 @@ def machine_log(
     return ServoLog(trace.t[:rows].copy(), tuple(axes), source=source)
 
 
-__all__ = ["excitation", "machine_log", "perturbed_plant"]
+__all__ = ["excitation", "excitation_feeds", "machine_log", "perturbed_plant"]

@@ -28,6 +28,8 @@ Array = NDArray[np.float64]
 def command_path(log: ServoLog, plant: Any) -> Path:
     """The log's commands on ``plant``'s first contour's axes, as a path with its time law.
 
+    The path is in the contour's coordinates: the commands less the contour's offsets.
+
     Raises:
         ValueError: for a log without one of those axes, or not on the plant's servo tick.
     """
@@ -41,9 +43,11 @@ def command_path(log: ServoLog, plant: Any) -> Path:
         raise ValueError(f"{log.source}: a sample every {log.period:.6g} s; the machine's servo "
                          f"tick is {stage.ts:.6g} s (give a log of one sample per tick)")
     # the machine at rest where sample 0 measured it, then sample k's command at the end of
-    # tick k (the loop reads the law at (k + 1) ts)
+    # tick k (the loop reads the law at (k + 1) ts); less the contour's offsets, which the
+    # loop adds back (003's gantry: y1 at the path's y + 70 mm)
+    offset = np.asarray(stage.contours[0].offset or np.zeros(len(names)))
     start = np.array([[log.axis(n).fb[0] for n in names]])
-    points = np.vstack([start, np.stack([log.axis(n).cmd for n in names], axis=1)])
+    points = np.vstack([start, np.stack([log.axis(n).cmd for n in names], axis=1)]) - offset
     moves = np.r_[True, np.any(np.diff(points, axis=0) != 0.0, axis=1)]
     path = polyline(points[moves])
     s = np.repeat(path.table.s0, np.diff(np.r_[np.flatnonzero(moves), len(points)]))
@@ -51,9 +55,15 @@ def command_path(log: ServoLog, plant: Any) -> Path:
 
 
 def replay_loop(log: ServoLog, plant: Any, members: int = 1, **options: Any) -> ServoLoop:
-    """A recording loop of ``members`` copies of ``plant`` on the log's commands, at reset."""
+    """A recording loop of ``members`` copies of ``plant`` on the log's commands, at reset.
+
+    The loop draws no random disturbance (001's): the one that acted on the logged run cannot
+    be drawn again, and a second draw would only add its own error to the replay's; the
+    deterministic parts (steps, sines, ripple, friction) act as in the plant.
+    """
     scenario = make_scenario(plant, command_path(log, plant), **options)
     loop = scenario.loop(batch_size=members, record=True)
+    loop.set_plant_scaling(np.arange(members), random_disturbance=0.0)
     loop.reset(0)
     return loop
 

@@ -124,6 +124,7 @@ class Parameters:
         friction: ArrayLike = 1.0,
         disturbance: ArrayLike = 1.0,
         friction_params: Mapping[str, ArrayLike] | None = None,
+        random_disturbance: ArrayLike = 1.0,
     ) -> None:
         """Scale members' axis parameters relative to the stage's nominal values.
 
@@ -132,12 +133,15 @@ class Parameters:
         member). Each factor broadcasts to (len(members), n_axes) and must be finite and > 0
         (friction/disturbance >= 0); friction scales the parameters each law names in its
         ``scale``; ``friction_params`` scales single friction parameters by name (``fc``,
-        ``sigma0``, ...) on the axes whose law has them, on top of ``friction``.
+        ``sigma0``, ...) on the axes whose law has them, on top of ``friction``;
+        ``random_disturbance`` scales the disturbance's random part alone, on top of
+        ``disturbance`` (0: its deterministic part only, as an identification replays a log).
         """
         idx = self._members(members)
         shape = (len(idx), self.stage.n_axes)
         f = _scale_factors(shape, mass=mass, damping=damping, force_constant=force_constant,
-                           friction=friction, disturbance=disturbance)
+                           friction=friction, disturbance=disturbance,
+                           random_disturbance=random_disturbance)
         one = _friction_factors(self.stage, shape, friction_params or {})
         ax_p, fr_p, dist = (arr[idx].copy() for arr in self._nominal)
         ax_p[..., AX.m] *= f["mass"]
@@ -152,18 +156,19 @@ class Parameters:
                     fr_p[:, a, law.params.names.index(name)] *= factor[:, a]
         for name in ("step_a", "sin_a", "rnd_std"):
             dist[..., DISTURBANCE.names.index(name)] *= f["disturbance"]
+        dist[..., DISTURBANCE.names.index("rnd_std")] *= f["random_disturbance"]
         loop = self.loop
         loop.ax_p[idx], loop.fr_p[idx], loop.dist[idx] = ax_p, fr_p, dist
         loop.ad[idx], loop.bd[idx] = zoh_matrices(ax_p, self.stage.ts / self.stage.substeps)
 
 
 def _scale_factors(shape: tuple[int, int], **factors: ArrayLike) -> dict[str, Array]:
-    """The plant scale factors broadcast to ``shape``, checked (> 0; friction, disturbance >= 0)."""
+    """The plant scale factors broadcast to ``shape``, checked (> 0; friction, disturbances >= 0)."""
     f = {k: np.broadcast_to(as_finite_array(v, k), shape) for k, v in factors.items()}
     for k in ("mass", "damping", "force_constant"):
         if np.any(f[k] <= 0):
             raise ValueError(f"{k} scale must be > 0, got {f[k].min()}")
-    for k in ("friction", "disturbance"):
+    for k in ("friction", "disturbance", "random_disturbance"):
         if np.any(f[k] < 0):
             raise ValueError(f"{k} scale must be >= 0, got {f[k].min()}")
     return f
