@@ -394,7 +394,7 @@ def _compile_up_front(args: argparse.Namespace, *groups: str) -> None:
 
 def identify_command(args: argparse.Namespace) -> int:
     """Run ``contour-gym identify``: the machine file, its report, and the fit on stdout."""
-    from agents.twin.check import following_nrmse, split_at_rest, verdict
+    from agents.twin.check import following, nrmse, split_at_rest, verdict
     from agents.twin.fit import identify
 
     logs = [read_log(p, columns=args.columns, period=args.period, joints=args.joints,
@@ -405,30 +405,51 @@ def identify_command(args: argparse.Namespace) -> int:
         first, held = split_at_rest(logs[0])
         fit_logs = [first]
     twin = identify(fit_logs, args.like, ideal=args.ideal)
-    plant = {**twin.plant, "name": FilePath(args.out).stem}
-    held_nrmse = {a: v for a, v in following_nrmse(held, plant, ideal=args.ideal).items()
-                  if a in twin.nrmse}
+    out = FilePath(args.out)
+    plant = {**twin.plant, "name": out.stem}
+    held_errors = {a: e for a, e in following(held, plant, ideal=args.ideal).items()
+                   if a in twin.nrmse}
+    held_nrmse = nrmse(held_errors)
     said = verdict(twin.nrmse, held_nrmse)
     record = {"logs": list(args.logs), "values": twin.values, "std": twin.std,
-              "fixed": twin.fixed, "nrmse_fit": twin.nrmse, "nrmse_held_out": held_nrmse,
-              "verdict": said}
-    write_machine(args.out, plant, identified=record)
-    report = _identify_report(twin, held_nrmse, said)
-    write_text(FilePath(args.out).with_name(f"{FilePath(args.out).stem}_report.md"), report)
+              "undetermined": twin.undetermined(), "fixed": twin.fixed,
+              "nrmse_fit": twin.nrmse, "nrmse_held_out": held_nrmse, "verdict": said}
+    figure = out.with_name(f"{out.stem}_report.png")
+    _identify_plot(figure, (fit_logs[0], following(fit_logs[0], plant, ideal=args.ideal)),
+                   (held, held_errors))
+    write_machine(out, plant, identified=record)
+    report = _identify_report(twin, held_nrmse, said, figure.name)
+    write_text(out.with_name(f"{out.stem}_report.md"), report)
     print(report, end="")
     print(f"machine file written to {args.out}; run on it with --plant {args.out}")
     return 0
 
 
-def _identify_report(twin: Identified, held: dict[str, float], said: str) -> str:
-    # the parameter table, the fit and held-out NRMSE per axis, and the verdict (Markdown)
-    lines = ["| axis | parameter | value | std |", "|---|---|---|---|"]
+def _identify_plot(target: FilePath, fitted: tuple, held: tuple) -> None:
+    import matplotlib.pyplot as plt
+
+    from agents.twin.check import report_figure
+
+    fig = report_figure(fitted, held)
+    try:
+        save_figure(fig, target)
+    finally:
+        plt.close(fig)
+
+
+def _identify_report(twin: Identified, held: dict[str, float], said: str, figure: str) -> str:
+    # the parameter table, the fit and held-out NRMSE per axis, the verdict and the plot
+    loose = twin.undetermined()
+    lines = ["| axis | parameter | value | std | determined by the logs |", "|---|---|---|---|---|"]
     for axis, values in twin.values.items():
         sd = twin.std[axis]
-        lines += [f"| {axis} | {k} | {v:.6g} | {sd[k]:.2g} |" for k, v in values.items()]
+        lines += [f"| {axis} | {k} | {v:.6g} | {sd[k]:.2g} | "
+                  f"{'no: trades off with others' if k in loose.get(axis, ()) else 'yes'} |"
+                  for k, v in values.items()]
     lines += ["", "| axis | NRMSE, fitted | NRMSE, held out |", "|---|---|---|"]
     lines += [f"| {a} | {100 * twin.nrmse[a]:.3g} % | {100 * held[a]:.3g} % |" for a in held]
-    lines += ["", *(f"{k}: {why}" for k, why in twin.fixed.items()), f"verdict: {said}", ""]
+    lines += ["", *(f"{k}: {why}" for k, why in twin.fixed.items()), f"verdict: {said}", "",
+              f"![measured and twin following error]({figure})", ""]
     return "\n".join(lines)
 
 
@@ -620,6 +641,9 @@ def _check_outputs(args: argparse.Namespace) -> None:
         if not is_machine_file(args.out):
             raise ValueError(f"--out {args.out}: a machine file's name ends in .yaml or .yml")
         output_file(args.out, "--out")
+        out = FilePath(args.out)
+        for suffix in ("_report.md", "_report.png"):  # written beside it
+            output_file(str(out.with_name(out.stem + suffix)), "--out's report")
     elif args.command == "simulate":
         output_file(args.out, "--out")
         from contour_gym.render import CONTOUR_INCHES, PART_HEIGHT  # matplotlib: when needed

@@ -6,9 +6,10 @@ For each preset named (default: all five), a hidden machine is drawn
 identified from it (``agents.twin.fit.identify``, ``--like`` the preset). Both machines then run
 held-out paths (the preset's paper path and a random path of another seed), without CCC and with
 the preset's PID CCC, on the same seed of noise and disturbances. Printed per run: the time to
-identify, the twin's fit, the largest error of an identified ratio to the force constant, and
-the twin's relative error on the held-out max contour error, max tracking error and cycle time
-(the targets: 10 %, 10 %, 1 %).
+identify, the twin's fit, the largest error of a determined value's ratio to the force constant
+(``Identified.undetermined`` lists the others, with their errors), and the twin's relative error
+on the held-out max contour error, max tracking error and cycle time (the targets: 10 %, 10 %,
+1 %).
 
     python benchmarks/twin.py [PRESET ...] [--seconds 30] [--seed 5]
 """
@@ -21,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.twin.fit import identify
+from agents.twin.fit import VISCOUS, identify
 from agents.twin.generate import excitation, machine_log, perturbed_plant
 from contour_gym.api import simulate
 from contour_gym.paths import Path, helix, random_path
@@ -32,16 +33,33 @@ COMPARED = {"max_contour_error": "contour", "peak_tracking_error": "tracking",
             "cycle_time": "cycle"}
 
 
-def worst_ratio(values: dict[str, dict[str, float]], plant: dict[str, Any], like: str) -> float:
-    """The largest relative error of an identified ratio to the force constant."""
+def ratio_errors(values: dict[str, dict[str, float]], plant: dict[str, Any], like: str
+                 ) -> dict[tuple[str, str], float]:
+    """Each identified value's ratio to the force constant against the hidden machine's.
+
+    The damping is compared with the viscous friction added (``VISCOUS``: kept the preset's,
+    the fitted damping holds the sum).
+    """
     true, base = resolve_preset(plant), resolve_preset(like)
-    worst = 0.0
+    out = {}
     for t, b in zip(true.stage.axes, base.stage.axes, strict=True):
         for name, value in values.get(t.name, {}).items():
-            hidden = getattr(t, name) if name in ("mass", "damping") else getattr(t.friction, name)
-            ratio = (value / b.force_constant) / (hidden / t.force_constant) - 1.0
-            worst = max(worst, abs(ratio))
-    return worst
+            hidden, mine = _value(t, name), value
+            if name == "damping":
+                hidden += sum(getattr(t.friction, v, 0.0) or 0.0 for v in VISCOUS)
+                mine += sum(getattr(b.friction, v, 0.0) or 0.0 for v in VISCOUS)
+            out[(t.name, name)] = (mine / b.force_constant) / (hidden / t.force_constant) - 1.0
+    return out
+
+
+def _value(axis: Any, name: str) -> float:
+    return float(getattr(axis, name) if name in ("mass", "damping")
+                 else getattr(axis.friction, name))
+
+
+def worst_ratio(values: dict[str, dict[str, float]], plant: dict[str, Any], like: str) -> float:
+    """The largest relative error of an identified ratio to the force constant."""
+    return max((abs(e) for e in ratio_errors(values, plant, like).values()), default=0.0)
 
 
 def held_out(name: str, seed: int) -> dict[str, str | Path | None]:
@@ -64,13 +82,14 @@ def compare(hidden: dict[str, Any], twin: dict[str, Any], path: str | Path | Non
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("presets", nargs="*", default=list(ALL), choices=sorted(PRESETS.names()))
+    parser.add_argument("presets", nargs="*", default=list(ALL), metavar="PRESET",
+                        help=f"presets (default all: {', '.join(sorted(PRESETS.names()))})")
     parser.add_argument("--seconds", type=float, default=30.0)
     parser.add_argument("--seed", type=int, default=5)
     args = parser.parse_args()
-    print("| preset | identify (s) | NRMSE per axis | worst ratio | held-out path | CCC | "
-          "contour | tracking | cycle |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| preset | identify (s) | NRMSE per axis | worst determined | undetermined (error) | "
+          "held-out path | CCC | contour | tracking | cycle |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for name in args.presets:
         rng = np.random.default_rng(args.seed)
         hidden = perturbed_plant(name, rng)
@@ -80,14 +99,19 @@ def main() -> None:
         twin = identify([log], name)
         wall = time.perf_counter() - start
         nrmse = ", ".join(f"{100 * v:.2g} %" for v in twin.nrmse.values())
-        worst = f"{100 * worst_ratio(twin.values, hidden, name):.2g} %"
+        errors = ratio_errors(twin.values, hidden, name)
+        loose = {(a, n) for a, names in twin.undetermined().items() for n in names}
+        kept = [abs(e) for k, e in errors.items() if k not in loose]
+        worst = f"{100 * max(kept, default=0.0):.2g} %"
+        undetermined = ", ".join(f"{a}.{n} ({100 * errors[(a, n)]:+.0f} %)"
+                                 for a, n in sorted(loose)) or "none"
         gains = resolve_preset(name).ccc_gains
         for label, path in held_out(name, args.seed + 100).items():
             for ccc_label, ccc in (("none", None), ("PID", gains)):
                 errors = compare(hidden, twin.plant, path, ccc)
                 cells = " | ".join(f"{100 * errors[k]:.2f} %" for k in COMPARED)
-                print(f"| {name} | {wall:.1f} | {nrmse} | {worst} | {label} | {ccc_label} | "
-                      f"{cells} |", flush=True)
+                print(f"| {name} | {wall:.1f} | {nrmse} | {worst} | {undetermined} | {label} | "
+                      f"{ccc_label} | {cells} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -93,17 +93,23 @@ def _ratios(values: dict, plant: Any, like: str) -> dict:
 
 
 @pytest.mark.parametrize(("ideal", "seconds", "within"), [
-    (True, 4.0, 0.01),
-    pytest.param(False, 30.0, 0.05, marks=pytest.mark.slow),  # the issue's 30 s log
+    (True, 4.0, {"mass": 0.01, "damping": 0.01, "fc": 0.01}),
+    # the issue's 30 s log; its x friction comes back 5.1 % off, at the truth's own residual
+    # (the feedback's 1 um steps limit it: docs/measurements.md)
+    pytest.param(False, 30.0, {"mass": 0.02, "damping": 0.02, "fc": 0.06},
+                 marks=pytest.mark.slow),
 ])
-def test_identify_recovers_a_hidden_machine(ideal: bool, seconds: float, within: float) -> None:
+def test_identify_recovers_a_hidden_machine(
+    ideal: bool, seconds: float, within: dict[str, float]
+) -> None:
     rng = np.random.default_rng(5)
     plant = perturbed_plant("xy_servo_coulomb", rng)
     log = machine_log(plant, excitation(resolve_preset(plant), rng, seconds=seconds), seed=5,
                       ideal=ideal)
     twin = identify([log], "xy_servo_coulomb", ideal=ideal)
     errors = _ratios(twin.values, plant, "xy_servo_coulomb")
-    assert max(abs(e) for e in errors.values()) < within, errors
+    assert all(abs(e) < within[name] for (_, name), e in errors.items()), errors
+    assert twin.undetermined() == {}
     assert twin.fixed == {"force_constant": twin.fixed["force_constant"]}
     assert resolve_preset(twin.plant).stage.axes[0].mass == twin.values["x"]["mass"]
     if ideal:
@@ -145,6 +151,9 @@ def test_identify_writes_a_machine_file_every_command_runs_on(tmp_path: Path, ca
     assert "verdict: fits to" in said  # the held-out part (after the circles' stop) fits too
     report = (tmp_path / "mine_report.md").read_text()
     assert "NRMSE, held out" in report and report in said
+    assert "| x | mass |" in report and "| yes |" in report  # determined by the logs
+    assert "![measured and twin following error](mine_report.png)" in report
+    assert (tmp_path / "mine_report.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     twin = resolve_preset(str(out))
     assert twin.name == "mine" and twin.stage.axes[0].mass != resolve_preset(
         "xy_servo_coulomb").stage.axes[0].mass

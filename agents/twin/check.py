@@ -1,8 +1,9 @@
 """Check a twin on what it was not fitted to: a held-out stretch of the log, or another log.
 
 :func:`split_at_rest` cuts a log where the machine stands still (so that the held-out part
-starts at rest, as a replay does); :func:`following_nrmse` replays a log on a plant and
-compares its following error to the measured one; :func:`verdict` says what a user can do.
+starts at rest, as a replay does); :func:`following` replays a log on a plant beside the
+measured following error, :func:`nrmse` compares them, :func:`report_figure` draws them;
+:func:`verdict` says what a user can do.
 """
 
 from __future__ import annotations
@@ -11,10 +12,13 @@ import math
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from agents.twin.replay import replay, replay_loop
 from contour_gym.logs import ServoLog
 from contour_gym.presets import resolve_preset
+
+Array = NDArray[np.float64]
 
 REST_SAMPLES = 5  # samples of an unchanged command that count as a stop (a program's exact stop)
 GOOD = 0.10  # a held-out NRMSE under this fits
@@ -42,18 +46,58 @@ def split_at_rest(log: ServoLog, fraction: float = 2.0 / 3.0) -> tuple[ServoLog,
     return log.window(t[0], t[cut]), log.window(t[cut], math.inf)
 
 
-def following_nrmse(log: ServoLog, plant: Any, ideal: bool = False) -> dict[str, float]:
-    """Per axis that moved: RMS(twin's following error - measured) / RMS(measured), replayed."""
+def following(log: ServoLog, plant: Any, ideal: bool = False) -> dict[str, tuple[Array, Array]]:
+    """Per axis that moved: (measured, twin's) following error, command minus position, m.
+
+    The twin's is the log's command replayed on ``plant`` (:func:`~agents.twin.replay.replay`).
+    """
     x = replay(replay_loop(log, plant, ideal=ideal), log)[0]
     out = {}
     for a, stage_axis in enumerate(resolve_preset(plant).stage.axes):
         axis = log.axis(stage_axis.name)
-        if axis.name in log.still:
-            continue
-        measured = axis.cmd - axis.fb
-        diff = x[:, a] - axis.fb
-        out[axis.name] = float(math.sqrt(np.mean(diff**2) / max(np.mean(measured**2), 1e-30)))
+        if axis.name not in log.still:
+            out[axis.name] = (axis.cmd - axis.fb, axis.cmd - x[:, a])
     return out
+
+
+def nrmse(errors: dict[str, tuple[Array, Array]]) -> dict[str, float]:
+    """Per axis: RMS(twin's following error - measured) / RMS(measured)."""
+    return {name: float(math.sqrt(np.mean((twin - measured) ** 2)
+                                  / max(np.mean(measured**2), 1e-30)))
+            for name, (measured, twin) in errors.items()}
+
+
+def following_nrmse(log: ServoLog, plant: Any, ideal: bool = False) -> dict[str, float]:
+    """Per axis that moved: RMS(twin's following error - measured) / RMS(measured), replayed."""
+    return nrmse(following(log, plant, ideal))
+
+
+def report_figure(fitted: tuple[ServoLog, dict[str, tuple[Array, Array]]],
+                  held: tuple[ServoLog, dict[str, tuple[Array, Array]]]) -> Any:
+    """The report's plot: measured and twin following error (um) against time.
+
+    One row per axis; the fitted log on the left, the held-out one on the right.
+    """
+    import matplotlib.pyplot as plt
+
+    names = list(held[1])
+    fig, grid = plt.subplots(len(names), 2, figsize=(11, 2.4 * len(names) + 0.6),
+                             squeeze=False, sharex="col")
+    for col, (log, errors) in enumerate((fitted, held)):
+        t = log.time - log.time[0]
+        for row, name in enumerate(names):
+            ax = grid[row, col]
+            measured, twin = errors[name]
+            ax.plot(t, measured * 1e6, lw=0.8, label="measured")
+            ax.plot(t, twin * 1e6, lw=0.8, ls="--", label="twin")
+            score = nrmse({name: errors[name]})[name]
+            ax.set_title(f"{name}, {('fitted', 'held out')[col]}: NRMSE {100 * score:.3g} %",
+                         fontsize=9)
+            ax.set_ylabel("following error (um)")
+        grid[-1, col].set_xlabel("time (s)")
+    grid[0, 0].legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    return fig
 
 
 def verdict(fit: dict[str, float], held: dict[str, float]) -> str:
@@ -69,4 +113,6 @@ def verdict(fit: dict[str, float], held: dict[str, float]) -> str:
     return f"fits to {100 * worst_held:.2g} % on held-out data"
 
 
-__all__ = ["following_nrmse", "split_at_rest", "verdict"]
+__all__ = [
+    "following", "following_nrmse", "nrmse", "report_figure", "split_at_rest", "verdict",
+]

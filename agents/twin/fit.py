@@ -33,13 +33,22 @@ from contour_gym.plant.params import AxisParams
 from contour_gym.presets import Preset, resolve_preset
 
 Array = NDArray[np.float64]
-FITTED_FRICTION = {"none": (), "coulomb": ("fc",), "stribeck": ("fc", "fs", "vs", "fv"),
-                   "lugre": ("sigma0", "sigma1", "sigma2", "fc", "fs", "vs")}
+FITTED_FRICTION = {"none": (), "coulomb": ("fc",), "stribeck": ("fc", "fs", "vs"),
+                   "lugre": ("sigma0", "sigma1", "fc", "fs", "vs")}
 """Per friction law, the parameters identified (those the preset gives a value > 0: a factor
 cannot move a zero); the others stay the preset's."""
+VISCOUS = ("fv", "sigma2")
+"""Friction parameters that act as viscous damping (a force ``c v``): no signal separates them
+from the axis's damping, so they keep the preset's values and the fitted damping holds the
+sum."""
 FIXED = ("force_constant",)
 BOUNDS = (0.2, 5.0)  # factors on the preset's values searched within
 STEP = 2e-2  # the Jacobian's step in log factor
+XTOL = 1e-4  # least_squares stops when the log factors move less than this (0.01 %)
+FTOL = 1e-6  # or the cost falls by less than this fraction
+NEAR = 0.1  # starts within this fraction of an axis's best sum of squares fit it as well
+DETERMINED = 0.05  # a value is determined by the logs within this (relative std, spread)
+VISIBLE = 0.02  # ... and moving it that much, the others compensating, worsens the fit by this
 FAILED = 1e3  # the residual of a sample a failed candidate did not reach (in following errors)
 
 
@@ -56,6 +65,11 @@ class Identified:
         nrmse: Per axis, the RMS of the twin's following error minus the measured one, over
             the RMS of the measured one, on the logs fitted.
         cost: The final least-squares cost.
+        spread: Per axis, each value's largest relative distance to another start's that fits
+            the axis about as well: the logs cannot tell such values apart.
+        visibility: Per axis, how much a change of :data:`DETERMINED` in each value worsens
+            the axis's fit (the relative rise of its sum of squares, the other values
+            compensating; first order).
     """
 
     plant: dict[str, Any]
@@ -64,6 +78,27 @@ class Identified:
     fixed: dict[str, str]
     nrmse: dict[str, float]
     cost: float
+    spread: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
+    visibility: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
+
+    def undetermined(self) -> dict[str, list[str]]:
+        """Per axis, the values the logs do not determine within :data:`DETERMINED`.
+
+        Their standard deviation or their spread over starts that fit as well is over it, or
+        such a change worsens the fit by less than :data:`VISIBLE`: they trade off against
+        others (a friction law's low-speed parameters on a circle test, say), and a recording
+        that excites them (slow moves, reversals) would pin them. Not a proof of the others:
+        a valley the starts did not find is not seen.
+        """
+        out: dict[str, list[str]] = {}
+        for axis, values in self.values.items():
+            loose = [n for n, v in values.items()
+                     if self.std[axis][n] > DETERMINED * abs(v)
+                     or self.spread.get(axis, {}).get(n, 0.0) > DETERMINED
+                     or self.visibility.get(axis, {}).get(n, math.inf) < VISIBLE]
+            if loose:
+                out[axis] = loose
+        return out
 
 
 def _nominal(axis: Any) -> dict[str, Any]:
@@ -233,22 +268,36 @@ def identify(
     # the axes are fitted apart (each one's residuals follow its own factors only): start k
     # takes each axis's k-th best point of the screen
     ranked = [np.argsort((res[:, r] ** 2).sum(axis=1)) for r in rows]
-    best = None
-    for k in range(starts):
-        start = np.stack([points[ranked[ax][k], ax] for ax in range(a)])
-        fit = _solve(problem, start.ravel(), (lo, hi))
-        if best is None or fit.cost < best.cost:
-            best = fit
-    assert best is not None
+    fits = [_solve(problem, np.stack([points[ranked[ax][k], ax] for ax in range(a)]).ravel(),
+                   (lo, hi)) for k in range(starts)]
+    best = min(fits, key=lambda f: f.cost)
+    spread = _spread(problem, fits, best)
     if problem.effort:  # positions and control signals: each weighed by its own noise
         problem.reweight(best.fun)
         best = _solve(problem, best.x, (lo, hi))
-    return _result(problem, best)
+    return _result(problem, best, spread)
+
+
+def _spread(problem: _Problem, fits: list[Any], best: Any) -> Array:
+    """(A, P) each parameter's largest log-factor distance from ``best`` over the starts.
+
+    Only starts that fit its axis about as well count (within :data:`NEAR` of the best sum of
+    squares there).
+    """
+    a, p = len(problem.names), problem.n_params
+    out = np.zeros((a, p))
+    for ax, rows in enumerate(problem.axis_rows(best.fun.size)):
+        costs = [float(f.fun[rows] @ f.fun[rows]) for f in fits]
+        for f, cost in zip(fits, costs, strict=True):
+            if cost <= (1.0 + NEAR) * min(costs):
+                gap = np.abs(f.x.reshape(a, p)[ax] - best.x.reshape(a, p)[ax])
+                out[ax] = np.maximum(out[ax], gap)
+    return out
 
 
 def _solve(problem: _Problem, start: Array, bounds: tuple[Array, Array]) -> Any:
     return least_squares(lambda f: problem.run(f)[0], start, jac=lambda f: problem.run(f)[1],
-                         bounds=bounds, x_scale=1.0, max_nfev=60)
+                         bounds=bounds, x_scale=1.0, max_nfev=60, xtol=XTOL, ftol=FTOL)
 
 
 def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Array:
@@ -321,35 +370,101 @@ def known_force(axis: AxisParams, t: Array, x: Array) -> Array:
     return force
 
 
-def _result(problem: _Problem, fit: Any) -> Identified:
+def _result(problem: _Problem, fit: Any, spread: Array) -> Identified:
     a, p = len(problem.names), problem.n_params
     res, jac = problem.run(fit.x)
-    dof = max(res.size - fit.x.size, 1)
-    cov = np.linalg.pinv(jac.T @ jac) * float(res @ res) / dof
-    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None)).reshape(a, p)
+    sd = _std(problem, res, jac).reshape(a, p)
+    seen = _visibility(problem, res, jac).reshape(a, p)
     factors = np.exp(fit.x.reshape(a, p))
     values: dict[str, dict[str, float]] = {}
     std: dict[str, dict[str, float]] = {}
+    apart: dict[str, dict[str, float]] = {}
+    shown: dict[str, dict[str, float]] = {}
     axes: dict[str, Any] = {}
     for ax, (axis, names) in enumerate(zip(problem.preset.stage.axes, problem.names,
                                            strict=True)):
         nominal = _nominal(axis)
         values[axis.name] = {n: float(nominal[n] * factors[ax, j]) for j, n in enumerate(names)}
         std[axis.name] = {n: float(values[axis.name][n] * sd[ax, j]) for j, n in enumerate(names)}
+        apart[axis.name] = {n: float(math.expm1(spread[ax, j])) for j, n in enumerate(names)}
+        shown[axis.name] = {n: float(seen[ax, j]) for j, n in enumerate(names)}
         axes[axis.name] = _axis_changes(axis, values[axis.name])
     fixed = {n: "not separable from the mass by positions and control (kept the preset's)"
              for n in FIXED}
+    for axis in problem.preset.stage.axes:
+        for name in VISCOUS:
+            if (getattr(axis.friction, name, 0.0) or 0.0) > 0.0:
+                fixed[f"{axis.name}.{name}"] = ("viscous: not separable from the damping (kept "
+                                                "the preset's; the damping holds the sum)")
     for ax in problem.still:
         name = problem.preset.stage.axes[ax].name
         fixed[name] = "never moved in the logs (kept the preset's values)"
         axes.pop(name)
         values.pop(name)
         std.pop(name)
+        apart.pop(name)
+        shown.pop(name)
     return Identified(
         plant={"preset": problem.preset.name, "stage": {"axes": axes}},
         values=values, std=std, fixed=fixed,
-        nrmse=_nrmse(problem, res), cost=float(fit.cost),
+        nrmse=_nrmse(problem, res), cost=float(fit.cost), spread=apart, visibility=shown,
     )
+
+
+def _std(problem: _Problem, res: Array, jac: Array) -> Array:
+    """(A P,) standard deviations of the log factors, the residuals' correlation counted.
+
+    Per axis (the axes are fitted apart): ``sqrt(diag((J'J)^-1) r'r / n_eff)``, with
+    ``n_eff`` the axis's residual samples over their integrated autocorrelation time. A model
+    that misses something leaves long-correlated residuals: few effective samples, and wide
+    deviations for the parameters that trade off against what it misses.
+    """
+    a, p = len(problem.names), problem.n_params
+    out = np.zeros(a * p)
+    channels = problem.channel_rows(res.size)
+    for ax, rows in enumerate(problem.axis_rows(res.size)):
+        n_eff = sum(len(r) / _correlation_time(res[r]) for r, c
+                    in zip(channels, problem.channel_axis, strict=True) if c == ax)
+        cols = slice(ax * p, (ax + 1) * p)
+        cov = np.linalg.pinv(jac[rows, cols].T @ jac[rows, cols])
+        variance = float(res[rows] @ res[rows]) / max(n_eff - p, 1.0)
+        out[cols] = np.sqrt(np.clip(np.diag(cov), 0.0, None) * variance)
+    return out
+
+
+def _visibility(problem: _Problem, res: Array, jac: Array) -> Array:
+    """(A P,) how much a change of :data:`DETERMINED` in each value worsens its axis's fit.
+
+    The relative rise of the axis's sum of squares when the value moves by that fraction and
+    the axis's other values follow to compensate, to first order: ``d^2 / (C_jj r'r)`` with
+    ``C`` the inverse of ``J'J`` (a tiny ridge keeps exact trade-offs: they show as 0).
+    """
+    a, p = len(problem.names), problem.n_params
+    out = np.zeros(a * p)
+    step = math.log1p(DETERMINED)
+    for ax, rows in enumerate(problem.axis_rows(res.size)):
+        cols = slice(ax * p, (ax + 1) * p)
+        info = jac[rows, cols].T @ jac[rows, cols]
+        ridge = 1e-12 * max(float(np.trace(info)), 1e-300) * np.eye(p)
+        cov = np.linalg.inv(info + ridge)
+        out[cols] = step**2 / (np.diag(cov) * max(float(res[rows] @ res[rows]), 1e-300))
+    return out
+
+
+def _correlation_time(e: Array) -> float:
+    """Integrated autocorrelation time of ``e``, samples (1 for white residuals).
+
+    ``1 + 2 sum rho(k)`` over the lags up to the first whose autocorrelation is not positive.
+    """
+    e = e - e.mean()
+    n = len(e)
+    spectrum = np.fft.rfft(e, 2 * n)
+    acf = np.fft.irfft(spectrum * np.conj(spectrum))[:n]
+    if acf[0] <= 0.0:
+        return 1.0
+    rho = acf[1:] / acf[0]
+    stop = np.flatnonzero(rho <= 0.0)
+    return float(1.0 + 2.0 * rho[: stop[0] if stop.size else n - 1].sum())
 
 
 def _axis_changes(axis: Any, values: dict[str, float]) -> dict[str, Any]:
@@ -373,4 +488,7 @@ def _nrmse(problem: _Problem, res: Array) -> dict[str, float]:
             for ax, axis in enumerate(problem.preset.stage.axes) if ax not in problem.still}
 
 
-__all__ = ["BOUNDS", "FITTED_FRICTION", "FIXED", "Identified", "fitted_names", "identify"]
+__all__ = [
+    "BOUNDS", "DETERMINED", "FITTED_FRICTION", "FIXED", "VISCOUS", "Identified", "fitted_names",
+    "identify",
+]

@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from contour_gym.api import make_scenario
 from contour_gym.logs import ServoLog
 from contour_gym.loop import ServoLoop
+from contour_gym.loop.threads import available_cpus
 from contour_gym.paths import Path, TimeLaw, polyline
 from contour_gym.presets import resolve_preset
 
@@ -62,7 +63,9 @@ def replay_loop(log: ServoLog, plant: Any, members: int = 1, **options: Any) -> 
     deterministic parts (steps, sines, ripple, friction) act as in the plant.
     """
     scenario = make_scenario(plant, command_path(log, plant), **options)
-    loop = scenario.loop(batch_size=members, record=True)
+    # a replay is one long call per member: a second thread pays from two members on
+    threads = min(available_cpus(), members)
+    loop = scenario.loop(batch_size=members, record=True, threads=threads)
     loop.set_plant_scaling(np.arange(members), random_disturbance=0.0)
     loop.reset(0)
     return loop
