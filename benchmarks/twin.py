@@ -9,7 +9,9 @@ the preset's PID CCC, on the same seed of noise and disturbances. Printed per ru
 identify, the twin's fit, the largest error of a determined value's ratio to the force constant
 (``Identified.undetermined`` lists the others, with their errors), and the twin's relative error
 on the held-out max contour error, max tracking error and cycle time (the targets: 10 %, 10 %,
-1 %).
+1 %). With ``--tune``, the ``pid`` protocol is tuned on the twin and on the true machine and
+both gains run on the true machine: its paper path (tuned on) and a path neither saw (the
+target: within 10 %).
 
     python benchmarks/twin.py [PRESET ...] [--seconds 30] [--seed 5]
 """
@@ -21,13 +23,17 @@ import time
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
-from agents.twin.fit import VISCOUS, identify
+from agents.tune import get_protocol, tune
+from agents.tune.setters import pid_gains
+from agents.twin.fit import VISCOUS, Identified, identify
 from agents.twin.generate import excitation, machine_log, perturbed_plant
 from contour_gym.api import simulate
 from contour_gym.paths import Path, helix, random_path
 from contour_gym.presets import PRESETS, resolve_preset
 
+FloatArray = NDArray[np.float64]
 ALL = ("xy_dc_servo", "xyz_pmlsm", "lugre_linear_motor", "xyy_gantry", "xy_servo_coulomb")
 COMPARED = {"max_contour_error": "contour", "peak_tracking_error": "tracking",
             "cycle_time": "cycle"}
@@ -63,11 +69,16 @@ def worst_ratio(values: dict[str, dict[str, float]], plant: dict[str, Any], like
 
 
 def held_out(name: str, seed: int) -> dict[str, str | Path | None]:
-    """The paths the twin is checked on: the preset's paper path (on a 3-D machine a part of
-    the recording) and a random path of ``seed`` (3-D: a helix of another radius and pitch)."""
+    """The paths the twin is checked on, none of them recorded.
+
+    The preset's paper path and three random paths from ``seed`` on (3-D: helices of other
+    radii and pitches).
+    """
     if resolve_preset(name).stage.dim == 3:
-        return {"paper (seen)": None, "helix r15": helix(0.015, 0.005, 1.5)}
-    return {"paper": None, "random": random_path(np.random.default_rng(seed))}
+        return {"paper": None, "helix r15": helix(0.015, 0.005, 1.5),
+                "helix r30": helix(0.03, 0.02, 1.0), "helix r8": helix(0.008, 0.003, 2.0)}
+    paths = {f"random {s}": random_path(np.random.default_rng(s)) for s in range(seed, seed + 3)}
+    return {"paper": None, **paths}
 
 
 def compare(hidden: dict[str, Any], twin: dict[str, Any], path: str | Path | None,
@@ -80,16 +91,42 @@ def compare(hidden: dict[str, Any], twin: dict[str, Any], path: str | Path | Non
     return {key: abs(model[key] / true[key] - 1.0) for key in COMPARED}
 
 
+def tuned_on(plant: dict[str, Any], seed: int) -> FloatArray:
+    """The ``pid`` protocol's gains (absolute) tuned on ``plant`` (protocol defaults)."""
+    protocol = get_protocol("pid").on_plant(plant, str(plant.get("name", plant["preset"])))
+    result = tune(protocol, seed=seed, progress=False)
+    base = resolve_preset(plant).ccc_gains.as_tuple()
+    return pid_gains([list(result.params.values())], base)[0]
+
+
+def tuning_rows(name: str, hidden: dict[str, Any], twin: dict[str, Any], seed: int) -> list[str]:
+    """Gains tuned on the twin and on the true machine, both run on the true machine."""
+    gains = {"true": tuned_on(hidden, seed), "twin": tuned_on(twin, seed),
+             "again": tuned_on(hidden, seed + 1)}  # the tuner's own repeatability
+    rows = []
+    for label, path in held_out(name, seed + 200).items():
+        peak = {k: simulate(hidden, path, ccc_gains=tuple(g), seed=1)["max_contour_error"]
+                for k, g in gains.items()}
+        rows.append(f"| {name} | {label} | {1e6 * peak['true']:.3g} | {1e6 * peak['twin']:.3g} "
+                    f"({100 * (peak['twin'] / peak['true'] - 1.0):+.1f} %) | "
+                    f"{1e6 * peak['again']:.3g} ({100 * (peak['again'] / peak['true'] - 1.0):+.1f}"
+                    " %) |")
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("presets", nargs="*", default=list(ALL), metavar="PRESET",
                         help=f"presets (default all: {', '.join(sorted(PRESETS.names()))})")
     parser.add_argument("--seconds", type=float, default=30.0)
     parser.add_argument("--seed", type=int, default=5)
+    parser.add_argument("--tune", action="store_true",
+                        help="also tune the pid protocol on the twin and on the true machine")
     args = parser.parse_args()
     print("| preset | identify (s) | NRMSE per axis | worst determined | undetermined (error) | "
           "held-out path | CCC | contour | tracking | cycle |")
     print("|---|---|---|---|---|---|---|---|---|---|")
+    tuning = []
     for name in args.presets:
         rng = np.random.default_rng(args.seed)
         hidden = perturbed_plant(name, rng)
@@ -98,20 +135,35 @@ def main() -> None:
         start = time.perf_counter()
         twin = identify([log], name)
         wall = time.perf_counter() - start
-        nrmse = ", ".join(f"{100 * v:.2g} %" for v in twin.nrmse.values())
-        errors = ratio_errors(twin.values, hidden, name)
-        loose = {(a, n) for a, names in twin.undetermined().items() for n in names}
-        kept = [abs(e) for k, e in errors.items() if k not in loose]
-        worst = f"{100 * max(kept, default=0.0):.2g} %"
-        undetermined = ", ".join(f"{a}.{n} ({100 * errors[(a, n)]:+.0f} %)"
-                                 for a, n in sorted(loose)) or "none"
-        gains = resolve_preset(name).ccc_gains
-        for label, path in held_out(name, args.seed + 100).items():
-            for ccc_label, ccc in (("none", None), ("PID", gains)):
-                errors = compare(hidden, twin.plant, path, ccc)
-                cells = " | ".join(f"{100 * errors[k]:.2f} %" for k in COMPARED)
-                print(f"| {name} | {wall:.1f} | {nrmse} | {worst} | {undetermined} | {label} | "
-                      f"{ccc_label} | {cells} |", flush=True)
+        for row in _check_rows(name, hidden, twin, wall, args.seed):
+            print(row, flush=True)
+        if args.tune:
+            tuning += tuning_rows(name, hidden, {**twin.plant, "name": f"{name}_twin"}, args.seed)
+    if tuning:
+        print("\n| preset | path (paper: tuned on) | peak, tuned on the machine (um) | "
+              "tuned on the twin | tuned on the machine, next seed |")
+        print("|---|---|---|---|---|")
+        print("\n".join(tuning))
+
+
+def _check_rows(name: str, hidden: dict[str, Any], twin: Identified, wall: float,
+                seed: int) -> list[str]:
+    nrmse = ", ".join(f"{100 * v:.2g} %" for v in twin.nrmse.values())
+    errors = ratio_errors(twin.values, hidden, name)
+    loose = {(a, n) for a, names in twin.undetermined().items() for n in names}
+    kept = [abs(e) for k, e in errors.items() if k not in loose]
+    worst = f"{100 * max(kept, default=0.0):.2g} %"
+    undetermined = ", ".join(f"{a}.{n} ({100 * errors[(a, n)]:+.0f} %)"
+                             for a, n in sorted(loose)) or "none"
+    gains = resolve_preset(name).ccc_gains
+    rows = []
+    for label, path in held_out(name, seed + 100).items():
+        for ccc_label, ccc in (("none", None), ("PID", gains)):
+            cells = " | ".join(f"{100 * e:.2f} %" for e in
+                               compare(hidden, twin.plant, path, ccc).values())
+            rows.append(f"| {name} | {wall:.1f} | {nrmse} | {worst} | {undetermined} | {label} | "
+                        f"{ccc_label} | {cells} |")
+    return rows
 
 
 if __name__ == "__main__":

@@ -241,3 +241,27 @@ def test_the_regression_counts_the_known_forces_and_reads_the_command() -> None:
     for a, (t, b) in enumerate(zip(true.stage.axes, base.stage.axes, strict=True)):
         assert np.exp(theta[a, 0]) * b.mass == pytest.approx(t.mass / t.force_constant
                                                              * b.force_constant, rel=0.01)
+
+
+def test_a_log_in_the_wrong_length_unit_is_refused(tmp_path: Path, capsys) -> None:
+    _, log = _hidden_log("xy_servo_coulomb", True)
+    write_csv(log, tmp_path / "mm.csv", length_unit="mm")  # read back as metres: 1000 times
+    out = tmp_path / "mine.yaml"
+    assert main(["identify", str(tmp_path / "mm.csv"), "--like", "xy_servo_coulomb",
+                 "--out", str(out)]) == 2
+    said = capsys.readouterr().err
+    assert "the log's x commands span" in said and "--length-unit" in said
+    assert not any(tmp_path.glob("mine*"))
+
+
+def test_a_mass_at_the_search_bound_is_refused() -> None:
+    from agents.twin.fit import BOUNDS
+
+    # a machine 8 times as heavy as the preset it is said to be like: past the search's bound
+    heavy = {"preset": "xy_dc_servo", "stage": {"axes": {
+        a.name: {"mass": 8.0 * a.mass} for a in resolve_preset("xy_dc_servo").stage.axes}}}
+    log = machine_log(heavy, excitation(resolve_preset(heavy), np.random.default_rng(1), 3.0),
+                      seed=1, ideal=True)
+    with pytest.raises(ValueError, match=rf"fitted mass is .* at the bound of the search "
+                                         rf"\({BOUNDS[0]:g} to {BOUNDS[1]:g}\)"):
+        identify([log], "xy_dc_servo", ideal=True)

@@ -140,6 +140,7 @@ class _Problem:
         self.still = [a for a, span in enumerate(moved) if span < STILL_BELOW]
         if len(self.still) == len(axes):
             raise ValueError(f"no axis of {like!r} moved in the logs: nothing to identify")
+        _check_span(self.preset, cmd)
         self.effort = all(log.axis(n).effort is not None for log in self.logs for n in axes)
         self.measured = fb
         err = np.concatenate([c - f for c, f in zip(cmd, fb, strict=True)])
@@ -275,7 +276,32 @@ def identify(
     if problem.effort:  # positions and control signals: each weighed by its own noise
         problem.reweight(best.fun)
         best = _solve(problem, best.x, (lo, hi))
+    _check_bounds(problem, best.x.reshape(a, p))
     return _result(problem, best, spread)
+
+
+def _check_span(preset: Preset, cmd: list[Array]) -> None:
+    """Refuse logs whose commands span more than an axis's travel: a wrong length unit."""
+    span = np.concatenate(cmd).max(axis=0) - np.concatenate(cmd).min(axis=0)
+    for axis, reach in zip(preset.stage.axes, span, strict=True):
+        if axis.travel is not None and reach > axis.travel[1] - axis.travel[0]:
+            raise ValueError(
+                f"the log's {axis.name} commands span {reach * 1e3:.6g} mm, more than "
+                f"{preset.name}'s {axis.name} travel ({(axis.travel[1] - axis.travel[0]) * 1e3:g}"
+                " mm): is the length unit right (--length-unit m, mm or inch)?")
+
+
+def _check_bounds(problem: _Problem, theta: Array) -> None:
+    """Refuse a fit whose mass sits on a bound: a wrong length unit, or another machine."""
+    lo, hi = np.log(BOUNDS[0]), np.log(BOUNDS[1])
+    for ax, axis in enumerate(problem.preset.stage.axes):
+        if ax in problem.still or not (theta[ax, 0] <= lo + 0.01 or theta[ax, 0] >= hi - 0.01):
+            continue
+        raise ValueError(
+            f"axis {axis.name}'s fitted mass is {math.exp(theta[ax, 0]):.3g} times "
+            f"{problem.preset.name}'s, at the bound of the search ({BOUNDS[0]:g} to "
+            f"{BOUNDS[1]:g}): check the log's length unit (--length-unit) and effort unit, or "
+            "choose a --like preset nearer your machine")
 
 
 def _spread(problem: _Problem, fits: list[Any], best: Any) -> Array:
