@@ -85,3 +85,10 @@ def test_train_on_a_machine_file_records_it(tmp_path: Path, capsys) -> None:
     assert block["env_kwargs"]["plant"] == SLOW
     assert main(["train", "--resume", str(run), "--plant", path]) == 2
     assert "not with --plant" in capsys.readouterr().err
+
+
+def test_a_3d_machine_tunes_on_the_paths_it_can_run() -> None:
+    assert get_protocol("pid").scenarios == ("paper", "random-101", "random-102")
+    assert get_protocol("pid").on_plant("xyz_pmlsm", "xyz").scenarios == ("paper",)
+    with pytest.raises(ValueError, match="runs random paths only"):
+        get_protocol("000_general").on_plant("xyz_pmlsm", "xyz")

@@ -28,6 +28,7 @@ from agents.tune.fitness import FITNESSES, FloatArray
 from agents.tune.setters import SETTERS
 from contour_gym.ccc import CCC_LAWS
 from contour_gym.params import choice
+from contour_gym.presets import resolve_preset
 from contour_gym.registry import Registry
 
 
@@ -199,16 +200,27 @@ class Protocol:
         Args:
             plant: A preset name or a machine file's plant dict
                 (:func:`contour_gym.machines.read_machine`): it replaces each scenario's
-                machine; the paths, fitness, box and budget stay the protocol's.
+                machine; the paths, fitness, box and budget stay the protocol's (but random
+                paths on a 3-D machine, which :func:`~contour_gym.paths.random_path` does not
+                draw: those scenarios are left out).
             name: The machine's name, for the returned protocol's (``"000@my_mill"``).
 
         Returns:
             The protocol on that machine (not registered).
-        """
-        kwargs = {s: {**self.scenario_kwargs.get(s, {}), "plant": plant} for s in self.scenarios}
-        return dataclasses.replace(self, name=f"{self.name}@{name}", scenario_kwargs=kwargs,
-                       doc=f"{self.doc} (on the machine {name})")
 
+        Raises:
+            ValueError: when no scenario is left (random paths only, on a 3-D machine).
+        """
+        flat = resolve_preset(plant).stage.dim == 3  # no random paths: random_path is 2-D
+        kept = [s for s in self.scenarios
+                if not (flat and self.scenario_kwargs.get(s, {}).get("path") == "random")]
+        if not kept:
+            raise ValueError(f"protocol {self.name!r} runs random paths only, which a 3-D "
+                             f"machine ({name}) does not draw")
+        kwargs = {s: {**self.scenario_kwargs.get(s, {}), "plant": plant} for s in kept}
+        return dataclasses.replace(self, name=f"{self.name}@{name}", scenarios=tuple(kept),
+                                   scenario_kwargs=kwargs,
+                                   doc=f"{self.doc} (on the machine {name})")
 
 
 PROTOCOLS: Registry[Protocol] = Registry("tuning protocol")
