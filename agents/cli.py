@@ -134,9 +134,9 @@ def _add_identify_parser(sub: argparse._SubParsersAction) -> None:
     ident.add_argument("logs", nargs="+", metavar="LOG",
                        help="servo logs: CSV (time, <axis>_cmd, <axis>_fb[, <axis>_effort]) or "
                        "halsampler output (with --columns and --period)")
-    ident.add_argument("--like", required=True, choices=sorted(PRESETS.names()),
-                       metavar="PRESET", help="the preset whose structure and controllers the "
-                       "twin keeps")
+    ident.add_argument("--like", required=True, type=_plant, metavar="PRESET|MACHINE.yaml",
+                       help="the preset (or a machine file with your controller's gains) whose "
+                       "structure and controllers the twin keeps")
     ident.add_argument("--out", required=True, metavar="MACHINE.yaml", help="the machine file")
     ident.add_argument("--length-unit", default="m", choices=list(LENGTH_UNITS),
                        help="the logs' length unit (default m)")

@@ -110,7 +110,8 @@ def test_identify_recovers_a_hidden_machine(
     errors = _ratios(twin.values, plant, "xy_servo_coulomb")
     assert all(abs(e) < within[name] for (_, name), e in errors.items()), errors
     assert twin.undetermined() == {}
-    assert twin.fixed == {"force_constant": twin.fixed["force_constant"]}
+    assert set(twin.fixed) == {"force_constant"} | (
+        set() if ideal else {"x.encoder_resolution", "y.encoder_resolution"})
     assert resolve_preset(twin.plant).stage.axes[0].mass == twin.values["x"]["mass"]
     if ideal:
         assert max(twin.nrmse.values()) < 0.01
@@ -265,3 +266,17 @@ def test_a_mass_at_the_search_bound_is_refused() -> None:
     with pytest.raises(ValueError, match=rf"fitted mass is .* at the bound of the search "
                                          rf"\({BOUNDS[0]:g} to {BOUNDS[1]:g}\)"):
         identify([log], "xy_dc_servo", ideal=True)
+
+
+def test_the_twin_reads_its_encoders_and_keeps_the_like_files_changes(tmp_path: Path) -> None:
+    from contour_gym.machines import write_machine
+
+    plant, log = _hidden_log("xy_dc_servo", False)  # the rig: 1 um steps
+    coarse = {"preset": "xy_dc_servo", "name": "my_base", "axis_gains": {"x": {"kp": 7000.0}},
+              "stage": {"axes": {a: {"encoder_resolution": 5e-6} for a in ("x", "y")}}}
+    like = write_machine(tmp_path / "base.yaml", coarse)
+    twin = identify([log], str(like), starts=1, screen=8)
+    machine = resolve_preset(twin.plant)
+    assert [a.encoder_resolution for a in machine.stage.axes] == pytest.approx([1e-6, 1e-6])
+    assert "x.encoder_resolution" in twin.fixed
+    assert machine.axis_gains[0].kp == 7000.0  # the like file's gains, kept

@@ -15,6 +15,7 @@ factors only, so parameter ``j`` of every axis moves in the same member).
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 from collections.abc import Sequence
@@ -26,8 +27,9 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from agents.twin.replay import replay_loop
-from contour_gym.logs import STILL_BELOW, ServoLog
+from contour_gym.logs import STILL_BELOW, ServoLog, encoder_step
 from contour_gym.loop import ServoLoop
+from contour_gym.machines import plant_of
 from contour_gym.plant.friction import law_for
 from contour_gym.plant.params import AxisParams
 from contour_gym.presets import Preset, resolve_preset
@@ -128,6 +130,8 @@ class _Problem:
     """
 
     def __init__(self, logs: Sequence[ServoLog], like: Any, screen: int, ideal: bool) -> None:
+        self.spec = like  # the plant the replays run (a preset name or a plant dict)
+        self.read: dict[str, str] = {}  # what was read from the logs, not fitted
         self.preset = resolve_preset(like)
         self.names = fitted_names(self.preset)
         self.n_params = max(len(n) for n in self.names)
@@ -257,7 +261,12 @@ def identify(
     Returns:
         The twin (:class:`Identified`).
     """
-    problem = _Problem(logs, like, screen, ideal)
+    spec: Any = _like_spec(like)
+    read: dict[str, str] = {}
+    if not ideal:  # the twin's encoders step as the logged feedback does
+        spec, read = _with_encoders(spec, logs)
+    problem = _Problem(logs, spec, screen, ideal)
+    problem.read = read
     a, p = len(problem.names), problem.n_params
     lo, hi = np.log(BOUNDS[0]), np.log(BOUNDS[1])
     rng = np.random.default_rng(seed)
@@ -278,6 +287,39 @@ def identify(
         best = _solve(problem, best.x, (lo, hi))
     _check_bounds(problem, best.x.reshape(a, p))
     return _result(problem, best, spread)
+
+
+def _like_spec(like: Any) -> Any:
+    """``like`` as a plant the twin's changes merge into: a preset name, or a plant dict."""
+    if isinstance(like, Preset):
+        return like.name
+    spec, _ = plant_of(like)  # a machine file is read (its changes stay the twin's)
+    return spec
+
+
+def _merged(spec: Any, axes: dict[str, Any]) -> dict[str, Any]:
+    """The plant dict ``spec`` with ``axes``' changes merged into its axes (deep per axis)."""
+    plant: dict[str, Any] = ({"preset": spec} if isinstance(spec, str)
+                             else copy.deepcopy(dict(spec)))
+    stage = plant.setdefault("stage", {})
+    mine = stage.setdefault("axes", {})
+    for name, changes in axes.items():
+        mine[name] = {**mine.get(name, {}), **changes}
+    return plant
+
+
+def _with_encoders(spec: Any, logs: Sequence[ServoLog]) -> tuple[Any, dict[str, str]]:
+    """``spec`` with each axis's encoder step read from the logged feedback (where it steps)."""
+    steps: dict[str, Any] = {}
+    read = {}
+    for axis in resolve_preset(spec).stage.axes:
+        found = [encoder_step(log.axis(axis.name).fb) for log in logs]
+        if found and all(f is not None for f in found):
+            step = float(np.median([f for f in found if f is not None]))
+            steps[axis.name] = {"encoder_resolution": step}
+            read[f"{axis.name}.encoder_resolution"] = (
+                f"{step * 1e6:.6g} um, read from the feedback's steps (not fitted)")
+    return (_merged(spec, steps) if steps else spec), read
 
 
 def _check_span(preset: Preset, cmd: list[Array]) -> None:
@@ -417,6 +459,7 @@ def _result(problem: _Problem, fit: Any, spread: Array) -> Identified:
         axes[axis.name] = _axis_changes(axis, values[axis.name])
     fixed = {n: "not separable from the mass by positions and control (kept the preset's)"
              for n in FIXED}
+    fixed.update(problem.read)
     for axis in problem.preset.stage.axes:
         for name in VISCOUS:
             if (getattr(axis.friction, name, 0.0) or 0.0) > 0.0:
@@ -431,7 +474,7 @@ def _result(problem: _Problem, fit: Any, spread: Array) -> Identified:
         apart.pop(name)
         shown.pop(name)
     return Identified(
-        plant={"preset": problem.preset.name, "stage": {"axes": axes}},
+        plant=_merged(problem.spec, axes),
         values=values, std=std, fixed=fixed,
         nrmse=_nrmse(problem, res), cost=float(fit.cost), spread=apart, visibility=shown,
     )
