@@ -73,6 +73,17 @@ def _finite(text: str) -> float:
     return value
 
 
+def _count(text: str) -> int:
+    """A whole number >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not >= 1")
+    return value
+
+
 def _positive(text: str) -> float:
     value = _finite(text)
     if value <= 0.0:
@@ -148,6 +159,9 @@ def _add_identify_parser(sub: argparse._SubParsersAction) -> None:
                        help="halsampler: joint number to axis name (default 0=x,1=y,2=z)")
     ident.add_argument("--ideal", action="store_true",
                        help="replay without encoder, noise or delay (logs of ideal runs)")
+    ident.add_argument("--starts", type=_count, default=3, metavar="N",
+                       help="least-squares starts (default 3; more take longer and find more "
+                       "of the values the logs cannot tell apart)")
 
 
 def _add_simulate_parser(sub: argparse._SubParsersAction) -> None:
@@ -404,13 +418,13 @@ def identify_command(args: argparse.Namespace) -> int:
     else:
         first, held = split_at_rest(logs[0])
         fit_logs = [first]
-    twin = identify(fit_logs, args.like, ideal=args.ideal)
+    twin = identify(fit_logs, args.like, ideal=args.ideal, starts=args.starts)
     out = FilePath(args.out)
     plant = {**twin.plant, "name": out.stem}
     held_errors = {a: e for a, e in following(held, plant, ideal=args.ideal).items()
                    if a in twin.nrmse}
     held_nrmse = nrmse(held_errors)
-    said = verdict(twin.nrmse, held_nrmse)
+    said = verdict(twin.nrmse, held_nrmse, twin.undetermined())
     record = {"logs": list(args.logs), "values": twin.values, "std": twin.std,
               "undetermined": twin.undetermined(), "fixed": twin.fixed,
               "nrmse_fit": twin.nrmse, "nrmse_held_out": held_nrmse, "verdict": said}

@@ -183,6 +183,8 @@ def test_a_log_is_held_out_after_a_stop_and_judged() -> None:
     assert np.all(held.axes[0].cmd[:REST_SAMPLES] == held.axes[0].cmd[0])  # it starts at rest
     assert verdict({"x": 0.01}, {"x": 0.05}) == "fits to 5 % on held-out data"
     assert verdict({"x": 0.01}, {"x": 0.3}).startswith("the held-out error is 30.0x the fit's")
+    assert verdict({"x": 0.01}, {"x": 0.05}, {"x": ["fc", "vs"]}).startswith(
+        "fits to 5 % on held-out data; the logs do not determine x.fc, x.vs (they trade off")
     still = ServoLog(log.time, tuple(dataclasses.replace(a, cmd=a.cmd + 1e-9 * np.arange(
         len(a.cmd))) for a in log.axes), source="moving.csv")
     with pytest.raises(ValueError, match=r"moving\.csv: the machine never stands still"):

@@ -100,17 +100,28 @@ def report_figure(fitted: tuple[ServoLog, dict[str, tuple[Array, Array]]],
     return fig
 
 
-def verdict(fit: dict[str, float], held: dict[str, float]) -> str:
-    """What the fit and held-out NRMSE mean, in a line a user can act on."""
+def verdict(fit: dict[str, float], held: dict[str, float],
+            undetermined: dict[str, list[str]] | None = None) -> str:
+    """What the fit and held-out NRMSE mean, in a line a user can act on.
+
+    ``undetermined`` (:meth:`~agents.twin.fit.Identified.undetermined`) adds which values not
+    to read as the machine's.
+    """
     worst_fit, worst_held = max(fit.values()), max(held.values())
     if worst_held > DRIFT * max(worst_fit, 1e-3) and worst_held > GOOD:
-        return (f"the held-out error is {worst_held / max(worst_fit, 1e-3):.1f}x the fit's: the "
+        said = (f"the held-out error is {worst_held / max(worst_fit, 1e-3):.1f}x the fit's: the "
                 "structure misses something (another friction law, a disturbance, the delay); "
                 "check the log and try another --like")
-    if worst_held > GOOD:
-        return (f"fits to {100 * worst_held:.2g} % on held-out data: usable, but record a longer "
+    elif worst_held > GOOD:
+        said = (f"fits to {100 * worst_held:.2g} % on held-out data: usable, but record a longer "
                 "log with more reversals to tighten it")
-    return f"fits to {100 * worst_held:.2g} % on held-out data"
+    else:
+        said = f"fits to {100 * worst_held:.2g} % on held-out data"
+    loose = [f"{axis}.{name}" for axis, names in (undetermined or {}).items() for name in names]
+    if loose:
+        said += (f"; the logs do not determine {', '.join(loose)} (they trade off: the twin may "
+                 "behave like the machine, but do not read those as its values)")
+    return said
 
 
 __all__ = [
