@@ -163,7 +163,7 @@ class Parameters:
 
 
 def _scale_factors(shape: tuple[int, int], **factors: ArrayLike) -> dict[str, Array]:
-    """The plant scale factors broadcast to ``shape``, checked (> 0; friction, disturbances >= 0)."""
+    """The plant scale factors broadcast to ``shape``, checked (> 0; the others >= 0)."""
     f = {k: np.broadcast_to(as_finite_array(v, k), shape) for k, v in factors.items()}
     for k in ("mass", "damping", "force_constant"):
         if np.any(f[k] <= 0):

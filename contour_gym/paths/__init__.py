@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from contour_gym.paths._freeform import bspline, nurbs, parametric
 from contour_gym.paths._gcode import WORK_SYSTEMS, GcodeError, GcodePath, from_gcode
+from contour_gym.paths._gcode_feeds import feed_moves, rewrite_feeds
 from contour_gym.paths._geom import HELIX, LINE, POLY5
 from contour_gym.paths._library import NAMES, load
 from contour_gym.paths._path import Path
@@ -40,6 +41,7 @@ __all__ = [
     "bspline",
     "circle",
     "composite",
+    "feed_moves",
     "from_gcode",
     "helix",
     "line",
@@ -49,4 +51,5 @@ __all__ = [
     "polyline",
     "random_path",
     "random_paths",
+    "rewrite_feeds",
 ]
