@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from agents._files import check_plot, save_figure
+from agents.cli_optimize import add_optimize_parser, default_out, optimize_command
 from agents.parallel import exit_quickly
 from agents.rl.algorithms import ALGORITHMS
 from contour_gym import precompile
@@ -136,6 +137,7 @@ def _parser() -> argparse.ArgumentParser:
     _add_tune_parser(sub)
     _add_bench_parser(sub)
     _add_identify_parser(sub)
+    add_optimize_parser(sub, _plant)
     return parser
 
 
@@ -607,7 +609,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     exit_quickly()
     args = _parser().parse_args(argv)
     command = {"simulate": simulate_command, "train": train_command, "tune": tune_command,
-               "bench": bench_command, "identify": identify_command}[args.command]
+               "bench": bench_command, "identify": identify_command,
+               "optimize": optimize_command}[args.command]
     signal.signal(signal.SIGTERM, _interrupted)  # `kill PID` ends as Ctrl-C does: files whole
     try:
         with warnings.catch_warnings():
@@ -639,6 +642,7 @@ KEPT = {
     "tune": "the generations so far are kept in the run folder; the same command resumes "
             "from them",
     "identify": "nothing was written",
+    "optimize": "nothing was written",
     "train": "each run's model and checkpoints so far are kept in its folder under --out; "
              "continue one with contour-gym train --resume FOLDER",
 }
@@ -658,6 +662,8 @@ def _check_outputs(args: argparse.Namespace) -> None:
         out = FilePath(args.out)
         for suffix in ("_report.md", "_report.png"):  # written beside it
             output_file(str(out.with_name(out.stem + suffix)), "--out's report")
+    elif args.command == "optimize":
+        output_file(args.out or default_out(args.part), "--out")
     elif args.command == "simulate":
         output_file(args.out, "--out")
         from contour_gym.render import CONTOUR_INCHES, PART_HEIGHT  # matplotlib: when needed

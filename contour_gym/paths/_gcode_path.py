@@ -217,6 +217,15 @@ class GcodePath(Path):
             dwell_before=self._dwell[src] if dwell is None else dwell,
             dwell_after_end=self._dwell_end if dwell_end is None else dwell_end)
 
+    def with_feedrates(self, feedrates: ArrayLike) -> GcodePath:
+        """This program with other per-segment feedrates (m/s; rapids' entries are kept)."""
+        feed = np.array(self._feed)
+        given = np.asarray(feedrates, dtype=np.float64)
+        if given.shape != feed.shape:
+            raise ValueError(f"need {feed.size} feedrates (one per segment), got {given.shape}")
+        feed[~self._rapid] = given[~self._rapid]
+        return self._with_table(self.table, np.arange(feed.size), feed=feed)
+
     def for_machine(self, dim: int, *, rapid_rate: float, z: float = 0.0) -> GcodePath:
         """The same program on a machine drawing ``dim``-D contours (axes X, Y[, Z] by name).
 

@@ -1,0 +1,218 @@
+"""A part program back with new F words: the shortest cycle within a contour tolerance.
+
+:func:`optimize_part` reads a program, maps it onto a machine (a preset or a machine file, its
+axis controllers, estimator and CCC), and searches one feedrate per feed move (block) for the
+shortest cycle time whose peak true contour error stays within ``tolerance``. The search is
+batch-first: each round runs :data:`LEVELS` members at once, member ``k`` with every block at
+the ``k``-th of :data:`LEVELS` evenly spaced feeds between the block's known-good feed and its
+known-bad one; a block keeps the highest level at which its own peak error (the ticks whose
+foot point is on it, as the loop's metrics count them) held the tolerance. After
+:data:`ROUNDS` rounds the known-good feeds are written into the program, read back and run;
+where that combination breaks the tolerance (a fast block carrying its speed into a tight one),
+the blocks there and the ones before them step down until it holds. The result is written with
+:func:`contour_gym.paths.rewrite_feeds`, read back and run again (its own F words, no
+override): what :class:`OptimizedPart` reports is that run.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from contour_gym.api import make_scenario
+from contour_gym.loop import ServoLoop
+from contour_gym.paths import GcodePath, feed_moves, from_gcode, rewrite_feeds
+from contour_gym.presets import resolve_preset
+
+Array = NDArray[np.float64]
+LEVELS = 8  # members per round: feeds tried per block at once
+ROUNDS = 4  # rounds of the search (the bracket narrows LEVELS + 1 times a round)
+REPAIRS = 12  # rounds of stepping violating blocks down before giving up
+STEP_DOWN = 0.85  # a violating block's feed is multiplied by this per repair round
+SLOWEST = 0.02  # the slowest feed tried, as a fraction of the largest
+
+
+@dataclass(frozen=True)
+class OptimizedPart:
+    """A program with new F words, and what its run on the machine gave.
+
+    Attributes:
+        text: The new program (only F words differ from the one given).
+        feeds: Feed move line -> its new feedrate, m/s (as written: the program's decimals).
+        before: The given program's run: ``cycle_time`` (s), ``max_contour_error`` (m).
+        after: The new program's run, read back from ``text``, the same keys.
+        block_peak: Feed move line -> the peak true contour error of the new run there, m.
+        too_tight: Lines the tolerance cannot be held on even at the slowest feed.
+    """
+
+    text: str
+    feeds: dict[int, float]
+    before: dict[str, float]
+    after: dict[str, float]
+    block_peak: dict[int, float]
+    too_tight: tuple[int, ...]
+
+
+def optimize_part(
+    text: str, plant: Any, tolerance: float, *, max_feed: float | None = None,
+    best_effort: bool = False, ccc_gains: Any = "machine", **read: Any,
+) -> OptimizedPart:
+    """New F words for ``text`` on ``plant``: the shortest cycle within ``tolerance``.
+
+    Args:
+        text: The part program.
+        plant: The machine (a preset name, machine file or plant dict).
+        tolerance: The largest true contour error allowed anywhere, m (> 0).
+        max_feed: The largest feed to write, m/s (None: the machine's ``max_feedrate``).
+        best_effort: Where the tolerance cannot be held even at the slowest feed, run those
+            blocks at it and say so (else refuse).
+        ccc_gains: The CCC ("machine": the machine's own PID CCC gains; None: no CCC).
+        **read: :func:`~contour_gym.paths.from_gcode`'s options for this program.
+
+    Returns:
+        The :class:`OptimizedPart`.
+
+    Raises:
+        ValueError: for a bad tolerance or feed, or (without ``best_effort``) blocks whose
+            tolerance no feed holds, naming their lines.
+    """
+    if not (math.isfinite(tolerance) and tolerance > 0.0):
+        raise ValueError(f"tolerance must be positive and finite, got {tolerance!r}")
+    search = _Search(text, plant, tolerance, max_feed, ccc_gains, read)
+    final = search.repair(search.run())
+    if final.too_tight and not best_effort:
+        raise ValueError(f"the tolerance of {tolerance * 1e6:g} um cannot be held at the slowest "
+                         f"feed ({search.slowest * 6e4:.4g} mm/min) on G-code lines "
+                         f"{', '.join(map(str, final.too_tight))}; give --best-effort to run "
+                         "them there anyway")
+    return final
+
+
+class _Search:
+    """One program on one machine: its blocks, runs of many feed sets at once, the search."""
+
+    def __init__(self, text: str, plant: Any, tolerance: float, max_feed: float | None,
+                 ccc_gains: Any, read: Mapping[str, Any]) -> None:
+        self.tolerance = tolerance
+        self.text = text
+        self.read = dict(read)
+        preset = resolve_preset(plant)
+        top = preset.max_feedrate if max_feed is None else max_feed
+        if not (math.isfinite(top) and top > 0.0):
+            raise ValueError(f"give a finite max_feed > 0 (the machine's is {top!r})")
+        self.fastest, self.slowest = top, SLOWEST * top
+        given = from_gcode(text, **read)
+        # the loop's nominal feed is the program's highest: every feed tried must be below it
+        fast = given.with_feedrates(np.full(len(given.segment_feedrates), top))
+        self.scenario = make_scenario(plant, fast)
+        self.gains = preset.ccc_gains if ccc_gains == "machine" else ccc_gains
+        self.path: GcodePath = self.scenario.path  # type: ignore[assignment]
+        feed = ~np.asarray(self.path.rapid)
+        lines = np.asarray(self.path.segment_lines)
+        self.lines = list(dict.fromkeys(int(x) for x in lines[feed]))
+        self.block_of = np.array([self.lines.index(int(x)) if f else -1
+                                  for x, f in zip(lines, feed, strict=True)])
+        results, _ = self.simulate([self.program(given)])
+        self.before = results[0]
+
+    def program(self, path: GcodePath) -> GcodePath:
+        """``path`` as the scenario maps it onto the machine."""
+        return make_scenario(self.scenario.preset, path).path  # type: ignore[return-value]
+
+    def with_blocks(self, feeds: Array) -> GcodePath:
+        """The program with block ``i`` at ``feeds[i]`` (m/s)."""
+        per_segment = np.where(self.block_of >= 0, feeds[np.maximum(self.block_of, 0)], np.nan)
+        return self.path.with_feedrates(per_segment)
+
+    def simulate(self, paths: list[GcodePath]) -> tuple[list[dict[str, float]], Array]:
+        """Run each program once: its metrics and ``(members, blocks)`` peak |contour error|."""
+        loop: ServoLoop = self.scenario.loop(batch_size=len(paths), ccc_gains=self.gains,
+                                             record=True)
+        loop.set_paths(paths)
+        loop.reset(0)
+        metrics = loop.run()
+        trace = loop.trace()
+        peaks = np.zeros((len(paths), len(self.lines)))
+        contour = self.scenario.preset.stage.contours[0]
+        offset = np.asarray(contour.offset or np.zeros(len(contour.axes)))
+        cutting = np.where(np.asarray(self.path.cutting), self.block_of, -1)
+        for b, path in enumerate(paths):
+            rows = np.isfinite(trace.s[b]) & np.all(np.isfinite(trace.x[b]), axis=1)
+            # each tick's error goes to the block of the machine's foot point, counted as the
+            # loop's metrics count it: foot and reference on cutting segments (one that ends
+            # where it stands counts as its own: a rapid's arrival cuts nothing)
+            foot, _ = path.track(trace.x[b][rows][:, list(contour.axes)] - offset,
+                                 trace.s[b][rows])
+            block = cutting[self._segment(path, foot)]
+            block[cutting[self._segment(path, trace.s[b][rows])] < 0] = -1
+            error = np.abs(trace.eps[b][rows]).max(axis=1)
+            on = block >= 0
+            np.maximum.at(peaks[b], block[on], error[on])
+        failed = ~loop.done
+        out = [{"cycle_time": float(metrics["cycle_time"][b]) if not failed[b] else math.inf,
+                "max_contour_error": float(metrics["max_contour_error"][b])}
+               for b in range(len(paths))]
+        peaks[failed] = math.inf
+        return out, peaks
+
+    def _segment(self, path: GcodePath, s: Array) -> NDArray[np.intp]:
+        # the segment an arc length lies on; at a segment's start, the one ending there
+        seg = np.searchsorted(path.table.s0, s, side="left") - 1
+        return np.clip(seg, 0, len(self.block_of) - 1)
+
+    def holds(self, peaks: Array) -> NDArray[np.bool_]:
+        """``(members, blocks)``: the block held the tolerance.
+
+        Its effect on the block after it is the repair's: with every block at one level, a
+        tight block would hold back the one before it.
+        """
+        return peaks <= self.tolerance
+
+    def run(self) -> Array:
+        """The known-good feed of every block (the search's rounds)."""
+        n = len(self.lines)
+        low, high = np.full(n, self.slowest), np.full(n, self.fastest)
+        levels = np.arange(1, LEVELS + 1) / LEVELS
+        for _ in range(ROUNDS):
+            feeds = low + levels[:, None] * (high - low)  # (levels, blocks)
+            _, peaks = self.simulate([self.with_blocks(f) for f in feeds])
+            ok = self.holds(peaks)
+            # the highest level that held (the error is not monotonic in the feed: at a few
+            # um the encoder's steps and the CCC make it rise and fall)
+            held = ok.any(axis=0)
+            top = np.where(held, LEVELS - np.argmax(ok[::-1], axis=0), 0)
+            fails = top < LEVELS
+            new_low = np.where(top > 0, feeds[np.maximum(top - 1, 0), np.arange(n)], low)
+            high = np.where(fails, feeds[np.minimum(top, LEVELS - 1), np.arange(n)], high)
+            low = new_low
+        return low
+
+    def repair(self, feeds: Array) -> OptimizedPart:
+        """Write ``feeds`` into the program and run it as written, until it holds.
+
+        The blocks that break the tolerance (and the one before each) step down until the
+        whole part holds, or they are at the slowest feed (then they are ``too_tight``).
+        """
+        feeds = feeds.copy()
+        for _ in range(REPAIRS):
+            text = rewrite_feeds(self.text, dict(zip(self.lines, feeds.tolist(), strict=True)),
+                                 **self.read)
+            final = self.program(from_gcode(text, **self.read))
+            after, peaks = self.simulate([final])
+            bad = peaks[0] > self.tolerance
+            if not bad.any() or np.all(feeds[bad] <= self.slowest):
+                break
+            step = bad | np.r_[bad[1:], False]
+            feeds[step] = np.maximum(feeds[step] * STEP_DOWN, self.slowest)
+        return OptimizedPart(
+            text=text, feeds=feed_moves(final), before=self.before, after=after[0],
+            block_peak=dict(zip(self.lines, peaks[0].tolist(), strict=True)),
+            too_tight=tuple(self.lines[i] for i in np.flatnonzero(bad)))
+
+
+__all__ = ["LEVELS", "ROUNDS", "OptimizedPart", "optimize_part"]

@@ -1,0 +1,92 @@
+"""A part program back with new F words, within a contour tolerance (issue 65)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from agents.optimize import optimize_part
+from contour_gym import simulate
+from contour_gym.paths import from_gcode
+
+PART = (Path(__file__).parent / "data" / "gcode" / "part_2d.ngc").read_text()
+
+
+def _without_f(text: str) -> list[str]:
+    # each line with its F words taken out (the comments have none here)
+    return [re.sub(r"\s*F[\d.]+", "", line) for line in text.splitlines()]
+
+
+def test_the_optimised_program_holds_the_tolerance_as_written() -> None:
+    result = optimize_part(PART, "xy_servo_coulomb", 5e-6)
+    assert _without_f(result.text) == _without_f(PART)  # only F words differ
+    assert result.too_tight == ()
+    # read back and run at its own F words: what the result reports
+    run = simulate("xy_servo_coulomb", from_gcode(result.text), ccc_gains=_gains())
+    assert run["max_contour_error"] <= 5e-6
+    assert run["cycle_time"] == pytest.approx(result.after["cycle_time"], rel=5e-3)
+    assert result.after["cycle_time"] < 0.7 * result.before["cycle_time"]
+    assert max(result.block_peak.values()) == pytest.approx(run["max_contour_error"])
+    assert max(result.feeds.values()) <= 0.1 + 1e-12  # the machine's largest feed
+
+
+def _gains() -> tuple[float, float, float]:
+    from contour_gym.presets import resolve_preset
+
+    return resolve_preset("xy_servo_coulomb").ccc_gains.as_tuple()
+
+
+def test_a_tolerance_no_feed_holds_names_its_lines() -> None:
+    with pytest.raises(ValueError, match=r"cannot be held at the slowest feed .* G-code lines "):
+        optimize_part(PART, "xy_servo_coulomb", 1e-7)
+    result = optimize_part(PART, "xy_servo_coulomb", 1e-7, best_effort=True)
+    assert result.too_tight and set(result.too_tight) <= set(result.block_peak)
+
+
+@pytest.mark.parametrize("tolerance", [0.0, -1e-6, float("nan")])
+def test_a_bad_tolerance_is_named(tolerance: float) -> None:
+    with pytest.raises(ValueError, match="tolerance must be positive and finite"):
+        optimize_part(PART, "xy_servo_coulomb", tolerance)
+
+
+def test_the_command_writes_the_program_and_its_tables(tmp_path: Path, capsys) -> None:
+    from agents.cli import main
+
+    part = tmp_path / "part.ngc"
+    part.write_text(PART)
+    assert main(["optimize", str(part), "--plant", "xy_servo_coulomb", "--tolerance", "5um",
+                 "--max-feed", "3000", "--diff"]) == 0
+    said = capsys.readouterr().out
+    written = (tmp_path / "part_opt.ngc").read_text()
+    assert "| optimised |" in said and "| line | old F (mm/min) | new F (mm/min) |" in said
+    assert "+G1 X70 F" in said and "program written to" in said
+    assert _without_f(written) == _without_f(PART)
+    feeds = [float(f) for f in re.findall(r"F([\d.]+)", written)]
+    assert max(feeds) <= 3000  # --max-feed, mm/min
+
+
+@pytest.mark.parametrize(("argv", "said"), [
+    (["--tolerance=-1um"], "'-1um': a tolerance is > 0"),
+    (["--tolerance", "5 parsecs"], "is not a length"),
+])
+def test_bad_arguments_are_named(tmp_path: Path, capsys, argv: list[str], said: str) -> None:
+    from agents.cli import main
+
+    part = tmp_path / "part.ngc"
+    part.write_text(PART)
+    with pytest.raises(SystemExit):
+        main(["optimize", str(part), "--plant", "xy_servo_coulomb", *argv])
+    assert said in capsys.readouterr().err
+
+
+def test_an_unreadable_program_is_named_and_nothing_written(tmp_path: Path, capsys) -> None:
+    from agents.cli import main
+
+    part = tmp_path / "bad.ngc"
+    part.write_text("G1 X1 F100\nG93 X2\n")
+    assert main(["optimize", str(part), "--plant", "xy_servo_coulomb", "--tolerance",
+                 "5um"]) == 2
+    assert "bad.ngc: G-code line 2" in capsys.readouterr().err
+    assert not (tmp_path / "bad_opt.ngc").exists()
