@@ -4,14 +4,20 @@
 axis controllers, estimator and CCC), and searches one feedrate per feed move (block) for the
 shortest cycle time whose peak true contour error stays within ``tolerance``. The search is
 batch-first: each round runs :data:`LEVELS` members at once, member ``k`` with every block at
-the ``k``-th of :data:`LEVELS` evenly spaced feeds between the block's known-good feed and its
-known-bad one; a block keeps the highest level at which its own peak error (the ticks whose
-foot point is on it, as the loop's metrics count them) held the tolerance. After
-:data:`ROUNDS` rounds the known-good feeds are written into the program, read back and run;
-where that combination breaks the tolerance (a fast block carrying its speed into a tight one),
-the blocks there and the ones before them step down until it holds. The result is written with
-:func:`contour_gym.paths.rewrite_feeds`, read back and run again (its own F words, no
-override): what :class:`OptimizedPart` reports is that run.
+the ``k``-th of :data:`LEVELS` evenly spaced feeds between the block's known-good feed (at
+first its own F where the given program holds the tolerance there, else :data:`SLOWEST` of the
+largest feed) and its known-bad one (at first the largest feed); a block keeps the highest
+level at which its own peak error (the ticks whose foot point is on it, as the loop's metrics
+count them) held the tolerance. After :data:`ROUNDS` rounds the known-good feeds are written
+into the program, read back and run; where that combination breaks the tolerance (a fast block
+carrying its speed into a tight one), the blocks there and the ones before them step down
+until it holds. The result is written with :func:`contour_gym.paths.rewrite_feeds`, read back
+and run again (its own F words, no override): what :class:`OptimizedPart` reports is that run.
+
+Before the rounds, constant overrides of the program's own feeds (every :data:`OVERRIDE_STEP`)
+run at once;
+the fastest that holds the tolerance everywhere is where every block's known-good feed starts
+(so the result is never slower than the best constant override on that grid).
 """
 
 from __future__ import annotations
@@ -24,7 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from contour_gym.api import make_scenario
+from contour_gym.api import Scenario, make_scenario
 from contour_gym.loop import ServoLoop
 from contour_gym.paths import GcodePath, feed_moves, from_gcode, rewrite_feeds
 from contour_gym.presets import resolve_preset
@@ -35,6 +41,7 @@ ROUNDS = 4  # rounds of the search (the bracket narrows LEVELS + 1 times a round
 REPAIRS = 12  # rounds of stepping violating blocks down before giving up
 STEP_DOWN = 0.85  # a violating block's feed is multiplied by this per repair round
 SLOWEST = 0.02  # the slowest feed tried, as a fraction of the largest
+OVERRIDE_STEP = 0.05  # constant overrides tried at once for the start, this far apart
 
 
 @dataclass(frozen=True)
@@ -46,7 +53,9 @@ class OptimizedPart:
         feeds: Feed move line -> its new feedrate, m/s (as written: the program's decimals).
         before: The given program's run: ``cycle_time`` (s), ``max_contour_error`` (m).
         after: The new program's run, read back from ``text``, the same keys.
-        block_peak: Feed move line -> the peak true contour error of the new run there, m.
+        block_peak: Feed move line -> the peak true contour error of the new run there, m
+            (ticks whose foot and reference are on that block; at a stop a tick may count
+            for two blocks, so their largest is at least the run's ``max_contour_error``).
         too_tight: Lines the tolerance cannot be held on even at the slowest feed.
     """
 
@@ -99,6 +108,7 @@ class _Search:
     def __init__(self, text: str, plant: Any, tolerance: float, max_feed: float | None,
                  ccc_gains: Any, read: Mapping[str, Any]) -> None:
         self.tolerance = tolerance
+        self.plant = plant
         self.text = text
         self.read = dict(read)
         preset = resolve_preset(plant)
@@ -117,22 +127,31 @@ class _Search:
         self.lines = list(dict.fromkeys(int(x) for x in lines[feed]))
         self.block_of = np.array([self.lines.index(int(x)) if f else -1
                                   for x, f in zip(lines, feed, strict=True)])
-        results, _ = self.simulate([self.program(given)])
-        self.before = results[0]
+        results, peaks = self.run_as_written(given)
+        self.before, self.given_peaks = results, peaks
+        own = feed_moves(given)
+        self.given_feeds = np.array([own[line] for line in self.lines])
 
-    def program(self, path: GcodePath) -> GcodePath:
-        """``path`` as the scenario maps it onto the machine."""
-        return make_scenario(self.scenario.preset, path).path  # type: ignore[return-value]
+    def run_as_written(self, program: GcodePath) -> tuple[dict[str, float], Array]:
+        """Run a program as ``contour-gym simulate`` runs it: its metrics and per-block peaks.
+
+        Its own scenario: a machine whose acc/dec follows the programmed feed (004's time
+        constant) accelerates as the program's highest feed sets it.
+        """
+        scenario = make_scenario(self.plant, program)
+        results, peaks = self.simulate([scenario.path], scenario)  # type: ignore[list-item]
+        return results[0], peaks[0]
 
     def with_blocks(self, feeds: Array) -> GcodePath:
         """The program with block ``i`` at ``feeds[i]`` (m/s)."""
         per_segment = np.where(self.block_of >= 0, feeds[np.maximum(self.block_of, 0)], np.nan)
         return self.path.with_feedrates(per_segment)
 
-    def simulate(self, paths: list[GcodePath]) -> tuple[list[dict[str, float]], Array]:
+    def simulate(self, paths: list[GcodePath], scenario: Scenario | None = None
+                 ) -> tuple[list[dict[str, float]], Array]:
         """Run each program once: its metrics and ``(members, blocks)`` peak |contour error|."""
-        loop: ServoLoop = self.scenario.loop(batch_size=len(paths), ccc_gains=self.gains,
-                                             record=True)
+        loop: ServoLoop = (scenario or self.scenario).loop(
+            batch_size=len(paths), ccc_gains=self.gains, record=True)
         loop.set_paths(paths)
         loop.reset(0)
         metrics = loop.run()
@@ -176,7 +195,13 @@ class _Search:
     def run(self) -> Array:
         """The known-good feed of every block (the search's rounds)."""
         n = len(self.lines)
-        low, high = np.full(n, self.slowest), np.full(n, self.fastest)
+        # known good to start from: the program's own feeds where its own run holds there, or
+        # the fastest constant override that holds everywhere
+        low = np.where(self.given_peaks <= self.tolerance,
+                       np.minimum(self.given_feeds, self.fastest), self.slowest)
+        self.start = self.best_override()  # the whole program holds at these feeds
+        low = np.maximum(low, self.start)
+        high = np.full(n, self.fastest)
         levels = np.arange(1, LEVELS + 1) / LEVELS
         for _ in range(ROUNDS):
             feeds = low + levels[:, None] * (high - low)  # (levels, blocks)
@@ -192,27 +217,45 @@ class _Search:
             low = new_low
         return low
 
+    def best_override(self) -> Array:
+        """Every block's feed at the fastest constant override holding the tolerance (or 0).
+
+        The overrides are :data:`OVERRIDE_STEP` apart up to the one that puts every block at
+        the largest feed; each run keeps only its peak (no record: little memory).
+        """
+        ceiling = self.fastest / float(self.given_feeds.min())
+        scales = np.arange(1, math.ceil(ceiling / OVERRIDE_STEP) + 1) * OVERRIDE_STEP
+        feeds = np.minimum(scales[:, None] * self.given_feeds, self.fastest)
+        loop = self.scenario.loop(batch_size=len(feeds), ccc_gains=self.gains)
+        loop.set_paths([self.with_blocks(f) for f in feeds])
+        loop.reset(0)
+        peak = loop.run()["max_contour_error"]
+        held = np.flatnonzero(loop.done & (peak <= self.tolerance))
+        return feeds[held[-1]] if held.size else np.zeros(len(self.lines))
+
     def repair(self, feeds: Array) -> OptimizedPart:
         """Write ``feeds`` into the program and run it as written, until it holds.
 
         The blocks that break the tolerance (and the one before each) step down until the
         whole part holds, or they are at the slowest feed (then they are ``too_tight``).
         """
-        feeds = feeds.copy()
+        feeds, floor = feeds.copy(), np.maximum(self.start, self.slowest)
         for _ in range(REPAIRS):
             text = rewrite_feeds(self.text, dict(zip(self.lines, feeds.tolist(), strict=True)),
                                  **self.read)
-            final = self.program(from_gcode(text, **self.read))
-            after, peaks = self.simulate([final])
-            bad = peaks[0] > self.tolerance
-            if not bad.any() or np.all(feeds[bad] <= self.slowest):
+            final = from_gcode(text, **self.read)
+            after, peaks = self.run_as_written(final)
+            bad = peaks > self.tolerance
+            if not bad.any() or np.all(feeds <= np.maximum(floor, self.slowest)):
                 break
             step = bad | np.r_[bad[1:], False]
-            feeds[step] = np.maximum(feeds[step] * STEP_DOWN, self.slowest)
+            if np.all(feeds[step] <= floor[step]):  # at the start there: its neighbours too
+                step = np.convolve(step, np.ones(3), mode="same") > 0
+            feeds[step] = np.maximum(feeds[step] * STEP_DOWN, floor[step])
         return OptimizedPart(
-            text=text, feeds=feed_moves(final), before=self.before, after=after[0],
-            block_peak=dict(zip(self.lines, peaks[0].tolist(), strict=True)),
+            text=text, feeds=feed_moves(final), before=self.before, after=after,
+            block_peak=dict(zip(self.lines, peaks.tolist(), strict=True)),
             too_tight=tuple(self.lines[i] for i in np.flatnonzero(bad)))
 
 
-__all__ = ["LEVELS", "ROUNDS", "OptimizedPart", "optimize_part"]
+__all__ = ["LEVELS", "OVERRIDE_STEP", "ROUNDS", "OptimizedPart", "optimize_part"]

