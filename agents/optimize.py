@@ -102,6 +102,15 @@ def optimize_part(
     return final
 
 
+def _by_highest_feed(paths: list[GcodePath]) -> list[list[int]]:
+    """The paths' indices grouped by their highest cutting feed."""
+    groups: dict[float, list[int]] = {}
+    for b, path in enumerate(paths):
+        feed = np.asarray(path.segment_feedrates)[np.asarray(path.cutting)]
+        groups.setdefault(float(np.nanmax(feed)), []).append(b)
+    return list(groups.values())
+
+
 class _Search:
     """One program on one machine: its blocks, runs of many feed sets at once, the search."""
 
@@ -115,11 +124,10 @@ class _Search:
         top = preset.max_feedrate if max_feed is None else max_feed
         if not (math.isfinite(top) and top > 0.0):
             raise ValueError(f"give a finite max_feed > 0 (the machine's is {top!r})")
-        self.fastest, self.slowest = top, SLOWEST * top
-        given = from_gcode(text, **read)
-        # the loop's nominal feed is the program's highest: every feed tried must be below it
-        fast = given.with_feedrates(np.full(len(given.segment_feedrates), top))
-        self.scenario = make_scenario(plant, fast)
+        self.fastest = top
+        self.slowest = SLOWEST * top
+        given = self.source = from_gcode(text, **read)
+        self.scenario: Scenario = make_scenario(plant, given)  # maps programs onto the machine
         self.gains = preset.ccc_gains if ccc_gains == "machine" else ccc_gains
         self.path: GcodePath = self.scenario.path  # type: ignore[assignment]
         feed = ~np.asarray(self.path.rapid)
@@ -131,6 +139,11 @@ class _Search:
         self.before, self.given_peaks = results, peaks
         own = feed_moves(given)
         self.given_feeds = np.array([own[line] for line in self.lines])
+        # candidates are made on the program as read and mapped onto the machine each time: a
+        # 3-D program's Z-only moves become waits on an X-Y machine, timed by their own feeds
+        index = {line: i for i, line in enumerate(self.lines)}
+        self.source_block = np.array([index.get(int(line), -1) if not rapid else -1 for line, rapid
+                                      in zip(given.segment_lines, given.rapid, strict=True)])
 
     def run_as_written(self, program: GcodePath) -> tuple[dict[str, float], Array]:
         """Run a program as ``contour-gym simulate`` runs it: its metrics and per-block peaks.
@@ -143,15 +156,34 @@ class _Search:
         return results[0], peaks[0]
 
     def with_blocks(self, feeds: Array) -> GcodePath:
-        """The program with block ``i`` at ``feeds[i]`` (m/s)."""
-        per_segment = np.where(self.block_of >= 0, feeds[np.maximum(self.block_of, 0)], np.nan)
-        return self.path.with_feedrates(per_segment)
+        """The program with block ``i`` at ``feeds[i]`` (m/s), mapped onto the machine."""
+        block = self.source_block
+        own = np.asarray(self.source.segment_feedrates)
+        variant = self.source.with_feedrates(
+            np.where(block >= 0, feeds[np.maximum(block, 0)], own))
+        return make_scenario(self.scenario.preset, variant).path  # type: ignore[return-value]
 
     def simulate(self, paths: list[GcodePath], scenario: Scenario | None = None
                  ) -> tuple[list[dict[str, float]], Array]:
-        """Run each program once: its metrics and ``(members, blocks)`` peak |contour error|."""
-        loop: ServoLoop = (scenario or self.scenario).loop(
-            batch_size=len(paths), ccc_gains=self.gains, record=True)
+        """Run each program once: its metrics and ``(members, blocks)`` peak |contour error|.
+
+        Programs of one highest feed run as members of one loop, each as ``contour-gym
+        simulate`` runs it: a machine's acc/dec may follow the program's highest feed (004's
+        time constant: it brakes at F / T), so programs of other highest feeds run apart.
+        """
+        out: list[dict[str, float]] = [{} for _ in paths]
+        peaks = np.zeros((len(paths), len(self.lines)))
+        for members in _by_highest_feed(paths):
+            group = [paths[b] for b in members]
+            results, found = self._simulate_group(group, scenario)
+            for k, b in enumerate(members):
+                out[b], peaks[b] = results[k], found[k]
+        return out, peaks
+
+    def _simulate_group(self, paths: list[GcodePath], scenario: Scenario | None
+                        ) -> tuple[list[dict[str, float]], Array]:
+        own = scenario or make_scenario(self.scenario.preset, paths[0])
+        loop: ServoLoop = own.loop(batch_size=len(paths), ccc_gains=self.gains, record=True)
         loop.set_paths(paths)
         loop.reset(0)
         metrics = loop.run()
@@ -224,38 +256,52 @@ class _Search:
         the largest feed; each run keeps only its peak (no record: little memory).
         """
         ceiling = self.fastest / float(self.given_feeds.min())
-        scales = np.arange(1, math.ceil(ceiling / OVERRIDE_STEP) + 1) * OVERRIDE_STEP
+        fine = np.arange(1, math.floor(min(ceiling, 3.0) / OVERRIDE_STEP) + 1) * OVERRIDE_STEP
+        scales = np.unique(np.r_[fine, np.geomspace(3.0, ceiling, 20) if ceiling > 3.0 else []])
         feeds = np.minimum(scales[:, None] * self.given_feeds, self.fastest)
-        loop = self.scenario.loop(batch_size=len(feeds), ccc_gains=self.gains)
-        loop.set_paths([self.with_blocks(f) for f in feeds])
-        loop.reset(0)
-        peak = loop.run()["max_contour_error"]
-        held = np.flatnonzero(loop.done & (peak <= self.tolerance))
-        return feeds[held[-1]] if held.size else np.zeros(len(self.lines))
+        held = []
+        for q, row in enumerate(feeds):  # each its own highest feed: a loop each
+            path = self.with_blocks(row)
+            loop = make_scenario(self.scenario.preset, path).loop(ccc_gains=self.gains)
+            loop.reset(0)
+            if loop.run()["max_contour_error"][0] <= self.tolerance and loop.done[0]:
+                held.append(q)
+        return feeds[held[-1]] if held else np.zeros(len(self.lines))
 
     def repair(self, feeds: Array) -> OptimizedPart:
         """Write ``feeds`` into the program and run it as written, until it holds.
 
         The blocks that break the tolerance (and the one before each) step down until the
-        whole part holds, or they are at the slowest feed (then they are ``too_tight``).
+        whole part holds. If it still does not after :data:`REPAIRS` rounds, the start (the
+        fastest constant override that held, as written) is the result where there is one;
+        else the blocks that break it are ``too_tight``.
         """
         feeds, floor = feeds.copy(), np.maximum(self.start, self.slowest)
         for _ in range(REPAIRS):
-            text = rewrite_feeds(self.text, dict(zip(self.lines, feeds.tolist(), strict=True)),
-                                 **self.read)
-            final = from_gcode(text, **self.read)
-            after, peaks = self.run_as_written(final)
-            bad = peaks > self.tolerance
-            if not bad.any() or np.all(feeds <= np.maximum(floor, self.slowest)):
+            part = self.written(feeds)
+            bad = np.isin(self.lines, part.too_tight)
+            if not bad.any() or np.all(feeds <= floor):
                 break
             step = bad | np.r_[bad[1:], False]
             if np.all(feeds[step] <= floor[step]):  # at the start there: its neighbours too
                 step = np.convolve(step, np.ones(3), mode="same") > 0
             feeds[step] = np.maximum(feeds[step] * STEP_DOWN, floor[step])
+        if part.too_tight and np.all(self.start > 0.0):
+            start = self.written(self.start)
+            if not start.too_tight:
+                return start
+        return part
+
+    def written(self, feeds: Array) -> OptimizedPart:
+        """``feeds`` written into the program, read back and run as written."""
+        text = rewrite_feeds(self.text, dict(zip(self.lines, feeds.tolist(), strict=True)),
+                             **self.read)
+        final = from_gcode(text, **self.read)
+        after, peaks = self.run_as_written(final)
         return OptimizedPart(
             text=text, feeds=feed_moves(final), before=self.before, after=after,
             block_peak=dict(zip(self.lines, peaks.tolist(), strict=True)),
-            too_tight=tuple(self.lines[i] for i in np.flatnonzero(bad)))
+            too_tight=tuple(self.lines[i] for i in np.flatnonzero(peaks > self.tolerance)))
 
 
 __all__ = ["LEVELS", "OVERRIDE_STEP", "ROUNDS", "OptimizedPart", "optimize_part"]
