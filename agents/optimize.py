@@ -272,9 +272,9 @@ class _Search:
         """Write ``feeds`` into the program and run it as written, until it holds.
 
         The blocks that break the tolerance (and the one before each) step down until the
-        whole part holds. If it still does not after :data:`REPAIRS` rounds, the start (the
-        fastest constant override that held, as written) is the result where there is one;
-        else the blocks that break it are ``too_tight``.
+        whole part holds. The start (the fastest constant override that held, as written) is
+        the result where it holds and is faster, or where the repair did not make the part
+        hold in :data:`REPAIRS` rounds; else the blocks that break it are ``too_tight``.
         """
         feeds, floor = feeds.copy(), np.maximum(self.start, self.slowest)
         for _ in range(REPAIRS):
@@ -286,9 +286,10 @@ class _Search:
             if np.all(feeds[step] <= floor[step]):  # at the start there: its neighbours too
                 step = np.convolve(step, np.ones(3), mode="same") > 0
             feeds[step] = np.maximum(feeds[step] * STEP_DOWN, floor[step])
-        if part.too_tight and np.all(self.start > 0.0):
+        if np.all(self.start > 0.0):  # the start as written, where it is the better
             start = self.written(self.start)
-            if not start.too_tight:
+            if not start.too_tight and (part.too_tight or start.after["cycle_time"]
+                                        < part.after["cycle_time"]):
                 return start
         return part
 

@@ -78,9 +78,9 @@ def main() -> None:
             except ValueError as exc:
                 print(f"| {part.name} | xy_dc_servo | refused: {exc} |||||||")
         for plant, tol in cases:
-            q, constant = fastest_override(plant, text, tol)
-            start = time.perf_counter()
             try:
+                q, constant = fastest_override(plant, text, tol)
+                start = time.perf_counter()
                 result = optimize_part(text, plant, tol, best_effort=True)
             except ValueError as exc:  # a program the machine cannot run (3-D on X-Y)
                 print(f"| {part.name} | {plant} | refused: {exc} |||||||")
@@ -94,7 +94,12 @@ def main() -> None:
     if not args.quick:
         text = thousand_blocks()
         start = time.perf_counter()
-        result = optimize_part(text, "xy_servo_coulomb", 5e-6, best_effort=True)
+        try:
+            result = optimize_part(text, "xy_servo_coulomb", 5e-6, best_effort=True)
+        except ValueError as exc:
+            print(f"\n1000 feed moves on xy_servo_coulomb at 5 um: refused after "
+                  f"{time.perf_counter() - start:.1f} s: {exc}")
+            return
         print(f"\n1000 feed moves on xy_servo_coulomb at 5 um: {time.perf_counter() - start:.1f} s "
               f"({result.before['cycle_time']:.1f} s -> {result.after['cycle_time']:.1f} s, "
               f"peak {result.after['max_contour_error'] * 1e6:.3g} um, "
