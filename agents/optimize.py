@@ -15,7 +15,7 @@ until it holds. The result is written with :func:`contour_gym.paths.rewrite_feed
 and run again (its own F words, no override): what :class:`OptimizedPart` reports is that run.
 
 Before the rounds, constant overrides of the program's own feeds (every :data:`OVERRIDE_STEP`)
-run at once;
+run, each as written;
 the fastest that holds the tolerance everywhere is where every block's known-good feed starts
 (so the result is never slower than the best constant override on that grid).
 """
@@ -41,7 +41,8 @@ ROUNDS = 4  # rounds of the search (the bracket narrows LEVELS + 1 times a round
 REPAIRS = 12  # rounds of stepping violating blocks down before giving up
 STEP_DOWN = 0.85  # a violating block's feed is multiplied by this per repair round
 SLOWEST = 0.02  # the slowest feed tried, as a fraction of the largest
-OVERRIDE_STEP = 0.05  # constant overrides tried at once for the start, this far apart
+OVERRIDE_STEP = 0.05  # constant overrides tried for the start, this far apart
+MAX_OVERRIDES = 200  # ... or this many, evenly, up to the one that makes every feed the largest
 
 
 @dataclass(frozen=True)
@@ -252,12 +253,13 @@ class _Search:
     def best_override(self) -> Array:
         """Every block's feed at the fastest constant override holding the tolerance (or 0).
 
-        The overrides are :data:`OVERRIDE_STEP` apart up to the one that puts every block at
-        the largest feed; each run keeps only its peak (no record: little memory).
+        The overrides are :data:`OVERRIDE_STEP` apart (at most :data:`MAX_OVERRIDES` of them)
+        up to the one that puts every block at the largest feed; each run keeps only its peak
+        (no record: little memory), in a loop of its own highest feed.
         """
         ceiling = self.fastest / float(self.given_feeds.min())
-        fine = np.arange(1, math.floor(min(ceiling, 3.0) / OVERRIDE_STEP) + 1) * OVERRIDE_STEP
-        scales = np.unique(np.r_[fine, np.geomspace(3.0, ceiling, 20) if ceiling > 3.0 else []])
+        step = max(OVERRIDE_STEP, ceiling / MAX_OVERRIDES)
+        scales = np.arange(1, math.floor(ceiling / step) + 1) * step
         feeds = np.minimum(scales[:, None] * self.given_feeds, self.fastest)
         held = []
         for q, row in enumerate(feeds):  # each its own highest feed: a loop each
