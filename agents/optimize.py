@@ -5,8 +5,8 @@ axis controllers, estimator and CCC), and searches one feedrate per feed move (b
 shortest cycle time whose peak true contour error stays within ``tolerance``. The search is
 batch-first: each round runs :data:`LEVELS` members at once, member ``k`` with every block at
 the ``k``-th of :data:`LEVELS` evenly spaced feeds between the block's known-good feed (at
-first its own F where the given program holds the tolerance there, else :data:`SLOWEST` of the
-largest feed) and its known-bad one (at first the largest feed); a block keeps the highest
+first its own F where the given program holds the tolerance there, else :data:`SLOWEST` of its
+slowest feed) and its known-bad one (at first the largest feed); a block keeps the highest
 level at which its own peak error (the ticks whose foot point is on it, as the loop's metrics
 count them) held the tolerance. After :data:`ROUNDS` rounds the known-good feeds are written
 into the program, read back and run; where that combination breaks the tolerance (a fast block
@@ -40,7 +40,7 @@ LEVELS = 8  # members per round: feeds tried per block at once
 ROUNDS = 4  # rounds of the search (the bracket narrows LEVELS + 1 times a round)
 REPAIRS = 12  # rounds of stepping violating blocks down before giving up
 STEP_DOWN = 0.85  # a violating block's feed is multiplied by this per repair round
-SLOWEST = 0.02  # the slowest feed tried, as a fraction of the largest
+SLOWEST = 0.25  # the slowest feed tried, as a fraction of the program's slowest feed
 OVERRIDE_STEP = 0.05  # constant overrides tried for the start, this far apart
 MAX_OVERRIDES = 200  # ... or this many, evenly, up to the one that makes every feed the largest
 
@@ -126,8 +126,10 @@ class _Search:
         if not (math.isfinite(top) and top > 0.0):
             raise ValueError(f"give a finite max_feed > 0 (the machine's is {top!r})")
         self.fastest = top
-        self.slowest = SLOWEST * top
         given = self.source = from_gcode(text, **read)
+        # a quarter of the program's slowest feed: slower, the part takes hours and its
+        # record gigabytes; a tolerance that needs it is too tight for this machine
+        self.slowest = min(SLOWEST * min(feed_moves(given).values()), top)
         self.scenario: Scenario = make_scenario(plant, given)  # maps programs onto the machine
         self.gains = preset.ccc_gains if ccc_gains == "machine" else ccc_gains
         self.path: GcodePath = self.scenario.path  # type: ignore[assignment]
