@@ -5,9 +5,8 @@
 the machine's paper path and two random paths (on a 3-D machine, whose random paths the library
 does not draw, its paper path alone), for the smallest worst peak contour error relative to the
 machine's own gains' on each; a candidate that chatters more than twice the machine's own gains
-fails, and generation 0 holds those gains, so the result is never worse than them there. Gains
-tuned on one path alone sat at the edge of stability and lost up to five times on paths they
-never saw (docs/measurements.md). Run it on a machine file::
+fails, and generation 0 holds those gains, so the result is never worse than them there. Run
+it on a machine file::
 
     contour-gym tune pid --plant my_machine.yaml
 
@@ -26,8 +25,8 @@ PID_FACTORS = (
     TuneParam(PID_FACTOR_NAMES[2], 0.0, 0.005, unit="s"),
 )
 """The ``pid`` protocol's box (chosen: ``kp`` and ``ki`` from a tenth and a hundredth of the
-machine's to a hundred times, where every preset's loop has gone unstable (000's at 30 times,
-004's and 002's at 10: such candidates fail), and up to 5 ms of derivative time)."""
+machine's to a hundred times, past where each preset's PID CCC makes its loop unstable on its
+paper path, so that the largest gains fail; and up to 5 ms of derivative time)."""
 
 RANDOM_SEEDS = (101, 102)
 """The ``pid`` protocol's random paths: those ``env.reset(seed=s)`` runs (a spline and a

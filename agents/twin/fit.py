@@ -376,10 +376,9 @@ def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Array:
     ``smooth`` samples, the effort read one tick earlier: the loop's delay), ``m/K``, ``b/K``
     and ``fc/K`` follow from one linear regression (the inverse dynamic model of the EMPS
     benchmark). In closed loop the disturbance ``d`` moves ``a`` and ``v`` too, which biases
-    plain least squares (by 30-100 % on 001's 2 N random disturbance); the same quantities
-    differenced from the logged *command*, which ``d`` does not move, are the instruments
-    (IDIM-IV). Each ratio is turned into a factor on the preset's value; friction parameters
-    other than ``fc`` start at the factor ``fc`` got.
+    plain least squares; the same quantities differenced from the logged *command*, which
+    ``d`` does not move, are the instruments (IDIM-IV). Each ratio is turned into a factor on
+    the preset's value; friction parameters other than ``fc`` start at the factor ``fc`` got.
     """
     a_n, p = len(problem.names), problem.n_params
     theta = np.zeros((a_n, p))
