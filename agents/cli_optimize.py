@@ -70,6 +70,9 @@ def optimize_command(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise ValueError(f"{source}: {exc.strerror or exc}") from None
     out = Path(args.out) if args.out else default_out(args.part)
+    if out.resolve() == source.resolve():
+        raise ValueError(f"--out {out} is the part itself: the given program is kept; write "
+                         "the new one elsewhere")
     max_feed = None if args.max_feed is None else args.max_feed * 1e-3 / 60.0
     try:
         before = feed_moves(from_gcode(text))

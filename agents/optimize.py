@@ -94,7 +94,8 @@ def optimize_part(
     if not (math.isfinite(tolerance) and tolerance > 0.0):
         raise ValueError(f"tolerance must be positive and finite, got {tolerance!r}")
     search = _Search(text, plant, tolerance, max_feed, ccc_gains, read)
-    final = search.repair(search.run())
+    start = search.best_override()  # the whole program holds at these feeds (or all 0)
+    final = search.repair(search.run(start), start)
     if final.too_tight and not best_effort:
         raise ValueError(f"the tolerance of {tolerance * 1e6:g} um cannot be held at the slowest "
                          f"feed ({search.slowest * 6e4:.4g} mm/min) on G-code lines "
@@ -124,9 +125,14 @@ class _Search:
         preset = resolve_preset(plant)
         top = preset.max_feedrate if max_feed is None else max_feed
         if not (math.isfinite(top) and top > 0.0):
-            raise ValueError(f"give a finite max_feed > 0 (the machine's is {top!r})")
+            whose = "the machine's largest feed" if max_feed is None else "max_feed"
+            raise ValueError(f"{whose} must be finite and > 0 m/s to optimise against, got "
+                             f"{top!r}" + (": give max_feed" if max_feed is None else ""))
         self.fastest = top
         given = self.source = from_gcode(text, **read)
+        if not np.any(given.cutting):
+            raise ValueError("the program cuts nothing (every move is a rapid, or above the "
+                             "cut depth): no feed to optimise")
         # a quarter of the program's slowest feed: slower, the part takes hours and its
         # record gigabytes; a tolerance that needs it is too tight for this machine
         self.slowest = min(SLOWEST * min(feed_moves(given).values()), top)
@@ -219,29 +225,23 @@ class _Search:
         seg = np.searchsorted(path.table.s0, s, side="left") - 1
         return np.clip(seg, 0, len(self.block_of) - 1)
 
-    def holds(self, peaks: Array) -> NDArray[np.bool_]:
-        """``(members, blocks)``: the block held the tolerance.
-
-        Its effect on the block after it is the repair's: with every block at one level, a
-        tight block would hold back the one before it.
-        """
-        return peaks <= self.tolerance
-
-    def run(self) -> Array:
-        """The known-good feed of every block (the search's rounds)."""
+    def run(self, start: Array) -> Array:
+        """The known-good feed of every block after the search's rounds, from ``start``."""
         n = len(self.lines)
         # known good to start from: the program's own feeds where its own run holds there, or
         # the fastest constant override that holds everywhere
         low = np.where(self.given_peaks <= self.tolerance,
                        np.minimum(self.given_feeds, self.fastest), self.slowest)
-        self.start = self.best_override()  # the whole program holds at these feeds
-        low = np.maximum(low, self.start)
+        low = np.maximum(low, start)
         high = np.full(n, self.fastest)
         levels = np.arange(1, LEVELS + 1) / LEVELS
         for _ in range(ROUNDS):
             feeds = low + levels[:, None] * (high - low)  # (levels, blocks)
             _, peaks = self.simulate([self.with_blocks(f) for f in feeds])
-            ok = self.holds(peaks)
+            # a block judged by its own peak: its effect on the block after it is the
+            # repair's (with every block at one level, a tight block would hold back the one
+            # before it)
+            ok = peaks <= self.tolerance
             # the highest level that held (the error is not monotonic in the feed: at a few
             # um the encoder's steps and the CCC make it rise and fall)
             held = ok.any(axis=0)
@@ -272,29 +272,34 @@ class _Search:
                 held.append(q)
         return feeds[held[-1]] if held else np.zeros(len(self.lines))
 
-    def repair(self, feeds: Array) -> OptimizedPart:
+    def repair(self, feeds: Array, start: Array) -> OptimizedPart:
         """Write ``feeds`` into the program and run it as written, until it holds.
 
-        The blocks that break the tolerance (and the one before each) step down until the
-        whole part holds. The start (the fastest constant override that held, as written) is
-        the result where it holds and is faster, or where the repair did not make the part
-        hold in :data:`REPAIRS` rounds; else the blocks that break it are ``too_tight``.
+        The blocks that break the tolerance (and the one before each) step down, first to
+        ``start`` (the fastest constant override that held), then to the slowest feed, until
+        the whole part holds. ``start`` as written is the result where it holds and is
+        faster, or where the repair did not make the part hold in :data:`REPAIRS` rounds;
+        else the blocks that break it are ``too_tight``.
         """
-        feeds, floor = feeds.copy(), np.maximum(self.start, self.slowest)
+        feeds, floor = feeds.copy(), np.maximum(start, self.slowest)
         for _ in range(REPAIRS):
             part = self.written(feeds)
             bad = np.isin(self.lines, part.too_tight)
-            if not bad.any() or np.all(feeds <= floor):
+            if not bad.any():
                 break
+            if np.all(feeds <= floor):  # every block at the start: down to the slowest
+                if np.all(floor <= self.slowest):
+                    break
+                floor = np.full_like(floor, self.slowest)
             step = bad | np.r_[bad[1:], False]
-            if np.all(feeds[step] <= floor[step]):  # at the start there: its neighbours too
+            if np.all(feeds[step] <= floor[step]):  # at the floor there: its neighbours too
                 step = np.convolve(step, np.ones(3), mode="same") > 0
             feeds[step] = np.maximum(feeds[step] * STEP_DOWN, floor[step])
-        if np.all(self.start > 0.0):  # the start as written, where it is the better
-            start = self.written(self.start)
-            if not start.too_tight and (part.too_tight or start.after["cycle_time"]
+        if np.all(start > 0.0):  # the start as written, where it is the better
+            first = self.written(start)
+            if not first.too_tight and (part.too_tight or first.after["cycle_time"]
                                         < part.after["cycle_time"]):
-                return start
+                return first
         return part
 
     def written(self, feeds: Array) -> OptimizedPart:

@@ -23,6 +23,7 @@ suites) or ``--plant`` (the command line).
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -70,14 +71,20 @@ def plant_of(plant: str | Path | Mapping[str, Any]) -> tuple[str | dict[str, Any
     Returns:
         ``(plant, name)``: the preset name or plant dict (a machine file's content, so that
         what ran is recorded whole), and the name reports and run folders use (the file's
-        ``name``, else its stem; a dict's ``name``, else its ``preset``).
+        ``name``, else its stem; a dict's ``name``, else its ``preset``; characters other than
+        letters, digits and ``_.+-`` become ``_``).
     """
     if is_machine_file(plant):
         data = read_machine(plant)  # type: ignore[arg-type]
-        return data, str(data.get("name") or Path(plant).stem)  # type: ignore[arg-type]
+        return data, _folder_safe(data.get("name") or Path(plant).stem)  # type: ignore[arg-type]
     if isinstance(plant, Mapping):
-        return dict(plant), str(plant.get("name") or plant.get("preset"))
-    return str(plant), str(plant)
+        return dict(plant), _folder_safe(plant.get("name") or plant.get("preset"))
+    return str(plant), _folder_safe(plant)
+
+
+def _folder_safe(name: object) -> str:
+    # a name that can end a run folder's name: no separators, no dots alone, no spaces
+    return re.sub(r"[^A-Za-z0-9_.+-]+", "_", str(name)).strip(".") or "machine"
 
 
 def write_machine(path: str | Path, plant: dict[str, Any], identified: Any = None) -> Path:

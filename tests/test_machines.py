@@ -73,3 +73,11 @@ def test_the_command_line_names_a_plant_that_is_neither(capsys) -> None:
     with pytest.raises(SystemExit):
         main(["simulate", "--plant", "my_mill", "--out", "never.png"])
     assert "'my_mill' is neither a preset" in capsys.readouterr().err
+
+
+def test_a_machine_name_is_safe_in_a_run_folders_name(tmp_path: Path) -> None:
+    from contour_gym.machines import plant_of
+
+    path = write_machine(tmp_path / "m.yaml", {**MINE, "name": "../shop floor/mill 2"})
+    assert plant_of(str(path))[1] == "_shop_floor_mill_2"
+    assert plant_of("xy_dc_servo") == ("xy_dc_servo", "xy_dc_servo")

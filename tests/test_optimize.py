@@ -91,3 +91,24 @@ def test_an_unreadable_program_is_named_and_nothing_written(tmp_path: Path, caps
                  "5um"]) == 2
     assert "bad.ngc: G-code line 2" in capsys.readouterr().err
     assert not (tmp_path / "bad_opt.ngc").exists()
+
+
+@pytest.mark.parametrize(("text", "kwargs", "said"), [
+    ("G21 G90\nG0 X10\nG0 Y10\n", {}, "the program cuts nothing"),
+    (PART, {"max_feed": float("nan")}, "max_feed must be finite and > 0 m/s"),
+    (PART, {"max_feed": -1.0}, "max_feed must be finite and > 0 m/s"),
+])
+def test_a_program_or_feed_it_cannot_use_is_named(text: str, kwargs: dict, said: str) -> None:
+    with pytest.raises(ValueError, match=said):
+        optimize_part(text, "xy_servo_coulomb", 5e-6, **kwargs)
+
+
+def test_the_part_itself_is_never_the_output(tmp_path: Path, capsys) -> None:
+    from agents.cli import main
+
+    part = tmp_path / "part.ngc"
+    part.write_text(PART)
+    assert main(["optimize", str(part), "--plant", "xy_servo_coulomb", "--tolerance", "5um",
+                 "--out", str(part)]) == 2
+    assert "is the part itself" in capsys.readouterr().err
+    assert part.read_text() == PART

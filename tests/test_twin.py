@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 from typing import Any
 
@@ -282,3 +283,12 @@ def test_the_twin_reads_its_encoders_and_keeps_the_like_files_changes(tmp_path: 
     assert [a.encoder_resolution for a in machine.stage.axes] == pytest.approx([1e-6, 1e-6])
     assert "x.encoder_resolution" in twin.fixed
     assert machine.axis_gains[0].kp == 7000.0  # the like file's gains, kept
+
+
+def test_a_machine_without_a_largest_feed_records_at_its_own_feeds() -> None:
+    from agents.twin.generate import excitation_feeds
+
+    preset = dataclasses.replace(resolve_preset("xy_dc_servo"), max_feedrate=math.inf)
+    assert excitation_feeds(preset) == (0.5 * preset.feedrate, preset.feedrate)
+    path = excitation(preset, np.random.default_rng(0), seconds=3.0)
+    assert np.all(np.isfinite(path.segment_feedrates))

@@ -79,9 +79,10 @@ def excitation_feeds(preset: Preset) -> tuple[float, float]:
 
     Half its feedrate and its feedrate, or a quarter and half of its largest feedrate where
     those are faster (chosen: a machine with a strong disturbance, 001's 2 N on a 4 kg axis,
-    shows its inertia only at accelerations its paper's slow feed does not reach).
+    shows its inertia only at accelerations its paper's slow feed does not reach); a machine
+    without a largest feed: half its feedrate and its feedrate.
     """
-    top = preset.max_feedrate or preset.feedrate
+    top = preset.max_feedrate if math.isfinite(preset.max_feedrate) else preset.feedrate
     return max(0.5 * preset.feedrate, 0.25 * top), max(preset.feedrate, 0.5 * top)
 
 
