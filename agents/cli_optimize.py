@@ -3,7 +3,9 @@
 Reads the program, searches its feeds on the machine (:func:`agents.optimize.optimize_part`),
 writes the new program beside it (or to ``--out``), and prints the cycle time and peak error
 before and after, the per-block table (line, old F, new F, peak error there) and, with
-``--diff``, the changed lines.
+``--diff``, the changed lines; the part drawn by its new feed and its error goes to
+``OUT_report.png``. With ``--robust N`` the feeds hold on N machines drawn around the given one,
+and the new program is then run on N fresh ones: how many it holds on is printed.
 """
 
 from __future__ import annotations
@@ -13,8 +15,13 @@ import difflib
 import re
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
-from agents.optimize import OptimizedPart, optimize_part
+import numpy as np
+
+from agents._files import save_figure
+from agents.optimize import OptimizedPart, optimize_part, peaks_on_machines, random_machines
+from agents.optimize_plot import part_figure
 from contour_gym.files import write_text
 from contour_gym.paths import GcodeError, feed_moves, from_gcode
 
@@ -53,6 +60,10 @@ def add_optimize_parser(sub: argparse._SubParsersAction, plant: Callable[[str], 
     opt.add_argument("--best-effort", action="store_true",
                      help="run blocks no feed holds at the slowest feed (and say so) instead "
                      "of refusing")
+    opt.add_argument("--robust", type=int, default=0, metavar="N",
+                     help="keep the tolerance on N machines drawn around this one as well (the "
+                     "envs' domain randomisation), then check it on N fresh ones")
+    opt.add_argument("--seed", type=int, default=0, help="seed of the --robust machines")
     opt.add_argument("--diff", action="store_true", help="print the changed lines")
 
 
@@ -76,32 +87,52 @@ def optimize_command(args: argparse.Namespace) -> int:
     max_feed = None if args.max_feed is None else args.max_feed * 1e-3 / 60.0
     try:
         before = feed_moves(from_gcode(text))
+        gains = None if args.no_ccc else "machine"
         result = optimize_part(text, args.plant, args.tolerance, max_feed=max_feed,
-                               best_effort=args.best_effort,
-                               ccc_gains=None if args.no_ccc else "machine")
+                               best_effort=args.best_effort, ccc_gains=gains,
+                               robust=args.robust, seed=args.seed)
     except GcodeError as exc:
         raise ValueError(f"{source}: {exc}") from None
     write_text(out, result.text)
     print(_tables(result, before), end="")
+    if args.robust:
+        print(_fresh_check(result.text, args, gains))
+    report = out.with_name(f"{out.stem}_report.png")
+    save_figure(part_figure(result, args.plant, gains), report)
     if args.diff:
         print("\n".join(_changed(text, result.text, source.name, out.name)))
-    print(f"program written to {out}")
+    print(f"program written to {out}, its plot to {report}")
     return 0
 
 
 def _tables(r: OptimizedPart, before: dict[int, float]) -> str:
     # the before/after table and the per-block table (Markdown)
-    lines = ["| | cycle time (s) | max |contour error| (um) |", "|---|---|---|"]
+    robust = "worst_machine_error" in r.after
+    lines = ["| | cycle time (s) | max |contour error| (um) |"
+             + (" on the worst machine (um) |" if robust else ""),
+             "|---|---|---|" + ("---|" if robust else "")]
     for label, run in (("given", r.before), ("optimised", r.after)):
+        worst = f" {run['worst_machine_error'] * 1e6:.3g} |" if robust else ""
         lines.append(f"| {label} | {run['cycle_time']:.3f} | "
-                     f"{run['max_contour_error'] * 1e6:.3g} |")
-    lines += ["", "| line | old F (mm/min) | new F (mm/min) | peak error there (um) |",
+                     f"{run['max_contour_error'] * 1e6:.3g} |{worst}")
+    where = "peak error there, worst machine (um)" if robust else "peak error there (um)"
+    lines += ["", f"| line | old F (mm/min) | new F (mm/min) | {where} |",
               "|---|---|---|---|"]
     for line, peak in r.block_peak.items():
         flag = " (too tight: slowest feed)" if line in r.too_tight else ""
         lines.append(f"| {line} | {before[line] * 6e4:.6g} | {r.feeds[line] * 6e4:.6g} | "
-                     f"{peak * 1e6:.3g}{flag} |")
+                     f"{peak * 1e6:.2f}{flag} |")
     return "\n".join(lines) + "\n"
+
+
+def _fresh_check(text: str, args: argparse.Namespace, gains: Any) -> str:
+    """The new program run on ``--robust`` machines it was not optimised on: what held."""
+    fresh = random_machines(args.plant, args.robust, args.seed + 1)
+    peaks = peaks_on_machines(text, args.plant, fresh, ccc_gains=gains)
+    held = int(np.sum(peaks <= args.tolerance))
+    return (f"on {len(fresh)} fresh machines (seed {args.seed + 1}): the tolerance holds on "
+            f"{held} of {len(fresh)}, peak errors {np.min(peaks) * 1e6:.3g}-"
+            f"{np.max(peaks) * 1e6:.3g} um")
 
 
 def _changed(old: str, new: str, old_name: str, new_name: str) -> list[str]:

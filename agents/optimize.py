@@ -30,7 +30,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from contour_gym._validate import seed_value
 from contour_gym.api import Scenario, make_scenario
+from contour_gym.envs.config import DEFAULT_RANDOMIZATION, draw_plant_scaling
 from contour_gym.loop import ServoLoop
 from contour_gym.paths import GcodePath, feed_moves, from_gcode, rewrite_feeds
 from contour_gym.presets import resolve_preset
@@ -42,6 +44,7 @@ REPAIRS = 12  # rounds of stepping violating blocks down before giving up
 STEP_DOWN = 0.85  # a violating block's feed is multiplied by this per repair round
 SLOWEST = 0.25  # the slowest feed tried, as a fraction of the program's slowest feed
 OVERRIDE_STEP = 0.05  # constant overrides tried for the start, this far apart
+MEMBERS = 64  # members of one loop at most (each recorded whole: the memory it takes)
 MAX_OVERRIDES = 200  # ... or this many, evenly, up to the one that makes every feed the largest
 
 
@@ -70,7 +73,8 @@ class OptimizedPart:
 
 def optimize_part(
     text: str, plant: Any, tolerance: float, *, max_feed: float | None = None,
-    best_effort: bool = False, ccc_gains: Any = "machine", **read: Any,
+    best_effort: bool = False, ccc_gains: Any = "machine", robust: int = 0, seed: int = 0,
+    **read: Any,
 ) -> OptimizedPart:
     """New F words for ``text`` on ``plant``: the shortest cycle within ``tolerance``.
 
@@ -82,6 +86,9 @@ def optimize_part(
         best_effort: Where the tolerance cannot be held even at the slowest feed, run those
             blocks at it and say so (else refuse).
         ccc_gains: The CCC ("machine": the machine's own PID CCC gains; None: no CCC).
+        robust: Keep the tolerance on this many machines drawn besides (the env's domain
+            randomisation, :func:`random_machines`), not on the machine alone.
+        seed: Seed of those machines' draw.
         **read: :func:`~contour_gym.paths.from_gcode`'s options for this program.
 
     Returns:
@@ -93,7 +100,8 @@ def optimize_part(
     """
     if not (math.isfinite(tolerance) and tolerance > 0.0):
         raise ValueError(f"tolerance must be positive and finite, got {tolerance!r}")
-    search = _Search(text, plant, tolerance, max_feed, ccc_gains, read)
+    search = _Search(text, plant, tolerance, max_feed, ccc_gains, read,
+                     random_machines(plant, robust, seed))
     start = search.best_override()  # the whole program holds at these feeds (or all 0)
     final = search.repair(search.run(start), start)
     if final.too_tight and not best_effort:
@@ -102,6 +110,74 @@ def optimize_part(
                          f"{', '.join(map(str, final.too_tight))}; give --best-effort to run "
                          "them there anyway")
     return final
+
+
+def random_machines(plant: Any, n: int, seed: int) -> list[dict[str, Array]]:
+    """``n`` machines around ``plant`` drawn as the envs' domain randomisation draws them.
+
+    Each is the factors of :meth:`~contour_gym.loop.ServoLoop.set_plant_scaling`
+    (:data:`~contour_gym.envs.config.DEFAULT_RANDOMIZATION`: mass, damping and force
+    constant within 10 %, friction 0.5-1.5 times, disturbance 0-2 times).
+    """
+    if isinstance(n, bool) or not isinstance(n, int) or n < 0:
+        raise ValueError(f"robust must be a whole number of machines >= 0, got {n!r}")
+    rng = np.random.default_rng(seed_value(seed))
+    axes = resolve_preset(plant).stage.n_axes
+    return [draw_plant_scaling(DEFAULT_RANDOMIZATION, axes, rng) for _ in range(n)]
+
+
+def peaks_on_machines(text: str, plant: Any, machines: list[dict[str, Array]],
+                      ccc_gains: Any = "machine", **read: Any) -> Array:
+    """The peak true contour error of ``text`` run as written on each of ``machines``, m.
+
+    ``inf`` where a machine did not finish. The check of a program optimised with
+    ``robust`` on machines it was not tuned on (a fresh :func:`random_machines` draw).
+    """
+    scenario = make_scenario(plant, from_gcode(text, **read))
+    gains = resolve_preset(plant).ccc_gains if ccc_gains == "machine" else ccc_gains
+    loop = _machine_loop(scenario, [scenario.path], machines, gains,  # type: ignore[list-item]
+                         record=False)
+    error = np.asarray(loop.run()["max_contour_error"], dtype=float)
+    return np.where(loop.done, error, math.inf)[1:]
+
+
+def counted_ticks(path: GcodePath, trace: Any, b: int, contour: Any) -> tuple[Array, Any]:
+    """Member ``b``'s recorded |contour error| per tick and the cutting segment it counts for.
+
+    A tick counts as the loop's metrics count it: its machine's foot point and its reference
+    on cutting segments (a segment ending where the foot stands is its own: a rapid's
+    arrival cuts nothing); the segment is the foot's, -1 for a tick that does not count.
+    """
+    rows = np.isfinite(trace.s[b]) & np.all(np.isfinite(trace.x[b]), axis=1)
+    offset = np.asarray(contour.offset or np.zeros(len(contour.axes)))
+    foot, _ = path.track(trace.x[b][rows][:, list(contour.axes)] - offset, trace.s[b][rows])
+    cutting = np.asarray(path.cutting)
+    seg, ref = _segment(path, foot), _segment(path, trace.s[b][rows])
+    seg = np.where(cutting[seg] & cutting[ref], seg, -1)
+    return np.abs(trace.eps[b][rows]).max(axis=1), seg
+
+
+def _segment(path: GcodePath, s: Array) -> NDArray[np.intp]:
+    """The segment an arc length lies on; at a segment's start, the one ending there."""
+    seg = np.searchsorted(path.table.s0, s, side="left") - 1
+    return np.clip(seg, 0, path.table.n_segments - 1)
+
+
+def _machine_loop(scenario: Scenario, paths: list[GcodePath], machines: list[dict[str, Array]],
+                  gains: Any, record: bool) -> ServoLoop:
+    """A reset loop running each program on the scenario's machine and each of ``machines``.
+
+    ``machines`` are scale factors; member ``m * len(paths) + b`` runs program ``b`` on
+    machine ``m``, machine 0 the scenario's own.
+    """
+    n = len(paths)
+    loop: ServoLoop = scenario.loop(batch_size=n * (1 + len(machines)), ccc_gains=gains,
+                                    record=record)
+    loop.set_paths(paths * (1 + len(machines)))
+    for k, factors in enumerate(machines, start=1):
+        loop.set_plant_scaling(np.arange(k * n, (k + 1) * n), **factors)
+    loop.reset(0)
+    return loop
 
 
 def _by_highest_feed(paths: list[GcodePath]) -> list[list[int]]:
@@ -117,8 +193,10 @@ class _Search:
     """One program on one machine: its blocks, runs of many feed sets at once, the search."""
 
     def __init__(self, text: str, plant: Any, tolerance: float, max_feed: float | None,
-                 ccc_gains: Any, read: Mapping[str, Any]) -> None:
+                 ccc_gains: Any, read: Mapping[str, Any], machines: list[dict[str, Array]]
+                 ) -> None:
         self.tolerance = tolerance
+        self.machines = machines
         self.plant = plant
         self.text = text
         self.read = dict(read)
@@ -192,38 +270,41 @@ class _Search:
     def _simulate_group(self, paths: list[GcodePath], scenario: Scenario | None
                         ) -> tuple[list[dict[str, float]], Array]:
         own = scenario or make_scenario(self.scenario.preset, paths[0])
-        loop: ServoLoop = own.loop(batch_size=len(paths), ccc_gains=self.gains, record=True)
-        loop.set_paths(paths)
-        loop.reset(0)
+        per = max(1, MEMBERS // (1 + len(self.machines)))  # programs per loop
+        out: list[dict[str, float]] = []
+        peaks = []
+        for first in range(0, len(paths), per):
+            results, found = self._run_members(paths[first:first + per], own)
+            out += results
+            peaks.append(found)
+        return out, np.concatenate(peaks)
+
+    def _run_members(self, paths: list[GcodePath], scenario: Scenario
+                     ) -> tuple[list[dict[str, float]], Array]:
+        """The programs' metrics on the machine and their per-block peaks on all machines."""
+        loop = _machine_loop(scenario, paths, self.machines, self.gains, record=True)
         metrics = loop.run()
         trace = loop.trace()
-        peaks = np.zeros((len(paths), len(self.lines)))
-        contour = self.scenario.preset.stage.contours[0]
-        offset = np.asarray(contour.offset or np.zeros(len(contour.axes)))
-        cutting = np.where(np.asarray(self.path.cutting), self.block_of, -1)
-        for b, path in enumerate(paths):
-            rows = np.isfinite(trace.s[b]) & np.all(np.isfinite(trace.x[b]), axis=1)
-            # each tick's error goes to the block of the machine's foot point, counted as the
-            # loop's metrics count it: foot and reference on cutting segments (one that ends
-            # where it stands counts as its own: a rapid's arrival cuts nothing)
-            foot, _ = path.track(trace.x[b][rows][:, list(contour.axes)] - offset,
-                                 trace.s[b][rows])
-            block = cutting[self._segment(path, foot)]
-            block[cutting[self._segment(path, trace.s[b][rows])] < 0] = -1
-            error = np.abs(trace.eps[b][rows]).max(axis=1)
-            on = block >= 0
-            np.maximum.at(peaks[b], block[on], error[on])
-        failed = ~loop.done
+        m, n = 1 + len(self.machines), len(paths)
+        peaks = np.stack([self._block_peaks(paths[b % n], trace, b) for b in range(m * n)])
+        peaks = peaks.reshape(m, n, -1).max(axis=0)
+        done = np.asarray(loop.done, dtype=bool).reshape(m, n)
+        failed = np.logical_not(np.all(done, axis=0))
+        worst = np.asarray(metrics["max_contour_error"]).reshape(m, n).max(axis=0)
         out = [{"cycle_time": float(metrics["cycle_time"][b]) if not failed[b] else math.inf,
-                "max_contour_error": float(metrics["max_contour_error"][b])}
-               for b in range(len(paths))]
+                "max_contour_error": float(metrics["max_contour_error"][b]),
+                **({"worst_machine_error": float(worst[b])} if self.machines else {})}
+               for b in range(n)]
         peaks[failed] = math.inf
         return out, peaks
 
-    def _segment(self, path: GcodePath, s: Array) -> NDArray[np.intp]:
-        # the segment an arc length lies on; at a segment's start, the one ending there
-        seg = np.searchsorted(path.table.s0, s, side="left") - 1
-        return np.clip(seg, 0, len(self.block_of) - 1)
+    def _block_peaks(self, path: GcodePath, trace: Any, b: int) -> Array:
+        """Member ``b``'s peak |contour error| per block (``len(self.lines)``)."""
+        error, seg = counted_ticks(path, trace, b, self.scenario.preset.stage.contours[0])
+        on = seg >= 0
+        peaks = np.zeros(len(self.lines))
+        np.maximum.at(peaks, self.block_of[seg[on]], error[on])
+        return peaks
 
     def run(self, start: Array) -> Array:
         """The known-good feed of every block after the search's rounds, from ``start``."""
@@ -236,7 +317,7 @@ class _Search:
         high = np.full(n, self.fastest)
         levels = np.arange(1, LEVELS + 1) / LEVELS
         for _ in range(ROUNDS):
-            feeds = low + levels[:, None] * (high - low)  # (levels, blocks)
+            feeds = np.minimum(low + levels[:, None] * (high - low), high)  # (levels, blocks)
             _, peaks = self.simulate([self.with_blocks(f) for f in feeds])
             # a block judged by its own peak: its effect on the block after it is the
             # repair's (with every block at one level, a tight block would hold back the one
@@ -266,9 +347,9 @@ class _Search:
         held = []
         for q, row in enumerate(feeds):  # each its own highest feed: a loop each
             path = self.with_blocks(row)
-            loop = make_scenario(self.scenario.preset, path).loop(ccc_gains=self.gains)
-            loop.reset(0)
-            if loop.run()["max_contour_error"][0] <= self.tolerance and loop.done[0]:
+            loop = _machine_loop(make_scenario(self.scenario.preset, path), [path], self.machines,
+                                 self.gains, record=False)
+            if np.all(loop.run()["max_contour_error"] <= self.tolerance) and loop.done.all():
                 held.append(q)
         return feeds[held[-1]] if held else np.zeros(len(self.lines))
 
@@ -305,7 +386,7 @@ class _Search:
     def written(self, feeds: Array) -> OptimizedPart:
         """``feeds`` written into the program, read back and run as written."""
         text = rewrite_feeds(self.text, dict(zip(self.lines, feeds.tolist(), strict=True)),
-                             **self.read)
+                             ceiling=self.fastest, **self.read)
         final = from_gcode(text, **self.read)
         after, peaks = self.run_as_written(final)
         return OptimizedPart(
@@ -314,4 +395,5 @@ class _Search:
             too_tight=tuple(self.lines[i] for i in np.flatnonzero(peaks > self.tolerance)))
 
 
-__all__ = ["LEVELS", "OVERRIDE_STEP", "ROUNDS", "OptimizedPart", "optimize_part"]
+__all__ = ["LEVELS", "OVERRIDE_STEP", "ROUNDS", "OptimizedPart", "optimize_part",
+           "peaks_on_machines", "random_machines"]

@@ -69,6 +69,17 @@ def test_a_bad_request_is_named(feeds: dict[int, float], said: str) -> None:
         rewrite_feeds(PROGRAM, feeds)
 
 
+def test_a_feed_never_rounds_past_the_ceiling() -> None:
+    text = "G21 G90\nG1 X10 F1000\nG1 X20\n"
+    # 1999.6 mm/min rounds to 2000 at 0 decimals: past a ceiling of 1999.7 it rounds down
+    top = 1999.7e-3 / 60.0
+    out = rewrite_feeds(text, {3: 1999.6e-3 / 60.0}, ceiling=top)
+    assert out.splitlines()[2] == "G1 X20 F1999"
+    assert rewrite_feeds(text, {3: 1999.6e-3 / 60.0}).splitlines()[2] == "G1 X20 F2000"
+    # a wanted feed above the ceiling is written at it, rounded down
+    assert rewrite_feeds(text, {3: 0.1}, ceiling=top).splitlines()[2] == "G1 X20 F1999"
+
+
 def test_an_unreadable_program_gets_the_readers_error() -> None:
     with pytest.raises(GcodeError, match="G-code line 2"):
         rewrite_feeds("G1 X1 F100\nG93 X2\n", {1: 0.01})

@@ -5,9 +5,10 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from agents.optimize import optimize_part
+from agents.optimize import optimize_part, peaks_on_machines, random_machines
 from contour_gym import simulate
 from contour_gym.paths import from_gcode
 
@@ -66,6 +67,43 @@ def test_the_command_writes_the_program_and_its_tables(tmp_path: Path, capsys) -
     assert _without_f(written) == _without_f(PART)
     feeds = [float(f) for f in re.findall(r"F([\d.]+)", written)]
     assert max(feeds) <= 3000  # --max-feed, mm/min
+    assert (tmp_path / "part_opt_report.png").stat().st_size > 10_000  # the part drawn
+
+
+def test_robust_feeds_hold_on_every_machine_they_were_searched_on() -> None:
+    machines = random_machines("xy_servo_coulomb", 3, seed=4)
+    result = optimize_part(PART, "xy_servo_coulomb", 5e-6, robust=3, seed=4)
+    peaks = peaks_on_machines(result.text, "xy_servo_coulomb", machines)
+    assert peaks.shape == (3,) and np.all(peaks <= 5e-6)
+    assert result.after["worst_machine_error"] == pytest.approx(
+        max(peaks.max(), result.after["max_contour_error"]))
+    # the machines differ (mass within 10 %, friction 0.5-1.5x, disturbance 0-2x) and come
+    # again from the seed
+    assert len({float(m["friction"][0]) for m in machines}) == 3
+    again = random_machines("xy_servo_coulomb", 3, seed=4)
+    assert all(np.array_equal(a[k], b[k]) for a, b in zip(machines, again, strict=True)
+               for k in a)
+    # the robust program is no faster than the one for the machine alone
+    alone = optimize_part(PART, "xy_servo_coulomb", 5e-6)
+    assert result.after["cycle_time"] >= alone.after["cycle_time"] * (1 - 1e-3)
+
+
+@pytest.mark.parametrize("n", [-1, 1.5, True])
+def test_a_bad_number_of_robust_machines_is_named(n: object) -> None:
+    with pytest.raises(ValueError, match="robust must be a whole number of machines"):
+        random_machines("xy_servo_coulomb", n, seed=0)  # type: ignore[arg-type]
+
+
+def test_the_command_checks_robust_feeds_on_fresh_machines(tmp_path: Path, capsys) -> None:
+    from agents.cli import main
+
+    part = tmp_path / "part.ngc"
+    part.write_text(PART)
+    assert main(["optimize", str(part), "--plant", "xy_servo_coulomb", "--tolerance", "5um",
+                 "--robust", "2", "--seed", "3"]) == 0
+    said = capsys.readouterr().out
+    assert "on the worst machine (um)" in said
+    assert re.search(r"on 2 fresh machines \(seed 4\): the tolerance holds on [0-2] of 2", said)
 
 
 @pytest.mark.parametrize(("argv", "said"), [

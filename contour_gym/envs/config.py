@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from contour_gym._envstate import OBSERVATIONS
 from contour_gym._validate import as_finite_array, choice, finite, non_negative, positive
@@ -39,6 +40,22 @@ DEFAULT_RANDOMIZATION: dict[str, Any] = {
     "disturbance": (0.0, 2.0),
 }
 HARD_LIMIT_TOLERANCES = 100.0  # default hard limit, in tolerances
+
+
+def draw_plant_scaling(ranges: dict[str, Any], n_axes: int, rng: np.random.Generator
+                       ) -> dict[str, NDArray[np.float64]]:
+    """One machine drawn from randomisation ``ranges``: ``set_plant_scaling``'s factors.
+
+    Mass, damping and force constant are each scaled by ``1 + U(-r, r)`` per axis, friction
+    and disturbance by ``U(low, high)`` (:data:`DEFAULT_RANDOMIZATION`'s keys), drawn from
+    ``rng`` in that order.
+    """
+    shape = (n_axes,)
+    factors = {k: 1.0 + rng.uniform(-ranges[k], ranges[k], shape)
+               for k in ("mass", "damping", "force_constant")}
+    for k in ("friction", "disturbance"):
+        factors[k] = rng.uniform(ranges[k][0], ranges[k][1], shape)
+    return factors
 
 
 @dataclass(frozen=True)

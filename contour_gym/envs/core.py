@@ -26,7 +26,7 @@ from contour_gym._envstate import EC, ENV_CONFIG, ENV_FLOATS, OBS_LIMIT, OBSERVA
 from contour_gym._validate import seed_value
 from contour_gym.api import Scenario
 from contour_gym.envs._paths import reset_draws
-from contour_gym.envs.config import EnvConfig
+from contour_gym.envs.config import EnvConfig, draw_plant_scaling
 from contour_gym.jit import Family, precompile, tiers
 from contour_gym.jit.stack import on_reserved_stack
 from contour_gym.loop import REASON_HARD_LIMIT
@@ -384,16 +384,8 @@ class ContourTask:
 
     def _randomize(self, b: int, rng: np.random.Generator) -> None:
         ranges = self.config.randomization()
-        if ranges is None:
-            return
-        shape = (self.n_axes,)
-        factors = {
-            k: 1.0 + rng.uniform(-ranges[k], ranges[k], shape)
-            for k in ("mass", "damping", "force_constant")
-        }
-        for k in ("friction", "disturbance"):
-            factors[k] = rng.uniform(ranges[k][0], ranges[k][1], shape)
-        self.loop.set_plant_scaling([b], **factors)
+        if ranges is not None:
+            self.loop.set_plant_scaling([b], **draw_plant_scaling(ranges, self.n_axes, rng))
 
     # ------------------------------------------------------------------ step
     def step(

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from contour_gym._validate import positive
 from contour_gym.paths._gcode import from_gcode
 from contour_gym.paths._gcode_state import _UNIT
 from contour_gym.paths._gcode_words import GcodeError
@@ -34,7 +35,8 @@ def feed_moves(path: Any) -> dict[int, float]:
     return {int(line): float(rate) for line, rate in zip(lines, rates, strict=True)}
 
 
-def rewrite_feeds(text: str, feeds: Mapping[int, float], **read: Any) -> str:
+def rewrite_feeds(text: str, feeds: Mapping[int, float], *, ceiling: float | None = None,
+                  **read: Any) -> str:
     """The program ``text`` with the feed moves of ``feeds`` at their new feedrates.
 
     Args:
@@ -42,6 +44,8 @@ def rewrite_feeds(text: str, feeds: Mapping[int, float], **read: Any) -> str:
         feeds: ``{line: feedrate}``, m/s, for feed moves (1-based text lines); the other feed
             moves keep their feeds. Written in the program's unit per minute with the most
             decimals its F words have.
+        ceiling: The largest feed to write, m/s (a machine's maximum): a feed that would
+            round above it is written rounded down (None: every feed rounded to nearest).
         **read: :func:`~contour_gym.paths.from_gcode`'s options for this program (work
             offsets, tool lengths, ...).
 
@@ -61,7 +65,8 @@ def rewrite_feeds(text: str, feeds: Mapping[int, float], **read: Any) -> str:
         if not (math.isfinite(rate) and rate > 0.0):
             raise ValueError(f"G-code line {line}: feedrate must be positive and finite, got "
                              f"{rate!r}")
-    wanted = {**before, **feeds}
+    top = math.inf if ceiling is None else positive(ceiling, "ceiling")
+    wanted = {**before, **{line: min(rate, top) for line, rate in feeds.items()}}
     decimals = _decimals(text)
     lines = text.splitlines(keepends=True)
     unit, modal = _UNIT[21], math.nan  # the reader's defaults: mm, no feed yet
@@ -75,7 +80,7 @@ def rewrite_feeds(text: str, feeds: Mapping[int, float], **read: Any) -> str:
             if words:
                 modal = float(words[-1].group(1)) * unit / 60.0
             continue
-        written = _format(wanted[i + 1] * 60.0 / unit, decimals, i + 1)
+        written = _format(wanted[i + 1] * 60.0 / unit, decimals, i + 1, top * 60.0 / unit)
         lines[i] = _with_f(raw, code, words, written, modal, unit)
         modal = float(written) * unit / 60.0
     out = "".join(lines)
@@ -118,8 +123,10 @@ def _decimals(text: str) -> int:
     return max(places, default=0)
 
 
-def _format(value: float, decimals: int, line: int) -> str:
+def _format(value: float, decimals: int, line: int, top: float) -> str:
     written = f"{value:.{decimals}f}"
+    if float(written) > top:  # rounded past the ceiling: down instead
+        written = f"{math.floor(min(value, top) * 10.0**decimals) / 10.0**decimals:.{decimals}f}"
     if float(written) <= 0.0:
         raise ValueError(f"G-code line {line}: a feed of {value:.6g} per minute rounds to "
                          f"{written} at the program's {decimals} decimals")
@@ -130,7 +137,7 @@ def _check(text: str, wanted: Mapping[int, float], decimals: int, read: Mapping[
            ) -> None:
     """Read ``text`` back: every feed move at its wanted feed, to the written decimals."""
     got = feed_moves(from_gcode(text, **read))
-    step = 0.5 * 10.0**-decimals * _UNIT[20] / 60.0  # the coarsest rounding (inch per min)
+    step = 10.0**-decimals * _UNIT[20] / 60.0  # the coarsest rounding (down, inch per min)
     for line, rate in wanted.items():
         if line not in got or abs(got[line] - rate) > step + 1e-12 * rate:
             raise GcodeError(line, "F", f"the rewritten program runs line {line} at "
