@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from agents._files import save_figure
-from agents.optimize import OptimizedPart, optimize_part, peaks_on_machines, random_machines
+from agents.optimize import SPREAD, OptimizedPart, optimize_part, peaks_on_machines, random_machines
 from agents.optimize_plot import part_figure
 from contour_gym.files import write_text
 from contour_gym.paths import GcodeError, feed_moves, from_gcode
@@ -115,7 +115,8 @@ def _tables(r: OptimizedPart, before: dict[int, float]) -> str:
         worst = f" {run['worst_machine_error'] * 1e6:.3g} |" if robust else ""
         lines.append(f"| {label} | {run['cycle_time']:.3f} | "
                      f"{run['max_contour_error'] * 1e6:.3g} |{worst}")
-    where = "peak error there, worst machine (um)" if robust else "peak error there (um)"
+    where = (f"peak error there, worst machine + {SPREAD:g} sd (um)" if robust
+             else "peak error there (um)")
     lines += ["", f"| line | old F (mm/min) | new F (mm/min) | {where} |",
               "|---|---|---|---|"]
     for line, peak in r.block_peak.items():

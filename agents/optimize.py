@@ -11,13 +11,26 @@ level at which its own peak error (the ticks whose foot point is on it, as the l
 count them) held the tolerance. After :data:`ROUNDS` rounds the known-good feeds are written
 into the program, read back and run; where that combination breaks the tolerance (a fast block
 carrying its speed into a tight one), the blocks there and the ones before them step down
-until it holds. The result is written with :func:`contour_gym.paths.rewrite_feeds`, read back
-and run again (its own F words, no override): what :class:`OptimizedPart` reports is that run.
+until it holds. Then a polish raises single blocks (coordinate ascent, many blocks far apart
+raised in each member of a round, each raise judged by its neighbourhood's peaks and the kept
+ones checked on the whole program) while the program still holds. The result is written with
+:func:`contour_gym.paths.rewrite_feeds`, read back and run again (its own F words, no
+override): what :class:`OptimizedPart` reports is that run.
 
 Before the rounds, constant overrides of the program's own feeds (every :data:`OVERRIDE_STEP`)
-run, each as written;
-the fastest that holds the tolerance everywhere is where every block's known-good feed starts
-(so the result is never slower than the best constant override on that grid).
+and the curvature limit at several centripetal accelerations and caps run, each written as F
+words; the fastest that holds the tolerance everywhere is where every block's known-good feed
+starts (so the result is never slower than the best of those). ``method="bisection"`` halves
+each block's bracket instead, one member a round (:data:`METHODS`).
+
+Only the feed moves the machine runs get new feeds: a Z-only plunge on an X-Y machine (a wait
+timed by its own feed) keeps its F, the tool's plunge feed.
+
+With ``robust=N`` every candidate runs on the machine and on N machines drawn around it
+(:func:`random_machines`, the envs' domain randomisation) as members of the same loop, and a
+block's peak is its worst over them plus :data:`SPREAD` standard deviations: the program then
+holds on machines the model only approximates. :func:`peaks_on_machines` checks a program on
+others.
 """
 
 from __future__ import annotations
@@ -30,22 +43,39 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from contour_gym._validate import seed_value
 from contour_gym.api import Scenario, make_scenario
 from contour_gym.envs.config import DEFAULT_RANDOMIZATION, draw_plant_scaling
 from contour_gym.loop import ServoLoop
-from contour_gym.paths import GcodePath, feed_moves, from_gcode, rewrite_feeds
+from contour_gym.motion import segment_max_curvature
+from contour_gym.params import choice, seed_value
+from contour_gym.paths import GcodePath, feed_grid, feed_moves, from_gcode, rewrite_feeds
 from contour_gym.presets import resolve_preset
 
 Array = NDArray[np.float64]
 LEVELS = 8  # members per round: feeds tried per block at once
 ROUNDS = 4  # rounds of the search (the bracket narrows LEVELS + 1 times a round)
+# the searches: (fractions of each block's bracket tried at once, rounds)
+METHODS: dict[str, tuple[tuple[float, ...], int]] = {
+    "levels": (tuple(k / LEVELS for k in range(1, LEVELS + 1)), ROUNDS),  # the default
+    "bisection": ((0.5,), 12),  # one member a round: the bracket halves 12 times
+}
 REPAIRS = 12  # rounds of stepping violating blocks down before giving up
 STEP_DOWN = 0.85  # a violating block's feed is multiplied by this per repair round
 SLOWEST = 0.25  # the slowest feed tried, as a fraction of the program's slowest feed
 OVERRIDE_STEP = 0.05  # constant overrides tried for the start, this far apart
-MEMBERS = 64  # members of one loop at most (each recorded whole: the memory it takes)
 MAX_OVERRIDES = 200  # ... or this many, evenly, up to the one that makes every feed the largest
+CURVATURE_ACCELS = (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0)  # start a_c, m/s^2
+CURVATURE_CAPS = (0.25, 0.5, 0.75, 1.0)  # ... and its caps, of the largest feed
+MEMBERS = 64  # members of one loop at most (each recorded whole: the memory it takes)
+POLISH = (2.0, 1.5, 1.25, 1.1)  # the factors single blocks are raised by, in turn
+POLISH_BLOCKS = 200  # programs of more feed moves skip the polish: its rounds run the whole
+# program once per member, recorded (a 1000-block part would pass the 2-minute budget)
+GROUPS = 8  # members of a polish round: block j is raised in member j % GROUPS
+REACH = 2  # blocks either side of a raised one whose peaks judge the raise
+SPREAD = 1.0  # robust: a block's peak counts as its worst over the machines plus this many
+# standard deviations of its peaks over them (a program at the edge on every block of N drawn
+# machines breaks on a fresh one as often as one block of many is past the sample's worst)
+VERIFY = 3  # runs of the whole program a polish round may take to find its raises hold
 
 
 @dataclass(frozen=True)
@@ -56,10 +86,13 @@ class OptimizedPart:
         text: The new program (only F words differ from the one given).
         feeds: Feed move line -> its new feedrate, m/s (as written: the program's decimals).
         before: The given program's run: ``cycle_time`` (s), ``max_contour_error`` (m).
-        after: The new program's run, read back from ``text``, the same keys.
+        after: The new program's run, read back from ``text``, the same keys (and with
+            ``robust`` machines ``worst_machine_error``, m: the largest peak over them).
         block_peak: Feed move line -> the peak true contour error of the new run there, m
             (ticks whose foot and reference are on that block; at a stop a tick may count
-            for two blocks, so their largest is at least the run's ``max_contour_error``).
+            for two blocks, so their largest is at least the run's ``max_contour_error``;
+            with ``robust`` machines, the worst over them plus :data:`SPREAD` standard
+            deviations).
         too_tight: Lines the tolerance cannot be held on even at the slowest feed.
     """
 
@@ -74,7 +107,7 @@ class OptimizedPart:
 def optimize_part(
     text: str, plant: Any, tolerance: float, *, max_feed: float | None = None,
     best_effort: bool = False, ccc_gains: Any = "machine", robust: int = 0, seed: int = 0,
-    **read: Any,
+    method: str = "levels", **read: Any,
 ) -> OptimizedPart:
     """New F words for ``text`` on ``plant``: the shortest cycle within ``tolerance``.
 
@@ -87,8 +120,11 @@ def optimize_part(
             blocks at it and say so (else refuse).
         ccc_gains: The CCC ("machine": the machine's own PID CCC gains; None: no CCC).
         robust: Keep the tolerance on this many machines drawn besides (the env's domain
-            randomisation, :func:`random_machines`), not on the machine alone.
+            randomisation, :func:`random_machines`), not on the machine alone: each block's
+            worst peak over them plus :data:`SPREAD` standard deviations of its peaks.
         seed: Seed of those machines' draw.
+        method: The search (:data:`METHODS`): ``"levels"`` (default: :data:`LEVELS` feeds
+            per block at once, :data:`ROUNDS` rounds) or ``"bisection"`` (one, 12 rounds).
         **read: :func:`~contour_gym.paths.from_gcode`'s options for this program.
 
     Returns:
@@ -100,13 +136,15 @@ def optimize_part(
     """
     if not (math.isfinite(tolerance) and tolerance > 0.0):
         raise ValueError(f"tolerance must be positive and finite, got {tolerance!r}")
+    choice(method, "method", tuple(METHODS))
     search = _Search(text, plant, tolerance, max_feed, ccc_gains, read,
                      random_machines(plant, robust, seed))
-    start = search.best_override()  # the whole program holds at these feeds (or all 0)
-    final = search.repair(search.run(start), start)
+    start = search.best_start()  # the whole program holds at these feeds (or all 0)
+    final = search.polished(search.repair(search.run(start, method), start))
     if final.too_tight and not best_effort:
-        raise ValueError(f"the tolerance of {tolerance * 1e6:g} um cannot be held at the slowest "
-                         f"feed ({search.slowest * 6e4:.4g} mm/min) on G-code lines "
+        where = f" on {robust} machines more (worst + {SPREAD:g} sd)" if robust else ""
+        raise ValueError(f"the tolerance of {tolerance * 1e6:g} um cannot be held{where} at the "
+                         f"slowest feed ({search.slowest * 6e4:.4g} mm/min) on G-code lines "
                          f"{', '.join(map(str, final.too_tight))}; give --best-effort to run "
                          "them there anyway")
     return final
@@ -161,6 +199,17 @@ def _segment(path: GcodePath, s: Array) -> NDArray[np.intp]:
     """The segment an arc length lies on; at a segment's start, the one ending there."""
     seg = np.searchsorted(path.table.s0, s, side="left") - 1
     return np.clip(seg, 0, path.table.n_segments - 1)
+
+
+def _worst(peaks: Any) -> Any:
+    """Peaks over machines (axis 0) as the search counts them.
+
+    The worst plus :data:`SPREAD` standard deviations; the one machine's own where there is one.
+    """
+    peaks = np.asarray(peaks, dtype=float)
+    if len(peaks) == 1:
+        return peaks[0]
+    return peaks.max(axis=0) + SPREAD * peaks.std(axis=0)
 
 
 def _machine_loop(scenario: Scenario, paths: list[GcodePath], machines: list[dict[str, Array]],
@@ -226,6 +275,8 @@ class _Search:
         self.before, self.given_peaks = results, peaks
         own = feed_moves(given)
         self.given_feeds = np.array([own[line] for line in self.lines])
+        units, decimals = feed_grid(text)  # candidates run as they will be written
+        self.grid = 60.0 / np.array([units[line - 1] for line in self.lines]) * 10.0**decimals
         # candidates are made on the program as read and mapped onto the machine each time: a
         # 3-D program's Z-only moves become waits on an X-Y machine, timed by their own feeds
         index = {line: i for i, line in enumerate(self.lines)}
@@ -243,7 +294,12 @@ class _Search:
         return results[0], peaks[0]
 
     def with_blocks(self, feeds: Array) -> GcodePath:
-        """The program with block ``i`` at ``feeds[i]`` (m/s), mapped onto the machine."""
+        """The program with block ``i`` at ``feeds[i]`` (m/s), mapped onto the machine.
+
+        Each feed as it will be written: rounded down to the program's decimals in its unit
+        per minute (:func:`~contour_gym.paths.feed_grid`), never past the largest feed.
+        """
+        feeds = np.floor(np.minimum(feeds, self.fastest) * self.grid * (1.0 + 1e-12)) / self.grid
         block = self.source_block
         own = np.asarray(self.source.segment_feedrates)
         variant = self.source.with_feedrates(
@@ -287,7 +343,7 @@ class _Search:
         trace = loop.trace()
         m, n = 1 + len(self.machines), len(paths)
         peaks = np.stack([self._block_peaks(paths[b % n], trace, b) for b in range(m * n)])
-        peaks = peaks.reshape(m, n, -1).max(axis=0)
+        peaks = _worst(peaks.reshape(m, n, -1))
         done = np.asarray(loop.done, dtype=bool).reshape(m, n)
         failed = np.logical_not(np.all(done, axis=0))
         worst = np.asarray(metrics["max_contour_error"]).reshape(m, n).max(axis=0)
@@ -306,8 +362,8 @@ class _Search:
         np.maximum.at(peaks, self.block_of[seg[on]], error[on])
         return peaks
 
-    def run(self, start: Array) -> Array:
-        """The known-good feed of every block after the search's rounds, from ``start``."""
+    def run(self, start: Array, method: str = "levels") -> Array:
+        """The known-good feed of every block after ``method``'s rounds, from ``start``."""
         n = len(self.lines)
         # known good to start from: the program's own feeds where its own run holds there, or
         # the fastest constant override that holds everywhere
@@ -315,8 +371,9 @@ class _Search:
                        np.minimum(self.given_feeds, self.fastest), self.slowest)
         low = np.maximum(low, start)
         high = np.full(n, self.fastest)
-        levels = np.arange(1, LEVELS + 1) / LEVELS
-        for _ in range(ROUNDS):
+        fractions, rounds = METHODS[method]
+        levels, last = np.asarray(fractions), len(fractions)
+        for _ in range(rounds):
             feeds = np.minimum(low + levels[:, None] * (high - low), high)  # (levels, blocks)
             _, peaks = self.simulate([self.with_blocks(f) for f in feeds])
             # a block judged by its own peak: its effect on the block after it is the
@@ -326,32 +383,47 @@ class _Search:
             # the highest level that held (the error is not monotonic in the feed: at a few
             # um the encoder's steps and the CCC make it rise and fall)
             held = ok.any(axis=0)
-            top = np.where(held, LEVELS - np.argmax(ok[::-1], axis=0), 0)
-            fails = top < LEVELS
+            top = np.where(held, last - np.argmax(ok[::-1], axis=0), 0)
+            fails = top < last
             new_low = np.where(top > 0, feeds[np.maximum(top - 1, 0), np.arange(n)], low)
-            high = np.where(fails, feeds[np.minimum(top, LEVELS - 1), np.arange(n)], high)
+            high = np.where(fails, feeds[np.minimum(top, last - 1), np.arange(n)], high)
             low = new_low
         return low
 
-    def best_override(self) -> Array:
-        """Every block's feed at the fastest constant override holding the tolerance (or 0).
+    def best_start(self) -> Array:
+        """Every block's feed in the fastest start candidate holding the tolerance (or 0).
 
-        The overrides are :data:`OVERRIDE_STEP` apart (at most :data:`MAX_OVERRIDES` of them)
-        up to the one that puts every block at the largest feed; each run keeps only its peak
-        (no record: little memory), in a loop of its own highest feed.
+        The candidates: constant overrides of the program's own feeds, :data:`OVERRIDE_STEP`
+        apart (at most :data:`MAX_OVERRIDES` of them) up to the one that puts every block at
+        the largest feed; and the curvature limit written as F words, every block at
+        ``min(cap * largest, sqrt(a_c / kappa))`` (``kappa`` its largest curvature) for each
+        ``a_c`` of :data:`CURVATURE_ACCELS` and ``cap`` of :data:`CURVATURE_CAPS`. Each runs as
+        written, keeping only its peak (no record: little memory), in a loop of its own
+        highest feed.
         """
         ceiling = self.fastest / float(self.given_feeds.min())
         step = max(OVERRIDE_STEP, ceiling / MAX_OVERRIDES)
         scales = np.arange(1, math.floor(ceiling / step) + 1) * step
-        feeds = np.minimum(scales[:, None] * self.given_feeds, self.fastest)
-        held = []
-        for q, row in enumerate(feeds):  # each its own highest feed: a loop each
+        overrides = np.minimum(scales[:, None] * self.given_feeds, self.fastest)
+        best, quickest = np.zeros(len(self.lines)), math.inf
+        for row in np.vstack([overrides, self._curvature_limits()]):
             path = self.with_blocks(row)
             loop = _machine_loop(make_scenario(self.scenario.preset, path), [path], self.machines,
                                  self.gains, record=False)
-            if np.all(loop.run()["max_contour_error"] <= self.tolerance) and loop.done.all():
-                held.append(q)
-        return feeds[held[-1]] if held else np.zeros(len(self.lines))
+            metrics = loop.run()
+            held = _worst(metrics["max_contour_error"]) <= self.tolerance and loop.done.all()
+            if held and metrics["cycle_time"][0] < quickest:
+                best, quickest = row, float(metrics["cycle_time"][0])
+        return best
+
+    def _curvature_limits(self) -> Array:
+        """The curvature limit's feeds per block, one row per (a_c, cap) of the grids."""
+        kappa = np.zeros(len(self.lines))
+        on = self.block_of >= 0
+        np.maximum.at(kappa, self.block_of[on], segment_max_curvature(self.path)[on])
+        rows = [np.minimum(cap * self.fastest, np.sqrt(a_c / np.maximum(kappa, 1e-300)))
+                for a_c in CURVATURE_ACCELS for cap in CURVATURE_CAPS]
+        return np.maximum(np.array(rows), self.slowest)
 
     def repair(self, feeds: Array, start: Array) -> OptimizedPart:
         """Write ``feeds`` into the program and run it as written, until it holds.
@@ -360,7 +432,7 @@ class _Search:
         ``start`` (the fastest constant override that held), then to the slowest feed, until
         the whole part holds. ``start`` as written is the result where it holds and is
         faster, or where the repair did not make the part hold in :data:`REPAIRS` rounds;
-        else the blocks that break it are ``too_tight``.
+        else the blocks that still break it run at the slowest feed and are ``too_tight``.
         """
         feeds, floor = feeds.copy(), np.maximum(start, self.slowest)
         for _ in range(REPAIRS):
@@ -381,12 +453,72 @@ class _Search:
             if not first.too_tight and (part.too_tight or first.after["cycle_time"]
                                         < part.after["cycle_time"]):
                 return first
+        bad = np.isin(self.lines, part.too_tight)
+        if np.any(feeds[bad] > self.slowest):  # what still breaks it: at the slowest feed
+            feeds[bad] = self.slowest
+            part = self.written(feeds)
         return part
+
+    def polished(self, part: OptimizedPart) -> OptimizedPart:
+        """``part`` with single blocks raised while the whole program holds (when faster).
+
+        Coordinate ascent, batch-first: for each factor of :data:`POLISH`, member ``g`` of a
+        round raises every block ``j`` with ``j % GROUPS == g`` (blocks far enough apart that
+        their neighbourhoods do not meet); a raise is kept where the peaks of the block and
+        :data:`REACH` blocks either side held, and the kept raises together are checked on
+        the whole program (:meth:`_held`). Rounds repeat while they raise something. A
+        program of more than :data:`POLISH_BLOCKS` feed moves is returned as it is.
+        """
+        if part.too_tight or len(self.lines) > POLISH_BLOCKS:
+            return part
+        feeds = np.array([part.feeds[line] for line in self.lines])
+        for factor in POLISH:
+            while True:
+                kept = self._raise_round(feeds, factor)
+                if np.array_equal(kept, feeds):
+                    break
+                feeds = kept
+        final = self.written(feeds)
+        faster = final.after["cycle_time"] < part.after["cycle_time"]
+        return final if faster and not final.too_tight else part
+
+    def _raise_round(self, feeds: Array, factor: float) -> Array:
+        """One polish round: every block that can be raised by ``factor``, tried and kept."""
+        n = len(feeds)
+        raised = np.minimum(feeds * factor, self.fastest)
+        can = raised > feeds * (1.0 + 1e-9)
+        group = np.arange(n) % min(n, GROUPS)
+        groups = [g for g in range(min(n, GROUPS)) if np.any(can & (group == g))]
+        if not groups:
+            return feeds
+        trials = [np.where(can & (group == g), raised, feeds) for g in groups]
+        _, peaks = self.simulate([self.with_blocks(f) for f in trials])
+        member = {g: k for k, g in enumerate(groups)}
+        near = np.array([can[j] and bool(np.all(
+            peaks[member[group[j]], max(0, j - REACH):j + REACH + 1] <= self.tolerance))
+            for j in range(n)])
+        return self._held(np.where(near, raised, feeds), feeds)
+
+    def _held(self, feeds: Array, base: Array) -> Array:
+        """``feeds`` less the raises over ``base`` near where the whole program breaks.
+
+        Up to :data:`VERIFY` runs; ``base`` if the raises still break it then.
+        """
+        for _ in range(VERIFY):
+            if np.array_equal(feeds, base):
+                return base
+            _, peaks = self.simulate([self.with_blocks(feeds)])
+            bad = peaks[0] > self.tolerance
+            if not bad.any():
+                return feeds
+            near = np.convolve(bad, np.ones(2 * REACH + 1), mode="same") > 0
+            feeds = np.where(near, base, feeds)
+        return base
 
     def written(self, feeds: Array) -> OptimizedPart:
         """``feeds`` written into the program, read back and run as written."""
         text = rewrite_feeds(self.text, dict(zip(self.lines, feeds.tolist(), strict=True)),
-                             ceiling=self.fastest, **self.read)
+                             ceiling=self.fastest, down=True, **self.read)
         final = from_gcode(text, **self.read)
         after, peaks = self.run_as_written(final)
         return OptimizedPart(
@@ -395,5 +527,5 @@ class _Search:
             too_tight=tuple(self.lines[i] for i in np.flatnonzero(peaks > self.tolerance)))
 
 
-__all__ = ["LEVELS", "OVERRIDE_STEP", "ROUNDS", "OptimizedPart", "optimize_part",
-           "peaks_on_machines", "random_machines"]
+__all__ = ["LEVELS", "METHODS", "OVERRIDE_STEP", "ROUNDS", "SPREAD", "OptimizedPart",
+           "counted_ticks", "optimize_part", "peaks_on_machines", "random_machines"]

@@ -207,8 +207,8 @@ def _segment_ends(path: Path) -> tuple[Array, Array, Array]:
     return ends[:, 0, 3:], ends[:, 1, 3:], np.diff(t.s0)
 
 
-def _max_curvature(path: Path) -> Array:
-    # sampled curvature per segment, 9 points each, all in one evaluation (arcs exact: constant)
+def segment_max_curvature(path: Path) -> Array:
+    """The largest curvature of each segment of ``path``, 1/m (9 samples each; arcs exact)."""
     t = path.table
     s = t.s0[:-1, None] + np.linspace(0.0, np.diff(t.s0), 9, axis=1)
     out: Array = np.max(np.reshape(path.curvature(s.ravel()), s.shape), axis=1)
@@ -320,7 +320,7 @@ def _speed_limits(path: Path, mode: str, tolerance: Array, accel: float
     if mode != "none":
         exact_path = mode == "G61.1"
         if math.isfinite(accel):
-            kappa = _max_curvature(path)
+            kappa = segment_max_curvature(path)
             vcap = np.where(kappa > 0, np.sqrt(accel / np.maximum(kappa, 1e-300)), math.inf)
         for j in range(n - 1):
             delta = 0.0 if exact_path else float(tolerance[j])

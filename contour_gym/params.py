@@ -24,6 +24,7 @@ from contour_gym._validate import (
     number,
     positive,
     positive_or_inf,
+    seed_value,
 )
 
 __all__ = [
@@ -36,5 +37,6 @@ __all__ = [
     "number",
     "positive",
     "positive_or_inf",
+    "seed_value",
     "state_schema",
 ]

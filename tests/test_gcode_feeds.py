@@ -80,6 +80,13 @@ def test_a_feed_never_rounds_past_the_ceiling() -> None:
     assert rewrite_feeds(text, {3: 0.1}, ceiling=top).splitlines()[2] == "G1 X20 F1999"
 
 
+def test_down_never_writes_a_feed_faster_than_asked() -> None:
+    text = "G21 G90\nG1 X10 F1000\nG1 X20\nG1 X30\n"
+    out = rewrite_feeds(text, {3: 848.6e-3 / 60.0}, down=True)
+    assert out.splitlines()[2:] == ["G1 X20 F848", "G1 X30 F1000"]  # the next keeps its own
+    assert rewrite_feeds(text, {3: 848.6e-3 / 60.0}).splitlines()[2] == "G1 X20 F849"
+
+
 def test_an_unreadable_program_gets_the_readers_error() -> None:
     with pytest.raises(GcodeError, match="G-code line 2"):
         rewrite_feeds("G1 X1 F100\nG93 X2\n", {1: 0.01})

@@ -178,16 +178,16 @@ def test_an_explicit_path_control_keeps_a_parts_mandatory_stops():
 
 
 def test_curvature_caps_sample_each_segment_as_one_by_one():
-    # _max_curvature evaluates every segment's 9 samples at once: the same numbers as a
+    # segment_max_curvature evaluates every segment's 9 samples at once: the same numbers as a
     # segment-by-segment evaluation, bit for bit
-    from contour_gym.motion import _max_curvature
+    from contour_gym.motion import segment_max_curvature
     from contour_gym.paths import random_path
 
     path = random_path(np.random.default_rng(5), "rose")
     t = path.table
     one_by_one = [np.max(path.curvature(a + np.linspace(0.0, n, 9)))
                   for a, n in zip(t.s0[:-1], np.diff(t.s0), strict=True)]
-    assert np.array_equal(_max_curvature(path), one_by_one)
+    assert np.array_equal(segment_max_curvature(path), one_by_one)
 
 
 @pytest.mark.parametrize("override", [1.0, 0.3])

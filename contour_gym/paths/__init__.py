@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from contour_gym.paths._freeform import bspline, nurbs, parametric
 from contour_gym.paths._gcode import WORK_SYSTEMS, GcodeError, GcodePath, from_gcode
-from contour_gym.paths._gcode_feeds import feed_moves, rewrite_feeds
+from contour_gym.paths._gcode_feeds import feed_grid, feed_moves, rewrite_feeds
 from contour_gym.paths._geom import HELIX, LINE, POLY5
 from contour_gym.paths._library import NAMES, load
 from contour_gym.paths._path import Path
@@ -41,6 +41,7 @@ __all__ = [
     "bspline",
     "circle",
     "composite",
+    "feed_grid",
     "feed_moves",
     "from_gcode",
     "helix",

@@ -36,7 +36,7 @@ def feed_moves(path: Any) -> dict[int, float]:
 
 
 def rewrite_feeds(text: str, feeds: Mapping[int, float], *, ceiling: float | None = None,
-                  **read: Any) -> str:
+                  down: bool = False, **read: Any) -> str:
     """The program ``text`` with the feed moves of ``feeds`` at their new feedrates.
 
     Args:
@@ -46,6 +46,8 @@ def rewrite_feeds(text: str, feeds: Mapping[int, float], *, ceiling: float | Non
             decimals its F words have.
         ceiling: The largest feed to write, m/s (a machine's maximum): a feed that would
             round above it is written rounded down (None: every feed rounded to nearest).
+        down: Round every new feed down, never faster than asked (a feed found to hold a
+            tolerance stays within it as written).
         **read: :func:`~contour_gym.paths.from_gcode`'s options for this program (work
             offsets, tool lengths, ...).
 
@@ -69,22 +71,43 @@ def rewrite_feeds(text: str, feeds: Mapping[int, float], *, ceiling: float | Non
     wanted = {**before, **{line: min(rate, top) for line, rate in feeds.items()}}
     decimals = _decimals(text)
     lines = text.splitlines(keepends=True)
-    unit, modal = _UNIT[21], math.nan  # the reader's defaults: mm, no feed yet
-    for i, raw in enumerate(lines):
+    modal = math.nan  # the reader's default: no feed yet
+    for i, (raw, unit) in enumerate(zip(lines, _units(lines), strict=True)):
         code = _code_mask(raw)
-        units = [m for m in _UNITS.finditer(raw) if code[m.start()]]
-        if units:
-            unit = _UNIT[int(units[-1].group(1))]
         words = [m for m in _F_WORD.finditer(raw) if code[m.start()]]
         if i + 1 not in wanted:
             if words:
                 modal = float(words[-1].group(1)) * unit / 60.0
             continue
-        written = _format(wanted[i + 1] * 60.0 / unit, decimals, i + 1, top * 60.0 / unit)
+        written = _format(wanted[i + 1] * 60.0 / unit, decimals, i + 1,
+                          top * 60.0 / unit, down and (i + 1) in feeds)
         lines[i] = _with_f(raw, code, words, written, modal, unit)
         modal = float(written) * unit / 60.0
     out = "".join(lines)
     _check(out, wanted, decimals, read)
+    return out
+
+
+def feed_grid(text: str) -> tuple[list[float], int]:
+    """How :func:`rewrite_feeds` writes feeds into ``text``: the units, and the decimals.
+
+    Returns per text line the metres of the length unit in force there (G20/G21), and the
+    decimals of the program's F words: a feed ``f`` (m/s) written rounded down on line ``i``
+    reads back as ``floor(f * 60 / unit[i - 1] * 10**decimals) / 10**decimals`` per minute.
+    """
+    lines = text.splitlines(keepends=True)
+    return _units(lines), _decimals(text)
+
+
+def _units(lines: list[str]) -> list[float]:
+    """The length unit in force on each line, m (the reader's default: mm)."""
+    out, unit = [], _UNIT[21]
+    for raw in lines:
+        code = _code_mask(raw)
+        units = [m for m in _UNITS.finditer(raw) if code[m.start()]]
+        if units:
+            unit = _UNIT[int(units[-1].group(1))]
+        out.append(unit)
     return out
 
 
@@ -123,10 +146,12 @@ def _decimals(text: str) -> int:
     return max(places, default=0)
 
 
-def _format(value: float, decimals: int, line: int, top: float) -> str:
+def _format(value: float, decimals: int, line: int, top: float, down: bool) -> str:
     written = f"{value:.{decimals}f}"
-    if float(written) > top:  # rounded past the ceiling: down instead
-        written = f"{math.floor(min(value, top) * 10.0**decimals) / 10.0**decimals:.{decimals}f}"
+    up = float(written) > value * (1.0 + 1e-12)  # past the value (not by a float's last bit)
+    if float(written) > top * (1.0 + 1e-12) or (down and up):  # rounded up: down instead
+        steps = math.floor(min(value, top) * 10.0**decimals * (1.0 + 1e-12))
+        written = f"{steps / 10.0**decimals:.{decimals}f}"
     if float(written) <= 0.0:
         raise ValueError(f"G-code line {line}: a feed of {value:.6g} per minute rounds to "
                          f"{written} at the program's {decimals} decimals")
@@ -144,4 +169,4 @@ def _check(text: str, wanted: Mapping[int, float], decimals: int, read: Mapping[
                              f"{got.get(line, math.nan):.6g} m/s, not {rate:.6g} m/s")
 
 
-__all__ = ["feed_moves", "rewrite_feeds"]
+__all__ = ["feed_grid", "feed_moves", "rewrite_feeds"]
