@@ -330,10 +330,23 @@ class _Search:
         out: list[dict[str, float]] = []
         peaks = []
         for first in range(0, len(paths), per):
-            results, found = self._run_members(paths[first:first + per], own)
+            results, found = self._run_halving(paths[first:first + per], own)
             out += results
             peaks.append(found)
         return out, np.concatenate(peaks)
+
+    def _run_halving(self, paths: list[GcodePath], scenario: Scenario
+                     ) -> tuple[list[dict[str, float]], Array]:
+        """:meth:`_run_members`, in halves where the record of all at once is too large."""
+        try:
+            return self._run_members(paths, scenario)
+        except ValueError as exc:  # the loop's record memory check (slow candidates)
+            if len(paths) == 1 or "recording it needs" not in str(exc):
+                raise
+        half = len(paths) // 2
+        first, second = (self._run_halving(part, scenario) for part in (paths[:half],
+                                                                         paths[half:]))
+        return first[0] + second[0], np.concatenate([first[1], second[1]])
 
     def _run_members(self, paths: list[GcodePath], scenario: Scenario
                      ) -> tuple[list[dict[str, float]], Array]:

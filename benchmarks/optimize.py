@@ -187,19 +187,20 @@ def method_table(quick: bool) -> None:
     print("|---" * (3 + len(names)) + "|")
     for part in PARTS:
         try:
-            pairs = cases(part, quick)
+            rows = [_method_row(part, plant, tol, names) for plant, tol in cases(part, quick)]
         except ValueError:
             continue  # refused in the main table
-        for plant, tol in pairs:
-            cells = []
-            for method in names:
-                start = time.perf_counter()
-                r = optimize_part(part.read_text(), plant, tol, best_effort=True, method=method)
-                cells.append(f"{r.after['cycle_time']:.2f}, "
-                             f"{r.after['max_contour_error'] * 1e6:.3g}, "
-                             f"{time.perf_counter() - start:.1f}")
-            print(f"| {part.name} | {plant} | {tol * 1e6:.3g} | " + " | ".join(cells) + " |",
-                  flush=True)
+        print("\n".join(rows), flush=True)
+
+
+def _method_row(part: Path, plant: str, tol: float, names: list[str]) -> str:
+    cells = []
+    for method in names:
+        start = time.perf_counter()
+        r = optimize_part(part.read_text(), plant, tol, best_effort=True, method=method)
+        cells.append(f"{r.after['cycle_time']:.2f}, {r.after['max_contour_error'] * 1e6:.3g}, "
+                     f"{time.perf_counter() - start:.1f}")
+    return f"| {part.name} | {plant} | {tol * 1e6:.3g} | " + " | ".join(cells) + " |"
 
 
 def _setting(value: Any) -> str:
