@@ -172,9 +172,8 @@ def peaks_on_machines(text: str, plant: Any, machines: list[dict[str, Array]],
     ``robust`` on machines it was not tuned on (a fresh :func:`random_machines` draw).
     """
     scenario = make_scenario(plant, from_gcode(text, **read))
-    gains = resolve_preset(plant).ccc_gains if ccc_gains == "machine" else ccc_gains
-    loop = _machine_loop(scenario, [scenario.path], machines, gains,  # type: ignore[list-item]
-                         record=False)
+    loop = machine_loop(scenario, [scenario.path], machines,  # type: ignore[list-item]
+                        ccc_gains_of(plant, ccc_gains), record=False)
     error = np.asarray(loop.run()["max_contour_error"], dtype=float)
     return np.where(loop.done, error, math.inf)[1:]
 
@@ -212,7 +211,12 @@ def _worst(peaks: Any) -> Any:
     return peaks.max(axis=0) + SPREAD * peaks.std(axis=0)
 
 
-def _machine_loop(scenario: Scenario, paths: list[GcodePath], machines: list[dict[str, Array]],
+def ccc_gains_of(plant: Any, ccc_gains: Any) -> Any:
+    """The CCC gains ``ccc_gains`` names: "machine" for the machine's own, else as given."""
+    return resolve_preset(plant).ccc_gains if ccc_gains == "machine" else ccc_gains
+
+
+def machine_loop(scenario: Scenario, paths: list[GcodePath], machines: list[dict[str, Array]],
                   gains: Any, record: bool) -> ServoLoop:
     """A reset loop running each program on the scenario's machine and each of ``machines``.
 
@@ -264,7 +268,7 @@ class _Search:
         # record gigabytes; a tolerance that needs it is too tight for this machine
         self.slowest = min(SLOWEST * min(feed_moves(given).values()), top)
         self.scenario: Scenario = make_scenario(plant, given)  # maps programs onto the machine
-        self.gains = preset.ccc_gains if ccc_gains == "machine" else ccc_gains
+        self.gains = ccc_gains_of(preset, ccc_gains)
         self.path: GcodePath = self.scenario.path  # type: ignore[assignment]
         feed = ~np.asarray(self.path.rapid)
         lines = np.asarray(self.path.segment_lines)
@@ -351,7 +355,7 @@ class _Search:
     def _run_members(self, paths: list[GcodePath], scenario: Scenario
                      ) -> tuple[list[dict[str, float]], Array]:
         """The programs' metrics on the machine and their per-block peaks on all machines."""
-        loop = _machine_loop(scenario, paths, self.machines, self.gains, record=True)
+        loop = machine_loop(scenario, paths, self.machines, self.gains, record=True)
         metrics = loop.run()
         trace = loop.trace()
         m, n = 1 + len(self.machines), len(paths)
@@ -379,7 +383,7 @@ class _Search:
         """The known-good feed of every block after ``method``'s rounds, from ``start``."""
         n = len(self.lines)
         # known good to start from: the program's own feeds where its own run holds there, or
-        # the fastest constant override that holds everywhere
+        # the best start (:meth:`best_start`), which holds everywhere
         low = np.where(self.given_peaks <= self.tolerance,
                        np.minimum(self.given_feeds, self.fastest), self.slowest)
         low = np.maximum(low, start)
@@ -421,7 +425,7 @@ class _Search:
         best, quickest = np.zeros(len(self.lines)), math.inf
         for row in np.vstack([overrides, self._curvature_limits()]):
             path = self.with_blocks(row)
-            loop = _machine_loop(make_scenario(self.scenario.preset, path), [path], self.machines,
+            loop = machine_loop(make_scenario(self.scenario.preset, path), [path], self.machines,
                                  self.gains, record=False)
             metrics = loop.run()
             held = _worst(metrics["max_contour_error"]) <= self.tolerance and loop.done.all()
@@ -442,7 +446,7 @@ class _Search:
         """Write ``feeds`` into the program and run it as written, until it holds.
 
         The blocks that break the tolerance (and the one before each) step down, first to
-        ``start`` (the fastest constant override that held), then to the slowest feed, until
+        ``start`` (the best start that held, :meth:`best_start`), then to the slowest feed, until
         the whole part holds. ``start`` as written is the result where it holds and is
         faster, or where the repair did not make the part hold in :data:`REPAIRS` rounds;
         else the blocks that still break it run at the slowest feed and are ``too_tight``.
@@ -541,4 +545,5 @@ class _Search:
 
 
 __all__ = ["LEVELS", "METHODS", "OVERRIDE_STEP", "ROUNDS", "SPREAD", "OptimizedPart",
-           "counted_ticks", "optimize_part", "peaks_on_machines", "random_machines"]
+           "ccc_gains_of", "counted_ticks", "machine_loop", "optimize_part", "peaks_on_machines",
+           "random_machines"]

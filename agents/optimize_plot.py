@@ -13,10 +13,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.optimize import OptimizedPart, counted_ticks
+from agents.optimize import OptimizedPart, ccc_gains_of, counted_ticks, machine_loop
 from contour_gym.api import make_scenario
 from contour_gym.paths import GcodePath, from_gcode
-from contour_gym.presets import resolve_preset
 
 Array = NDArray[np.float64]
 
@@ -25,12 +24,10 @@ def _run(result: OptimizedPart, plant: Any, ccc_gains: Any, read: dict[str, Any]
          ) -> tuple[Array, Array, Array, Any]:
     """The new program's recorded run: positions (T, 2), |error| (T,), tick lines (T,), path."""
     scenario = make_scenario(plant, from_gcode(result.text, **read))
-    gains = resolve_preset(plant).ccc_gains if ccc_gains == "machine" else ccc_gains
-    loop = scenario.loop(ccc_gains=gains, record=True)
-    loop.reset(0)
+    path: GcodePath = scenario.path  # type: ignore[assignment]
+    loop = machine_loop(scenario, [path], [], ccc_gains_of(plant, ccc_gains), record=True)
     loop.run()
     trace = loop.trace()
-    path: GcodePath = scenario.path  # type: ignore[assignment]
     contour = scenario.preset.stage.contours[0]
     rows = np.isfinite(trace.s[0]) & np.all(np.isfinite(trace.x[0]), axis=1)
     offset = np.asarray(contour.offset or np.zeros(len(contour.axes)))
