@@ -269,10 +269,9 @@ class CurvatureFeedLimit(ConstantPolicy):
     The defaults are chosen, not published: on 64 validation paths of 004's machine (random
     seeds 1000000-1000063, nominal machine, never judged) ``accel`` 0.02, 0.035, 0.05 and
     0.1 m/s^2 at ``cap`` 0.6 kept 5 um on 60, 60, 59 (60 computed in the env) and 55 of them
-    at median cycles of 6.40, 5.88, 5.40 and 4.61 s (the fastest constant override within the
-    tolerance, per path: 62 at 6.53 s); at 0.02, ``cap`` 0.8 and 1 lost 9 and 12 paths more
-    on straight moves, where the axes' lag, not the curvature, sets the error. At 0.05 two
-    of the four paths lost broke at the path's end, where the axes stop; 20 mm/s within the
+    at median cycles of 6.40, 5.88, 5.40 and 4.61 s; at 0.02, ``cap`` 0.8 and 1 lost 9 and 12
+    paths more on straight moves, where the axes' lag, not the curvature, sets the error. At
+    0.05 two of the four paths lost broke at the path's end, where the axes stop; 20 mm/s within the
     last 10 mm kept both, 62 at 5.51 s (30 mm/s within 20 mm: 62 at 5.53 s); 5 mm/s within
     the last 5 mm kept one (Python rule, 60 at 5.70 s), the acc/dec filter still slowing when
     the end came on the other (docs/measurements.md, "the curvature limit it corrects").

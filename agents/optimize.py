@@ -233,15 +233,6 @@ def machine_loop(scenario: Scenario, paths: list[GcodePath], machines: list[dict
     return loop
 
 
-def _by_highest_feed(paths: list[GcodePath]) -> list[list[int]]:
-    """The paths' indices grouped by their highest cutting feed."""
-    groups: dict[float, list[int]] = {}
-    for b, path in enumerate(paths):
-        feed = np.asarray(path.segment_feedrates)[np.asarray(path.cutting)]
-        groups.setdefault(float(np.nanmax(feed)), []).append(b)
-    return list(groups.values())
-
-
 class _Search:
     """One program on one machine: its blocks, runs of many feed sets at once, the search."""
 
@@ -314,21 +305,9 @@ class _Search:
                  ) -> tuple[list[dict[str, float]], Array]:
         """Run each program once: its metrics and ``(members, blocks)`` peak |contour error|.
 
-        Programs of one highest feed run as members of one loop, each as ``contour-gym
-        simulate`` runs it: a machine's acc/dec may follow the program's highest feed (004's
-        time constant: it brakes at F / T), so programs of other highest feeds run apart.
+        The programs run as members of loops, each as ``contour-gym simulate`` runs it (a
+        member's plan follows its own F words, whatever the loop's nominal feed).
         """
-        out: list[dict[str, float]] = [{} for _ in paths]
-        peaks = np.zeros((len(paths), len(self.lines)))
-        for members in _by_highest_feed(paths):
-            group = [paths[b] for b in members]
-            results, found = self._simulate_group(group, scenario)
-            for k, b in enumerate(members):
-                out[b], peaks[b] = results[k], found[k]
-        return out, peaks
-
-    def _simulate_group(self, paths: list[GcodePath], scenario: Scenario | None
-                        ) -> tuple[list[dict[str, float]], Array]:
         own = scenario or make_scenario(self.scenario.preset, paths[0])
         per = max(1, MEMBERS // (1 + len(self.machines)))  # programs per loop
         out: list[dict[str, float]] = []

@@ -188,8 +188,9 @@ class CNCLookahead(Policy):
 
     The planning is :func:`contour_gym.motion.build_program`'s; at the junction of segment j
     (end direction ``t_j``) and j + 1 (start direction ``t_(j+1)``), with ``a`` the machine's
-    tangential acceleration limit (the preset's ``accel``) and ``delta`` the G64 tolerance, it
-    uses Grbl's junction-deviation rule::
+    tangential acceleration limit (the preset's ``accel``; under an acc/dec time constant T the
+    lower of ``F / T`` of the two segments' feeds, as :mod:`contour_gym.motion` says) and
+    ``delta`` the G64 tolerance, it uses Grbl's junction-deviation rule::
 
         c     = -t_j . t_(j+1)                     (cos of the angle between -t_j and t_(j+1))
         h     = sqrt((1 - c) / 2)                  (its half-angle sine)
@@ -201,12 +202,13 @@ class CNCLookahead(Policy):
     more than 1e-8. Every segment is also capped at ``sqrt(a / kappa_max)`` (its curvature
     sampled at 9 points), the path end is 0, and a backward pass lowers each ``v_j`` to
     ``sqrt(v_(j+1)^2 + 2 a L_(j+1))`` so that every limit is reachable by braking at ``a``; the
-    interpolator then brakes for every limit within its braking reach. The override does not
-    scale the junction speeds. ``delta`` is the distance from the vertex to the circular arc
-    tangent to both segments whose radius ``R = delta h / (1 - h)`` is taken at centripetal
-    acceleration ``a`` (``v_j^2 = a R``); but the reference is not blended (it passes through
-    the vertex at ``v_j`` with a jump in direction), so ``delta`` does not bound the servo's
-    contour error: ``benchmarks/feedrate_baselines.py`` measures it.
+    interpolator then brakes for every limit within its braking reach (``a`` of segment
+    j + 1 there). The override does not scale the junction speeds (a starting override does
+    under a time constant, through ``F / T``). ``delta`` is the distance from the vertex to the
+    circular arc tangent to both segments whose radius ``R = delta h / (1 - h)`` is taken at
+    centripetal acceleration ``a`` (``v_j^2 = a R``); but the reference is not blended (it
+    passes through the vertex at ``v_j`` with a jump in direction), so ``delta`` does not bound
+    the servo's contour error: ``benchmarks/feedrate_baselines.py`` measures it.
 
     Args:
         tolerance: G64 path tolerance (the P value), m (default

@@ -45,7 +45,7 @@ class Scenario:
         p = self.preset
         return Interpolator(
             self.feedrate if feedrate is None else feedrate, p.accel, p.jerk, p.max_feedrate,
-            p.rapid_rate, p.time_constant,
+            p.rapid_rate, p.time_constant, self.feed_override,
         )
 
     def loop(

@@ -32,7 +32,13 @@ was planned with and arrives at rest (``fa`` keeps the rate's F). Turning the ov
 during a stop does not make it later and harder.
 So every speed change takes about T whatever the feedrate, as on a CNC whose acc/dec is set
 by time constants: a faster feed accelerates and stops harder, and the error at its stops
-grows with it. T = 0 (default) keeps ``accel`` at every feed.
+grows with it. The look-ahead plans each segment at the same rate, ``min(accel, F_j / T)``
+with ``F_j`` that segment's commanded feed at the run's starting override
+(``Interpolator.plan_override``); a junction at the lower of its two segments' rates. So a
+block's F word sets its own corners and curvature caps, not those of other blocks, and a
+constant override ``k`` runs as the same program with every F word times ``k`` would; an
+override turned during the run (the feedrate env's) changes the rate but not the plan.
+T = 0 (default) keeps ``accel`` at every feed, in the plan too.
 
 **Time-law mode** (a path carrying a :class:`~contour_gym.paths.TimeLaw`): the reference is a
 prescribed ``s(t)``, e.g. 003's three-leaf ``theta = 2 pi f t``; the override scales time
@@ -92,6 +98,8 @@ class Interpolator:
         rapid_rate: Speed of rapid (G0) moves, m/s (default ``max_feedrate``).
         time_constant: The CNC's acc/dec time constant T, s (module docstring): the path
             speed changes at ``min(accel, F / T)``; 0 (default) = at ``accel`` whatever F.
+        plan_override: The feed override the look-ahead plans with under a time constant
+            (the run's starting override; module docstring).
     """
 
     feedrate: float
@@ -100,6 +108,7 @@ class Interpolator:
     max_feedrate: float = math.inf
     rapid_rate: float | None = None
     time_constant: float = 0.0
+    plan_override: float = 1.0
 
     def __post_init__(self) -> None:
         positive(self.feedrate, "feedrate")
@@ -110,16 +119,20 @@ class Interpolator:
         if self.rapid_rate is not None:
             positive(self.rapid_rate, "rapid_rate")
         non_negative(self.time_constant, "time_constant")
+        positive(self.plan_override, "plan_override")
 
-    @property
-    def planning_accel(self) -> float:
-        """Acceleration the look-ahead plans with, m/s^2.
+    def planning_accels(self, feed: Array, rapid: NDArray[np.bool_]) -> Array:
+        """Acceleration the look-ahead plans each segment with, m/s^2, (n,).
 
-        ``accel``, or ``F / T`` at the nominal feedrate under a time constant if lower.
+        ``accel``; under a time constant ``min(accel, F / T)``, F the segment's commanded
+        feed: its programmed ``feed`` times :attr:`plan_override` (a rapid's unscaled), at
+        most ``max_feedrate``, the rate the interpolator changes speed at in that block.
         """
-        if self.time_constant > 0.0:
-            return min(self.accel, self.feedrate / self.time_constant)
-        return self.accel
+        if self.time_constant <= 0.0:
+            return np.full(feed.shape, float(self.accel))
+        commanded = np.minimum(np.where(rapid, feed, feed * self.plan_override),
+                               self.max_feedrate)
+        return np.minimum(self.accel, np.maximum(commanded, 1e-9) / self.time_constant)
 
     @property
     def rapid(self) -> float:
@@ -273,7 +286,7 @@ def build_program(
     tolerance = _tolerances(mode, tol, path_tolerance, n)
     dwell_s = _dwell_after(path, n)
     stop = _stops(path, mode, stop, dwell_s)
-    a = interpolator.planning_accel
+    a = interpolator.planning_accels(feed, rapid)
     vcap, vj, lengths = _speed_limits(path, mode, tolerance, a)
     vj[stop] = 0.0
     vj[-1] = 0.0
@@ -307,11 +320,13 @@ def _stops(path: Path, mode: str, stop: NDArray[Any], dwell_s: Array) -> NDArray
     return np.full(n, mode == "G61") | kept | (dwell_s > 0)
 
 
-def _speed_limits(path: Path, mode: str, tolerance: Array, accel: float
+def _speed_limits(path: Path, mode: str, tolerance: Array, accel: Array
                   ) -> tuple[Array, Array, Array]:
     """Curvature caps and junction limits before the backward pass, and segment lengths.
 
-    Under ``"none"`` nothing limits the speed but the path end and the stops.
+    ``accel`` (n,) is each segment's planning acceleration; a junction takes the lower of
+    its two segments'. Under ``"none"`` nothing limits the speed but the path end and the
+    stops.
     """
     n = path.table.n_segments
     t_in, t_out, lengths = _segment_ends(path)
@@ -319,20 +334,25 @@ def _speed_limits(path: Path, mode: str, tolerance: Array, accel: float
     vj = np.full(n, math.inf)
     if mode != "none":
         exact_path = mode == "G61.1"
-        if math.isfinite(accel):
+        finite = np.isfinite(accel)
+        if finite.any():
             kappa = segment_max_curvature(path)
-            vcap = np.where(kappa > 0, np.sqrt(accel / np.maximum(kappa, 1e-300)), math.inf)
+            capped = finite & (kappa > 0)
+            vcap[capped] = np.sqrt(accel[capped] / kappa[capped])
         for j in range(n - 1):
             delta = 0.0 if exact_path else float(tolerance[j])
-            vj[j] = junction_speed(t_out[j], t_in[j + 1], accel, delta)
+            a = min(float(accel[j]), float(accel[j + 1]))
+            vj[j] = junction_speed(t_out[j], t_in[j + 1], a, delta)
     return vcap, vj, lengths
 
 
-def _backward_pass(vj: Array, vcap: Array, lengths: Array, accel: float) -> None:
+def _backward_pass(vj: Array, vcap: Array, lengths: Array, accel: Array) -> None:
+    # every junction limit reachable braking over the next segment at its planning accel
     n = vj.size
     for j in range(n - 2, -1, -1):
-        reach = math.sqrt(vj[j + 1] ** 2 + 2.0 * accel * lengths[j + 1]) if math.isfinite(
-            accel) else math.inf
+        a = float(accel[j + 1])
+        reach = math.sqrt(vj[j + 1] ** 2 + 2.0 * a * lengths[j + 1]) if math.isfinite(
+            a) else math.inf
         vj[j] = min(vj[j], vcap[j], vcap[j + 1], reach)
 
 

@@ -284,3 +284,39 @@ def test_a_feedrate_task_s_reference_never_brakes_harder_than_its_time_constant(
     for b in range(8):
         vb = v[b][np.isfinite(v[b])]
         assert np.max(-np.diff(vb)) <= rate[b] * ts * (1 + 1e-9), b
+
+
+def test_a_time_constant_plans_each_block_at_its_own_feed():
+    # a block's F word sets its own corners: raising the last block's feed leaves the first
+    # corner's junction speed as it was, and that corner is planned at F / T of its blocks
+    from contour_gym.paths import from_gcode
+
+    def plan(last_feed):
+        part = from_gcode(f"G21 G90 G64 P0.01\nG0 X0 Y0\nG1 X10 F300\nY10\nX0 F{last_feed}\nM30")
+        interp = Interpolator(last_feed / 60000.0, accel=1.0, time_constant=0.2,
+                              max_feedrate=0.1)
+        return part, build_program(part, interp, 1e-3)
+
+    part, slow = plan(300)
+    _, fast = plan(3000)
+    corner = int(np.flatnonzero(~part.rapid)[0])  # X10 -> Y10
+    assert fast.vj[corner] == slow.vj[corner] > 0.0
+    a = 0.005 / 0.2  # 300 mm/min over T
+    t = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    assert slow.vj[corner] == pytest.approx(motion.junction_speed(*t, a, 1e-5))
+    assert fast.vj[corner + 1] == slow.vj[corner + 1]  # Y10 -> X0: the slower block's rate
+
+
+def test_a_starting_override_runs_as_the_program_with_its_feeds_scaled():
+    # on a machine with an acc/dec time constant, override k and every F word times k are
+    # one motion: the look-ahead plans both at k F / T
+    from contour_gym import simulate
+    from contour_gym.paths import random_path
+
+    path = random_path(np.random.default_rng(3), "polyline")
+    feed, k = 0.02, 1.7
+    kw = dict(path_control="G64", path_tolerance=5e-6, ideal=True)
+    scaled = simulate("xy_servo_coulomb", path, feedrate=feed * k, **kw)
+    override = simulate("xy_servo_coulomb", path, feedrate=feed, feedrate_override=k, **kw)
+    for key in ("cycle_time", "max_contour_error"):
+        assert override[key] == pytest.approx(scaled[key], rel=1e-6), key
