@@ -221,9 +221,14 @@ def _segment_ends(path: Path) -> tuple[Array, Array, Array]:
 
 
 def segment_max_curvature(path: Path) -> Array:
-    """The largest curvature of each segment of ``path``, 1/m (9 samples each; arcs exact)."""
+    """The largest curvature of each segment of ``path``, 1/m (9 samples each; arcs exact).
+
+    The last sample is the float just before the segment's end: at the end itself a path
+    gives the next segment's curvature (a line into an arc would take the arc's).
+    """
     t = path.table
     s = t.s0[:-1, None] + np.linspace(0.0, np.diff(t.s0), 9, axis=1)
+    s[:, -1] = np.maximum(np.nextafter(t.s0[1:], -np.inf), t.s0[:-1])
     out: Array = np.max(np.reshape(path.curvature(s.ravel()), s.shape), axis=1)
     return out
 

@@ -179,15 +179,29 @@ def test_an_explicit_path_control_keeps_a_parts_mandatory_stops():
 
 def test_curvature_caps_sample_each_segment_as_one_by_one():
     # segment_max_curvature evaluates every segment's 9 samples at once: the same numbers as a
-    # segment-by-segment evaluation, bit for bit
+    # segment-by-segment evaluation, bit for bit (the last sample just before the end)
     from contour_gym.motion import segment_max_curvature
     from contour_gym.paths import random_path
 
     path = random_path(np.random.default_rng(5), "rose")
     t = path.table
-    one_by_one = [np.max(path.curvature(a + np.linspace(0.0, n, 9)))
+    one_by_one = [np.max(path.curvature(np.r_[a + np.linspace(0.0, n, 9)[:-1],
+                                               np.nextafter(a + n, -np.inf)]))
                   for a, n in zip(t.s0[:-1], np.diff(t.s0), strict=True)]
     assert np.array_equal(segment_max_curvature(path), one_by_one)
+
+
+def test_a_line_into_an_arc_keeps_its_own_curvature_cap():
+    # a segment's samples are its own: at its end a path gives the next segment's curvature,
+    # and a line into a 10 mm arc ran its whole length at the arc's centripetal cap
+    from contour_gym.motion import segment_max_curvature
+    from contour_gym.paths import from_gcode
+
+    part = from_gcode("G21 G90\nG1 X10 F600\nG3 X20 Y10 R10\nG2 X25 Y15 R5\nG1 Y30\nM30")
+    assert np.allclose(segment_max_curvature(part), [0.0, 100.0, 200.0, 0.0], atol=1e-9)
+    prog = build_program(part, Interpolator(0.01, accel=1.0), 1e-3, path_control="G64")
+    assert math.isinf(prog.vcap[0]) and math.isinf(prog.vcap[3])
+    assert prog.vcap[1] == pytest.approx(0.1) and prog.vcap[2] == pytest.approx(math.sqrt(0.005))
 
 
 @pytest.mark.parametrize("override", [1.0, 0.3])
