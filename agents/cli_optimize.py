@@ -65,6 +65,8 @@ def add_optimize_parser(sub: argparse._SubParsersAction, plant: Callable[[str], 
                      "envs' domain randomisation), then check it on N fresh ones")
     opt.add_argument("--seed", type=int, default=0, help="seed of the --robust machines")
     opt.add_argument("--diff", action="store_true", help="print the changed lines")
+    opt.add_argument("--no-split", action="store_true",
+                     help="never split a long move in two (only F words change)")
 
 
 def default_out(part: str) -> Path:
@@ -90,7 +92,7 @@ def optimize_command(args: argparse.Namespace) -> int:
         gains = None if args.no_ccc else "machine"
         result = optimize_part(text, args.plant, args.tolerance, max_feed=max_feed,
                                best_effort=args.best_effort, ccc_gains=gains,
-                               robust=args.robust, seed=args.seed)
+                               robust=args.robust, seed=args.seed, split=not args.no_split)
     except GcodeError as exc:
         raise ValueError(f"{source}: {exc}") from None
     write_text(out, result.text)
@@ -121,9 +123,17 @@ def _tables(r: OptimizedPart, before: dict[int, float]) -> str:
               "|---|---|---|---|"]
     for line, peak in r.block_peak.items():
         flag = " (too tight: slowest feed)" if line in r.too_tight else ""
-        lines.append(f"| {line} | {before[line] * 6e4:.6g} | {r.feeds[line] * 6e4:.6g} | "
-                     f"{peak * 1e6:.2f}{flag} |")
+        source = r.source_lines.get(line, line)
+        split = f" (line {source}, split)" if _is_split(r, line) else ""
+        lines.append(f"| {line}{split} | {before[source] * 6e4:.6g} | "
+                     f"{r.feeds[line] * 6e4:.6g} | {peak * 1e6:.2f}{flag} |")
     return "\n".join(lines) + "\n"
+
+
+def _is_split(r: OptimizedPart, line: int) -> bool:
+    # the second half of a split move keeps its line's text but not its number
+    source = r.source_lines.get(line, line)
+    return sum(1 for v in r.source_lines.values() if v == source) > 1
 
 
 def _fresh_check(text: str, args: argparse.Namespace, gains: Any) -> str:

@@ -26,6 +26,12 @@ each block's bracket instead, one member a round (:data:`METHODS`).
 Only the feed moves the machine runs get new feeds: a Z-only plunge on an X-Y machine (a wait
 timed by its own feed) keeps its F, the tool's plunge feed.
 
+Where one block needs two speeds (a long line into a sharp turn): the straight feed moves
+longer than a stop from the largest feed (:func:`_split_lines`) are split in two near their
+middle (:func:`contour_gym.paths.split_moves`: on the move and on the program's grid), the
+split program is searched the same way, and it is kept where it is faster, the moves whose
+halves came out at one feed joined again (``split=False``: only F words change).
+
 With ``robust=N`` every candidate runs on the machine and on N machines drawn around it
 (:func:`random_machines`, the envs' domain randomisation) as members of the same loop, and a
 block's peak is its worst over them plus :data:`SPREAD` standard deviations: the program then
@@ -36,8 +42,8 @@ others.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -48,7 +54,15 @@ from contour_gym.envs.config import DEFAULT_RANDOMIZATION, draw_plant_scaling
 from contour_gym.loop import ServoLoop
 from contour_gym.motion import segment_max_curvature
 from contour_gym.params import choice, seed_value
-from contour_gym.paths import GcodePath, feed_grid, feed_moves, from_gcode, rewrite_feeds
+from contour_gym.paths import (
+    LINE,
+    GcodePath,
+    feed_grid,
+    feed_moves,
+    from_gcode,
+    rewrite_feeds,
+    split_moves,
+)
 from contour_gym.presets import resolve_preset
 
 Array = NDArray[np.float64]
@@ -83,7 +97,8 @@ class OptimizedPart:
     """A program with new F words, and what its run on the machine gave.
 
     Attributes:
-        text: The new program (only F words differ from the one given).
+        text: The new program (only F words differ from the one given, and the moves split
+            in two: :attr:`source_lines`).
         feeds: Feed move line -> its new feedrate, m/s (as written: the program's decimals).
         before: The given program's run: ``cycle_time`` (s), ``max_contour_error`` (m).
         after: The new program's run, read back from ``text``, the same keys (and with
@@ -94,6 +109,8 @@ class OptimizedPart:
             with ``robust`` machines, the worst over them plus :data:`SPREAD` standard
             deviations).
         too_tight: Lines the tolerance cannot be held on even at the slowest feed.
+        source_lines: Line of ``text`` -> the line of the given program it comes from (a
+            move split in two: both its lines; :func:`~contour_gym.paths.split_moves`).
     """
 
     text: str
@@ -102,12 +119,13 @@ class OptimizedPart:
     after: dict[str, float]
     block_peak: dict[int, float]
     too_tight: tuple[int, ...]
+    source_lines: dict[int, int] = field(default_factory=dict)
 
 
 def optimize_part(
     text: str, plant: Any, tolerance: float, *, max_feed: float | None = None,
     best_effort: bool = False, ccc_gains: Any = "machine", robust: int = 0, seed: int = 0,
-    method: str = "levels", **read: Any,
+    method: str = "levels", split: bool = True, **read: Any,
 ) -> OptimizedPart:
     """New F words for ``text`` on ``plant``: the shortest cycle within ``tolerance``.
 
@@ -125,6 +143,9 @@ def optimize_part(
         seed: Seed of those machines' draw.
         method: The search (:data:`METHODS`): ``"levels"`` (default: :data:`LEVELS` feeds
             per block at once, :data:`ROUNDS` rounds) or ``"bisection"`` (one, 12 rounds).
+        split: Also search the program with its long straight moves split in two
+            (:func:`_split_lines`) and keep it where it is faster (its halves of one feed
+            joined again).
         **read: :func:`~contour_gym.paths.from_gcode`'s options for this program.
 
     Returns:
@@ -137,10 +158,16 @@ def optimize_part(
     if not (math.isfinite(tolerance) and tolerance > 0.0):
         raise ValueError(f"tolerance must be positive and finite, got {tolerance!r}")
     choice(method, "method", tuple(METHODS))
-    search = _Search(text, plant, tolerance, max_feed, ccc_gains, read,
-                     random_machines(plant, robust, seed))
-    start = search.best_start()  # the whole program holds at these feeds (or all 0)
-    final = search.polished(search.repair(search.run(start, method), start))
+    machines = random_machines(plant, robust, seed)
+
+    def make(program: str) -> _Search:
+        return _Search(program, plant, tolerance, max_feed, ccc_gains, read, machines)
+
+    search = make(text)
+    final = _searched(search, method)
+    halves = _split_lines(search) if split else []
+    if halves:
+        final = _with_splits(final, text, halves, make, method, read)
     if final.too_tight and not best_effort:
         where = f" on {robust} machines more (worst + {SPREAD:g} sd)" if robust else ""
         raise ValueError(f"the tolerance of {tolerance * 1e6:g} um cannot be held{where} at the "
@@ -148,6 +175,69 @@ def optimize_part(
                          f"{', '.join(map(str, final.too_tight))}; give --best-effort to run "
                          "them there anyway")
     return final
+
+
+def _searched(search: _Search, method: str) -> OptimizedPart:
+    """The search's result: the start, ``method``'s rounds, the repair and the polish."""
+    start = search.best_start()  # the whole program holds at these feeds (or all 0)
+    return search.polished(search.repair(search.run(start, method), start))
+
+
+def _split_lines(search: _Search) -> list[int]:
+    """The straight feed moves worth two feeds: longer than a stop from the largest feed.
+
+    That distance is ``F^2 / (2 a)``, ``a`` the look-ahead's acceleration at the largest feed
+    ``F`` (under a time constant ``F T / 2``): a shorter move has no room for two speeds. The
+    longest first, while the program stays within :data:`POLISH_BLOCKS` feed moves.
+    """
+    room = POLISH_BLOCKS - len(search.lines)
+    top = search.fastest
+    accel = float(search.scenario.interpolator().planning_accels(
+        np.array([top]), np.array([False]))[0])
+    if room <= 0 or not math.isfinite(accel):
+        return []
+    path = search.path
+    lengths = np.diff(path.table.s0)
+    segments: dict[int, list[int]] = {}
+    for j, line in enumerate(np.asarray(path.segment_lines).tolist()):
+        segments.setdefault(int(line), []).append(j)
+    long = [(float(lengths[js[0]]), line) for line, js in segments.items()
+            if line in search.lines and len(js) == 1
+            and int(path.table.kind[js[0]]) == LINE and lengths[js[0]] > top**2 / (2 * accel)]
+    return [line for _, line in sorted(long, reverse=True)[:room]]
+
+
+def _with_splits(final: OptimizedPart, text: str, halves: list[int],
+                 make: Callable[[str], _Search], method: str, read: Mapping[str, Any]
+                 ) -> OptimizedPart:
+    """``final``, or the program with ``halves`` split searched, where that is faster.
+
+    Moves whose two halves got one feed are joined again: the program is split again with
+    only the others, and written and run with the feeds found.
+    """
+    work, origin = split_moves(text, halves, **read)
+    if work == text:
+        return final
+    split = _searched(make(work), method)
+    if (len(split.too_tight), split.after["cycle_time"]) >= (
+            len(final.too_tight), final.after["cycle_time"] * (1.0 - 1e-3)):
+        return final
+    first = _first_halves(origin)
+    kept = [origin[j - 1] for j in sorted(first) if split.feeds.get(j) != split.feeds.get(j + 1)]
+    found = {(origin[j - 1], j in first): rate for j, rate in split.feeds.items()}
+    joined, joined_origin = split_moves(text, kept, **read)
+    search, halves_now = make(joined), _first_halves(joined_origin)
+    part = search.written(np.array([found[(joined_origin[line - 1], line in halves_now)]
+                                    for line in search.lines]))
+    if part.too_tight and not split.too_tight:
+        part, joined_origin = split, origin
+    return replace(part, before=final.before,
+                   source_lines={k + 1: line for k, line in enumerate(joined_origin)})
+
+
+def _first_halves(origin: list[int]) -> set[int]:
+    """Lines (1-based) that are the first half of a split move: their next has their origin."""
+    return {j + 1 for j in range(len(origin) - 1) if origin[j] == origin[j + 1]}
 
 
 def random_machines(plant: Any, n: int, seed: int) -> list[dict[str, Array]]:

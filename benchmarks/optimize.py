@@ -16,9 +16,10 @@ cycle time of the fastest run keeping the tolerance of each of:
 - *curvature*: the curvature feed limit (``curvature_feed_limit`` in the feedrate env) on the
   program with every F word at the machine's largest feed, its centripetal acceleration and
   its cap (of that feed) the fastest pair of a grid that keeps the tolerance;
-- *optimised*: ``agents.optimize.optimize_part`` (its result read back and run as written),
-  and with ``--robust N`` also the program optimised over N drawn machines, run on N fresh
-  ones (how many it holds on).
+- *optimised*: ``agents.optimize.optimize_part`` (its result read back and run as written;
+  "+k lines": k long moves split in two), beside it the same with ``split=False`` (only F
+  words), and with ``--robust N`` also the program optimised over N drawn machines, run on N
+  fresh ones (how many it holds on).
 
 Beside them, the cycle with every F word at the machine's largest feed and its peak error:
 no F words run faster (where it holds the tolerance, it is the optimum). The optimised program
@@ -155,7 +156,9 @@ def row(part: Path, plant: str, tol: float, robust: int) -> str:
     start = time.perf_counter()
     result = optimize_part(text, plant, tol, best_effort=True)
     wall = time.perf_counter() - start
+    whole = optimize_part(text, plant, tol, best_effort=True, split=False).after["cycle_time"]
     cycle = result.after["cycle_time"]
+    added = len(result.text.splitlines()) - len(text.splitlines())
     look = min(base["G64 P x1"][1], base["curvature"][1])
     saving = [100.0 * (1.0 - cycle / t) for t in (base["F x k"][1], base["override"][1], look,
                                                    base["G64 P"][1])]
@@ -164,7 +167,8 @@ def row(part: Path, plant: str, tol: float, robust: int) -> str:
                        for k, t in base.values())
     extra = f" | {robust_check(plant, text, tol, robust)}" if robust else ""
     return (f"| {part.name} | {plant} | {tol * 1e6:.3g} | {result.before['cycle_time']:.2f} | "
-            f"{bound:.2f} ({peak * 1e6:.3g} um) | {shown} | {cycle:.2f}"
+            f"{bound:.2f} ({peak * 1e6:.3g} um) | {shown} | {whole:.2f} | {cycle:.2f}"
+            f"{f' (+{added} lines)' if added else ''}"
             f"{_unless_as_reported(plant, result.text, tol, cycle)} | "
             f"{result.after['max_contour_error'] * 1e6:.3g} | "
             + " | ".join(f"{x:.1f} %" for x in saving) + f" | {wall:.1f}{extra} |")
@@ -223,10 +227,11 @@ def main() -> None:
         method_table(args.quick)
         return
     print("| part | machine | tolerance (um) | given (s) | every F at the largest | F x k | "
-          "override | G64 P x1 | G64 P, override | curvature | optimised (s) | peak (um) | "
-          "vs F x k | vs override | vs G64 P x1/curvature | vs G64 P, override | optimise (s) |"
+          "override | G64 P x1 | G64 P, override | curvature | optimised, no split (s) | "
+          "optimised (s) | peak (um) | vs F x k | vs override | vs G64 P x1/curvature | "
+          "vs G64 P, override | optimise (s) |"
           + (f" robust {args.robust}: cycle, fresh held |" if args.robust else ""))
-    print("|---" * (17 + bool(args.robust)) + "|")
+    print("|---" * (18 + bool(args.robust)) + "|")
     for part in PARTS:
         try:
             pairs = cases(part, args.quick)

@@ -20,9 +20,15 @@ def _without_f(text: str) -> list[str]:
     return [re.sub(r"\s*F[\d.]+", "", line) for line in text.splitlines()]
 
 
+def _without_splits(text: str) -> list[str]:
+    # the lines without F words, less the first halves of split moves (G1 and axis words)
+    return [line for line in _without_f(text)
+            if not re.fullmatch(r"G1(?: [XYZ]-?\d+\.\d*)+", line)]
+
+
 def test_the_optimised_program_holds_the_tolerance_as_written() -> None:
     result = optimize_part(PART, "xy_servo_coulomb", 5e-6)
-    assert _without_f(result.text) == _without_f(PART)  # only F words differ
+    assert _without_splits(result.text) == _without_f(PART)  # only F words and splits
     assert result.too_tight == ()
     # read back and run at its own F words: what the result reports
     run = simulate("xy_servo_coulomb", from_gcode(result.text), ccc_gains=_gains())
@@ -64,7 +70,7 @@ def test_the_command_writes_the_program_and_its_tables(tmp_path: Path, capsys) -
     written = (tmp_path / "part_opt.ngc").read_text()
     assert "| optimised |" in said and "| line | old F (mm/min) | new F (mm/min) |" in said
     assert "+G1 X70 F" in said and "program written to" in said
-    assert _without_f(written) == _without_f(PART)
+    assert _without_splits(written) == _without_f(PART)
     feeds = [float(f) for f in re.findall(r"F([\d.]+)", written)]
     assert max(feeds) <= 3000  # --max-feed, mm/min
     assert (tmp_path / "part_opt_report.png").stat().st_size > 10_000  # the part drawn
@@ -160,3 +166,23 @@ def test_bisection_searches_one_member_a_round_and_holds() -> None:
     assert result.after["cycle_time"] < 0.7 * result.before["cycle_time"]
     with pytest.raises(ValueError, match="unknown method .annealing.; accepted: bisection, levels"):
         optimize_part(PART, "xy_servo_coulomb", 5e-6, method="annealing")
+
+
+def test_long_moves_split_where_two_feeds_are_faster() -> None:
+    # a W of 20 mm strokes, 157 degree turns: each stroke wants speed, each turn less
+    part = (Path(__file__).parents[1] / "docs" / "metrics_part.nc").read_text()
+    whole = optimize_part(part, "xy_servo_coulomb", 5e-6, split=False)
+    split = optimize_part(part, "xy_servo_coulomb", 5e-6)
+    assert _without_f(whole.text) == _without_f(part)
+    assert _without_splits(split.text) == _without_f(part)
+    assert len(split.text.splitlines()) > len(part.splitlines())
+    assert split.after["cycle_time"] < 0.95 * whole.after["cycle_time"]
+    run = simulate("xy_servo_coulomb", from_gcode(split.text), ccc_gains=_gains())
+    assert run["max_contour_error"] <= 5e-6
+    assert run["cycle_time"] == pytest.approx(split.after["cycle_time"], rel=5e-3)
+    # each line of the result names the line it comes from; the halves of a move differ in F
+    halves = [j for j, src in split.source_lines.items() if split.source_lines.get(j + 1) == src]
+    new, old = _without_f(split.text), _without_f(part)
+    assert all(new[line - 1] == old[source - 1] for line, source in split.source_lines.items()
+               if line not in halves)
+    assert halves and all(split.feeds[j] != split.feeds[j + 1] for j in halves)

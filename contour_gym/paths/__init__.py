@@ -17,6 +17,7 @@ from __future__ import annotations
 from contour_gym.paths._freeform import bspline, nurbs, parametric
 from contour_gym.paths._gcode import WORK_SYSTEMS, GcodeError, GcodePath, from_gcode
 from contour_gym.paths._gcode_feeds import feed_grid, feed_moves, rewrite_feeds
+from contour_gym.paths._gcode_split import split_moves
 from contour_gym.paths._geom import HELIX, LINE, POLY5
 from contour_gym.paths._library import NAMES, load
 from contour_gym.paths._path import Path
@@ -53,4 +54,5 @@ __all__ = [
     "random_path",
     "random_paths",
     "rewrite_feeds",
+    "split_moves",
 ]
