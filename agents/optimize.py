@@ -371,8 +371,7 @@ class _Search:
     def run_as_written(self, program: GcodePath) -> tuple[dict[str, float], Array]:
         """Run a program as ``contour-gym simulate`` runs it: its metrics and per-block peaks.
 
-        Its own scenario: a machine whose acc/dec follows the programmed feed (004's time
-        constant) accelerates as the program's highest feed sets it.
+        Its own scenario, as the command builds it from the program alone.
         """
         scenario = make_scenario(self.plant, program)
         results, peaks = self.simulate([scenario.path], scenario)  # type: ignore[list-item]

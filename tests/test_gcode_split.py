@@ -47,15 +47,16 @@ def test_plain_moves_split_on_the_line_and_on_the_grid() -> None:
     assert got == {line: old[origin[line - 1]] for line in got}
 
 
-@pytest.mark.parametrize("text", [
-    "G91\nG1 X10 F100\nM30\n",  # incremental: the original line would change
-    "G21 G90\nG1 X0.001 F100\nM30\n",  # one grid step: no point strictly inside
-    "G21 G90\nG1 X10.0001 F100\nG20\nG1 X1.\nM30\n",  # the start off the inch grid
+@pytest.mark.parametrize(("text", "lines", "split"), [
+    ("G91\nG1 X10 F100\nM30\n", [2], []),  # incremental: the original line would change
+    ("G21 G90\nG1 X0.001 F100\nM30\n", [2], []),  # one grid step: no point strictly inside
+    # the mm move splits; the inch move's start (10.0001 mm) is off the inch grid
+    ("G21 G90\nG1 X10.0001 F100\nG20\nG1 X1.\nM30\n", [2, 4], [2]),
 ])
-def test_moves_that_cannot_split_exactly_stay_whole(text: str) -> None:
-    lines = {"G91\nG1 X10 F100\nM30\n": [2]}.get(text, [2, 4])
+def test_moves_that_cannot_split_exactly_stay_whole(text: str, lines: list[int],
+                                                   split: list[int]) -> None:
     new, origin = split_moves(text, lines)
-    if "G20" in text:  # the mm move splits, the inch one does not
-        assert new.count("\n") == text.count("\n") + 1 and origin.count(2) == 2
-    else:
+    assert new.count("\n") == text.count("\n") + len(split)
+    assert sorted(line for line in set(origin) if origin.count(line) == 2) == split
+    if not split:
         assert new == text and origin == list(range(1, text.count("\n") + 1))

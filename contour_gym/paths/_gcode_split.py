@@ -24,6 +24,7 @@ import numpy as np
 
 from contour_gym.paths._gcode import from_gcode
 from contour_gym.paths._gcode_feeds import _code_mask, _units
+from contour_gym.paths._gcode_state import _UNIT
 from contour_gym.paths._geom import LINE
 
 _WORD = re.compile(r"([A-Za-z])\s*([-+]?(?:\d+\.?\d*|\.\d+))", re.ASCII)
@@ -91,10 +92,11 @@ def _line_steps(path: Any) -> dict[int, np.ndarray]:
 
 def _coordinate_decimals(raw_lines: list[str]) -> dict[float, int]:
     """The grid's decimals per unit: the program's most in an axis word, at least 3 mm / 4 in."""
-    places = [len(m.group(1)) for raw in raw_lines for m in _COORD.finditer(raw)
-              if _code_mask(raw)[m.start()]]
-    most = max(places, default=0)
-    return {0.001: max(most, 3), 0.0254: max(most, 4)}
+    places = [0]
+    for raw in raw_lines:
+        code = _code_mask(raw)
+        places += [len(m.group(1)) for m in _COORD.finditer(raw) if code[m.start()]]
+    return {_UNIT[21]: max(max(places), 3), _UNIT[20]: max(max(places), 4)}
 
 
 def _first_half(raw: str, step: np.ndarray, unit: float, decimals: int) -> str | None:
