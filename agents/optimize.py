@@ -108,7 +108,7 @@ class OptimizedPart:
             for two blocks, so their largest is at least the run's ``max_contour_error``;
             with ``robust`` machines, the worst over them plus :data:`SPREAD` standard
             deviations).
-        too_tight: Lines the tolerance cannot be held on even at the slowest feed.
+        too_tight: Lines of ``text`` the tolerance cannot be held on even at the slowest feed.
         source_lines: Line of ``text`` -> the line of the given program it comes from (a
             move split in two: both its lines; :func:`~contour_gym.paths.split_moves`).
     """
@@ -170,10 +170,11 @@ def optimize_part(
         final = _with_splits(final, text, halves, make, method, read)
     if final.too_tight and not best_effort:
         where = f" on {robust} machines more (worst + {SPREAD:g} sd)" if robust else ""
+        given = sorted({final.source_lines.get(line, line) for line in final.too_tight})
         raise ValueError(f"the tolerance of {tolerance * 1e6:g} um cannot be held{where} at the "
                          f"slowest feed ({search.slowest * 6e4:.4g} mm/min) on G-code lines "
-                         f"{', '.join(map(str, final.too_tight))}; give --best-effort to run "
-                         "them there anyway")
+                         f"{', '.join(map(str, given))}; give --best-effort to run them there "
+                         "anyway")
     return final
 
 
