@@ -24,6 +24,8 @@ from numba.extending import intrinsic
 from numba.np.arrayobj import populate_array
 from numpy.typing import NDArray
 
+from contour_gym._callee import callee
+
 MAX_NDIM = 4
 
 
@@ -162,7 +164,7 @@ def view3(buf, lay, i):
     return carve(buf, lay[i, 0], (lay[i, 2], lay[i, 3], lay[i, 4]))
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _size(lay, i, ndim):
     """Product of the first ``ndim`` dimensions of array ``i`` of a blob.
 

@@ -28,6 +28,7 @@ import math
 
 import numba
 
+from contour_gym._callee import callee
 from contour_gym._schema import Param, Schema
 from contour_gym._validate import positive
 from contour_gym.contour._history import N_HIST, eval_path_memo, history_at, ref_arc
@@ -66,7 +67,7 @@ def far_off(p0, p1, p2, rx, ry, rz, tx, ty, tz, kx, ky, kz, max_turn):
     return kappa * e > max_turn
 
 
-@numba.njit
+@callee
 def est_exact(kind, s0, data, p0, p1, p2, s):
     """000 eqs. (1)-(3): exact contour error of a line or an arc (foot on the reference's segment).
 
@@ -105,7 +106,7 @@ def est_exact(kind, s0, data, p0, p1, p2, s):
             TRUSTED)
 
 
-@numba.njit
+@callee
 def est_tangent(max_turn, kind, s0, data, p0, p1, p2, s):
     """001 section 2 (Yeh & Hsu): the foot on the tangent line at the reference.
 
@@ -123,7 +124,7 @@ def est_tangent(max_turn, kind, s0, data, p0, p1, p2, s):
     return True, qx, qy, qz, tx, ty, tz, TRUSTED
 
 
-@numba.njit
+@callee
 def est_frenet(order, max_turn, kind, s0, data, p0, p1, p2, s):
     """002 section 4.1 eqs. (19)-(22): Frenet-frame estimate with the delay time.
 
@@ -149,7 +150,7 @@ def est_frenet(order, max_turn, kind, s0, data, p0, p1, p2, s):
             tx - kx * g, ty - ky * g, tz - kz * g, e2)
 
 
-@numba.njit
+@callee
 def est_angle(lag, max_turn, kind, s0, data, p0, p1, p2, s, hist):
     """003 section 3 eqs. (16)-(21): linear contour angle from the previous and current command.
 
@@ -184,14 +185,14 @@ def est_angle(lag, max_turn, kind, s0, data, p0, p1, p2, s, hist):
     return FAIL
 
 
-@numba.njit
+@callee
 def ref_point(kind, s0, data, hist, s, j):
     """Interpolation point ``j`` (see :func:`~contour_gym.contour._history.ref_arc`)."""
     x, y, z, _, _, _, _, _, _ = eval_path(kind, s0, data, ref_arc(hist, s, j))
     return x, y, z
 
 
-@numba.njit
+@callee
 def lag_steps(kind, s0, data, hist, s, p0, p1, p2):
     """First guess of the nearest interpolation point, and ``|r - p|^2``.
 
@@ -210,7 +211,7 @@ def lag_steps(kind, s0, data, hist, s, p0, p1, p2):
     return max(int(round(j)), J_AHEAD), e2
 
 
-@numba.njit
+@callee
 def nearest_quad(kind, s0, data, hist, s, p0, p1, p2, j):
     """Four interpolation points ``j-1, j, j+1, j+2`` around the one nearest p (index j).
 
@@ -251,7 +252,7 @@ def nearest_quad(kind, s0, data, hist, s, p0, p1, p2, j):
     return ok, ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz
 
 
-@numba.njit
+@callee
 def circle_foot(ax, ay, az, bx, by, bz, cx, cy, cz, p0, p1, p2):
     """Nearest point of p on the circle through A (newest), B, C; the line if they are collinear.
 
@@ -291,7 +292,7 @@ def circle_foot(ax, ay, az, bx, by, bz, cx, cy, cz, p0, p1, p2):
     return True, ox + r * vx, oy + r * vy, oz + r * vz, tx, ty, tz
 
 
-@numba.njit
+@callee
 def est_two_circle(kind, s0, data, p0, p1, p2, s, hist):
     """000 "free curve contour error estimation": two circles through interpolation points.
 
@@ -328,7 +329,7 @@ def est_two_circle(kind, s0, data, p0, p1, p2, s, hist):
             f1[4] / t1 + f2[4] / t2, f1[5] / t1 + f2[5] / t2, f1[6] / t1 + f2[6] / t2, e2)
 
 
-@numba.njit
+@callee
 def window_scan(kind, s0, data, hist, s, p0, p1, p2, lo, hi):
     """Nearest interpolation point in ``[lo, hi]`` with its two neighbours, in one pass.
 
@@ -356,7 +357,7 @@ def window_scan(kind, s0, data, hist, s, p0, p1, p2, lo, hi):
     return j, bx, by, bz, dn, nx, ny, nz, do, ox, oy, oz
 
 
-@numba.njit
+@callee
 def est_window(half0, kind, s0, data, p0, p1, p2, s, hist):
     """004 section 2.2: variable-size window; the two reference points closest to the tool.
 
@@ -394,7 +395,7 @@ def est_window(half0, kind, s0, data, p0, p1, p2, s, hist):
     return True, qx, qy, qz, ux, uy, uz, e2
 
 
-@numba.njit
+@callee
 def newton_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz):
     """Newton step on ``g(s) = (P - p) . P'`` (the foot is a root); ``g'`` kept >= |P'|^2/10."""
     ex, ey, ez = x - p0, y - p1, z - p2
@@ -404,7 +405,7 @@ def newton_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz):
     return -g / gp
 
 
-@numba.njit
+@callee
 def circle_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz):
     """Step to the projection of p on the osculating circle at the current point."""
     sp = math.sqrt(tx * tx + ty * ty + tz * tz)
@@ -420,7 +421,7 @@ def circle_step(p0, p1, p2, x, y, z, tx, ty, tz, kx, ky, kz):
     return math.atan2(a * kappa, 1.0 - b * kappa) / (kappa * sp)
 
 
-@numba.njit
+@callee
 def certified(kind, s0, data, bound, p0, p1, p2, sig, s, pt, tol):
     """Foot and tangent at ``sig`` if it is the exact search's foot (to ``tol``); else FAIL.
 
@@ -441,7 +442,7 @@ def certified(kind, s0, data, bound, p0, p1, p2, sig, s, pt, tol):
     return True, x, y, z, tx, ty, tz, TRUSTED
 
 
-@numba.njit
+@callee
 def est_iterative(n_iter, method, tol, kind, s0, data, bound, p0, p1, p2, s):
     """Beyond the papers: real-time nearest-point iteration started at the reference.
 
@@ -489,13 +490,13 @@ def _lines_and_arcs(path):
                          "has free-form or helix segments (use 'iterative' or 'ground_truth')")
 
 
-@numba.njit
+@callee
 def foot_exact(p, kind, s0, data, bound, p0, p1, p2, s, hist):
     """Adapter of :func:`est_exact`."""
     return est_exact(kind, s0, data, p0, p1, p2, s)
 
 
-@numba.njit
+@callee
 def foot_two_circle(p, kind, s0, data, bound, p0, p1, p2, s, hist):
     """Adapter of :func:`est_two_circle`."""
     return est_two_circle(kind, s0, data, p0, p1, p2, s, hist)
@@ -505,7 +506,7 @@ TANGENT = Schema("tangent", max_turn=_MAX_TURN)
 _TC = TANGENT.col
 
 
-@numba.njit
+@callee
 def foot_tangent(p, kind, s0, data, bound, p0, p1, p2, s, hist):
     """Adapter of :func:`est_tangent`."""
     return est_tangent(p[_TC.max_turn], kind, s0, data, p0, p1, p2, s)
@@ -515,7 +516,7 @@ FRENET = Schema("frenet", order=Param(2, int_in(1, 2), "Taylor order"), max_turn
 _FC = FRENET.col
 
 
-@numba.njit
+@callee
 def foot_frenet(p, kind, s0, data, bound, p0, p1, p2, s, hist):
     """Adapter of :func:`est_frenet`."""
     c = _FC
@@ -526,7 +527,7 @@ ANGLE = Schema("angle", lag=Param(1, int_in(1, N_HIST), "ticks back to D'"), max
 _AC = ANGLE.col
 
 
-@numba.njit
+@callee
 def foot_angle(p, kind, s0, data, bound, p0, p1, p2, s, hist):
     """Adapter of :func:`est_angle`."""
     c = _AC
@@ -537,7 +538,7 @@ WINDOW = Schema("window", half_width=Param(1, int_in(1, N_HIST), "starting half-
 _WC = WINDOW.col
 
 
-@numba.njit
+@callee
 def foot_window(p, kind, s0, data, bound, p0, p1, p2, s, hist):
     """Adapter of :func:`est_window`."""
     return est_window(int(p[_WC.half_width]), kind, s0, data, p0, p1, p2, s, hist)
@@ -552,7 +553,7 @@ ITERATIVE = Schema(
 _IC = ITERATIVE.col
 
 
-@numba.njit
+@callee
 def foot_iterative(p, kind, s0, data, bound, p0, p1, p2, s, hist):
     """Adapter of :func:`est_iterative`."""
     c = _IC

@@ -17,8 +17,7 @@ from __future__ import annotations
 
 import math
 
-import numba
-
+from contour_gym._callee import callee
 from contour_gym.paths._geom import eval_path
 
 N_HIST = 128  # past reference arc lengths kept per member
@@ -28,7 +27,7 @@ _MEMO = N_HIST + 2  # first slot
 HIST_WIDTH = _MEMO + PATH_MEMO * _SLOT
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def eval_path_memo(kind, s0, data, s, hist):
     """:func:`~contour_gym.paths._geom.eval_path` at ``s``, remembered in the row ``hist``.
 
@@ -52,7 +51,7 @@ def eval_path_memo(kind, s0, data, s, hist):
     return r
 
 
-@numba.njit
+@callee
 def history_push(hist, s):
     """Append arc length ``s`` to the ring buffer ``hist`` (hist[0] = head, hist[1:] = ring)."""
     head = int(hist[0]) + 1
@@ -62,7 +61,7 @@ def history_push(hist, s):
     hist[1 + head] = s
 
 
-@numba.njit
+@callee
 def history_at(hist, i):
     """Reference arc length ``i + 1`` ticks ago (0 <= i < N_HIST); 0 before the start."""
     j = int(hist[0]) - i
@@ -71,7 +70,7 @@ def history_at(hist, i):
     return hist[1 + j]
 
 
-@numba.njit
+@callee
 def ref_arc(hist, s, j):
     """Arc length of interpolation point ``j``.
 

@@ -20,6 +20,7 @@ import math
 
 import numba
 
+from contour_gym._callee import callee
 from contour_gym.contour._history import N_HIST, history_at, history_push
 from contour_gym.paths._branch import branch_nearest_from, is_closed_table
 from contour_gym.paths._geom import eval_path, find_segment, side_2d
@@ -96,7 +97,7 @@ def ground_truth(kind, s0, data, bound, dim, p0, p1, p2, s):
     return eps, c0, c1, c2, sf
 
 
-@numba.njit
+@callee
 def ground_truth_from(kind, s0, data, bound, dim, p0, p1, p2, s_from, qx, qy, qz, s_to):
     """The true contour error of ``p`` on the branch from ``s_from`` to ``s_to``.
 

@@ -13,8 +13,9 @@
   :mod:`~contour_gym.jit.flags_eq`: three fixes that make numba's compile faster.
 
 **What a kernel calls compiles with it.** A function a kernel calls (the exact search and
-ground truth, the estimators, the history ring) is a plain ``@numba.njit`` without ``cache``:
-it compiles in the process that compiles the kernel, where LLVM can inline it; one loaded from
+ground truth, the estimators, the history ring) is a :func:`contour_gym._callee.callee`: an
+``@numba.njit`` without ``cache`` and without the entry points Python calls through. It
+compiles in the process that compiles the kernel, where LLVM can inline it; one loaded from
 numba's cache is machine code LLVM cannot inline. The kernels themselves and the functions
 called from Python (:mod:`contour_gym.paths._batch`, the estimator API's kernel) are cached.
 

@@ -11,6 +11,7 @@ import math
 import numba
 import numpy as np
 
+from contour_gym._callee import callee
 from contour_gym.paths._branch import branch_nearest, branch_nearest_from, nearest_global
 from contour_gym.paths._geom import (
     _BOUND_SAMPLES,
@@ -33,7 +34,7 @@ def eval_many(kind, s0, data, s, out):
             out[k, j] = r[j]
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _foot_d2(kind, s0, data, sf, px, py, pz):
     # |P(sf) - p|^2 as the servo loop takes it (from the evaluated foot point), so that the
     # Python API's distances equal the loop's bit for bit
@@ -88,7 +89,7 @@ def side_many(kind, s0, data, closed, s, pts, out):
         out[k] = side_2d(kind, s0, data, closed, s[k], pts[k, 0], pts[k, 1])
 
 
-@numba.njit
+@callee
 def _accel_bound(kind, data, i, seg_len):
     """Upper bound of |P''| over the segment."""
     k = kind[i]

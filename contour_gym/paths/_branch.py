@@ -49,6 +49,7 @@ import math
 import numba
 import numpy as np
 
+from contour_gym._callee import callee
 from contour_gym.paths._geom import (
     CLOSED_TOL,
     HELIX,
@@ -78,7 +79,7 @@ _TURN_SAMPLES = 32  # quadrature points of a quintic span's turning
 
 
 # ---------------------------------------------------------------------------------- building
-@numba.njit
+@callee
 def _unit(r):
     norm = math.sqrt(r[3] * r[3] + r[4] * r[4] + r[5] * r[5])
     if norm == 0.0:
@@ -86,14 +87,14 @@ def _unit(r):
     return r[3] / norm, r[4] / norm, r[5] / norm
 
 
-@numba.njit
+@callee
 def _angle(ax, ay, az, bx, by, bz):
     """Angle between two unit vectors (atan2 of |a x b| and a . b: exact near 0 and pi)."""
     cx, cy, cz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
     return math.atan2(math.sqrt(cx * cx + cy * cy + cz * cz), ax * bx + ay * by + az * bz)
 
 
-@numba.njit
+@callee
 def _corner(kind, s0, data, i, j):
     """Turn from the end of segment ``i`` to the start of segment ``j``, rad in [0, pi]."""
     ax, ay, az = _unit(eval_segment(kind, data, i, s0[i + 1] - s0[i]))
@@ -101,7 +102,7 @@ def _corner(kind, s0, data, i, j):
     return _angle(ax, ay, az, bx, by, bz)
 
 
-@numba.njit
+@callee
 def _turning_in(kind, s0, data, i):
     """Total turning of the unit tangent along segment ``i``, rad.
 
@@ -126,7 +127,7 @@ def _turning_in(kind, s0, data, i):
     return total
 
 
-@numba.njit
+@callee
 def _merge(out, k, a, b):
     """Row ``k`` := the smallest sphere holding the spheres of rows ``a`` and ``b``."""
     dx, dy, dz = out[b, 0] - out[a, 0], out[b, 1] - out[a, 1], out[b, 2] - out[a, 2]
@@ -146,7 +147,7 @@ def _merge(out, k, a, b):
     out[k, 3] = rad * (1.0 + 1e-12) + 1e-15 * scale  # rounding never leaves a child outside
 
 
-@numba.njit
+@callee
 def _build_tree(out, n):
     """The pre-order tree over segments ``0 .. n-1`` in rows ``n ..`` (module doc).
 
@@ -199,7 +200,7 @@ def build_rows(kind, s0, data, spheres):
     return out
 
 
-@numba.njit
+@callee
 def _is_closed(kind, s0, data):
     """Whether the path ends where it starts (within ``CLOSED_TOL``)."""
     n = kind.shape[0]
@@ -218,7 +219,7 @@ def fill_clearances(kind, s0, data, bound, out):
             out[i, cell] = _clearance(kind, s0, data, bound, i, cell, closed)
 
 
-@numba.njit
+@callee
 def _nearest_between(kind, s0, data, bound, px, py, pz, closed, lo, hi):
     """Squared distance from ``p`` to the path's unwrapped range ``[lo, hi]``.
 
@@ -232,7 +233,7 @@ def _nearest_between(kind, s0, data, bound, px, py, pz, closed, lo, hi):
     return search_tree(kind, s0, data, bound, px, py, pz, windows, seed, windows[0], np.inf)[1]
 
 
-@numba.njit
+@callee
 def _clearance(kind, s0, data, bound, i, cell, closed):
     """A lower bound of how near a cell's points come to the path turned away from them.
 
@@ -269,7 +270,7 @@ def is_closed_table(bound, n):
     return bound[n, B_CLOSED] != 0.0
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _turn_on(s0, bound, i, r, left):
     """Turning from the lap's start to ``r`` on segment ``i`` (if ``left``: before its corner)."""
     if left and r <= s0[i] and i > 0:
@@ -279,13 +280,13 @@ def _turn_on(s0, bound, i, r, left):
     return bound[i, B_TS] + bound[i, B_TIN] * f
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _turn_in_lap(s0, bound, r, left):
     """Turning from the lap's start to ``r`` in [0, L]; at a joint the left limit if ``left``."""
     return _turn_on(s0, bound, find_segment(s0, r), r, left)
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _turn_from(s0, bound, j, r, left):
     """:func:`_turn_in_lap` at ``r`` in [0, L], its segment found by walking from segment ``j``."""
     n = s0.shape[0] - 1
@@ -297,7 +298,7 @@ def _turn_from(s0, bound, j, r, left):
     return _turn_on(s0, bound, i, r, left)
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _turn(s0, bound, s, left, closed):
     """Turning ``T(s)`` from the path start (unwrapped laps on a closed path)."""
     n = s0.shape[0] - 1
@@ -312,7 +313,7 @@ def _turn(s0, bound, s, left, closed):
     return k * period + _turn_in_lap(s0, bound, r, left)
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _first_end_above(s0, bound, u):
     """First segment whose turning at its end (before the next corner) exceeds ``u``."""
     lo, hi = 0, s0.shape[0] - 2
@@ -325,7 +326,7 @@ def _first_end_above(s0, bound, u):
     return lo
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _last_start_below(s0, bound, u):
     """Last segment whose turning at its start (its start corner included) is below ``u``."""
     lo, hi = 0, s0.shape[0] - 2
@@ -338,7 +339,7 @@ def _last_start_below(s0, bound, u):
     return lo
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _inf_above(s0, bound, u):
     """Smallest ``r`` in one lap with ``T(r) > u``, for ``0 <= u < T(L-)``."""
     i = _first_end_above(s0, bound, u)
@@ -347,7 +348,7 @@ def _inf_above(s0, bound, u):
     return s0[i] + (u - bound[i, B_TS]) / bound[i, B_TIN] * (s0[i + 1] - s0[i])
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _sup_below(s0, bound, u):
     """Largest ``r`` in one lap with ``T(r-) < u``, for ``0 < u <= T(L-)``."""
     i = _last_start_below(s0, bound, u)
@@ -357,7 +358,7 @@ def _sup_below(s0, bound, u):
     return s0[i] + (u - bound[i, B_TS]) / bound[i, B_TIN] * (s0[i + 1] - s0[i])
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _lower_end(s0, bound, closed, t_end, target, a):
     """Smallest arc length (unwrapped, at most a lap before ``a``) where ``T > target``."""
     length = s0[s0.shape[0] - 1]
@@ -374,7 +375,7 @@ def _lower_end(s0, bound, closed, t_end, target, a):
     return (k - 1.0) * length + _inf_above(s0, bound, max(u, 0.0))
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _upper_end(s0, bound, closed, t_end, target, b):
     """Largest arc length (unwrapped, at most a lap after ``b``) where ``T(left) < target``."""
     length = s0[s0.shape[0] - 1]
@@ -391,7 +392,7 @@ def _upper_end(s0, bound, closed, t_end, target, b):
     return (k + 1.0) * length + _sup_below(s0, bound, min(u, t_end))
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def branch_range(s0, bound, closed, a, b, angle):
     """The arc lengths within ``angle`` of turning of the stretch ``[a, b]`` (the branch).
 
@@ -412,7 +413,7 @@ def branch_range(s0, bound, closed, a, b, angle):
 
 
 # ---------------------------------------------------------------------------------- the search
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _leaf(n, j):
     """Pre-order index of segment ``j``'s leaf in the tree over ``n`` segments."""
     k, lo, hi = 0, 0, n
@@ -425,7 +426,7 @@ def _leaf(n, j):
     return k
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def branch_windows(length, closed, lo, hi):
     """The unwrapped range ``[lo, hi]`` as windows ``(lo, hi)`` in [0, L], three pairs.
 
@@ -445,7 +446,7 @@ def branch_windows(length, closed, lo, hi):
     return a, length, 0.0, b - length, 1.0, 0.0
 
 
-@numba.njit
+@callee
 def search_tree(kind, s0, data, bound, px, py, pz, windows, seed, best_s, best_d2):
     """Nearest point with arc length in ``windows`` (up to 3 ``(lo, hi)`` in [0, L]).
 
@@ -486,7 +487,7 @@ def search_tree(kind, s0, data, bound, px, py, pz, windows, seed, best_s, best_d
     return best_s, best_d2
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _segment_range(s0, s_lo, s_hi):
     """First and last segment holding arc lengths of ``[s_lo, s_hi]``."""
     i_lo = find_segment(s0, s_lo)
@@ -496,14 +497,14 @@ def _segment_range(s0, s_lo, s_hi):
     return i_lo, i_hi
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _sphere_gap_beyond(bound, row, px, py, pz, best_d2):
     """Whether row ``row``'s sphere stays farther from ``p`` than ``sqrt(best_d2)`` (a tie)."""
     lb = _sphere_gap(bound, row, px, py, pz)
     return lb > 0.0 and lb * lb > best_d2 + TIE_D2
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def unwrap_near(s, ref, length, closed):
     """``s`` moved by whole laps to within half a lap of ``ref`` on a closed path."""
     if closed:
@@ -514,13 +515,13 @@ def unwrap_near(s, ref, length, closed):
     return s
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _sphere_gap(bound, row, px, py, pz):
     dx, dy, dz = px - bound[row, 0], py - bound[row, 1], pz - bound[row, 2]
     return math.sqrt(dx * dx + dy * dy + dz * dz) - bound[row, 3]
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def nearest_leaf(kind, s0, bound, px, py, pz, windows):
     """A segment of ``windows`` near ``p``: down the tree, into the child nearer by sphere.
 
@@ -547,7 +548,7 @@ def nearest_leaf(kind, s0, bound, px, py, pz, windows):
     return lo
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def _local_window(s0, bound, px, py, pz, s_from, qx, qy, qz, s_to, closed):
     """The window around ``s_from`` that holds the branch's nearest point, if it is certain.
 
@@ -590,7 +591,7 @@ def _local_window(s0, bound, px, py, pz, s_from, qx, qy, qz, s_to, closed):
     return ahead <= CHORD_TURN and behind <= CHORD_TURN and span <= SPAN_TURN, lo, hi
 
 
-@numba.njit
+@callee
 def branch_nearest(kind, s0, data, bound, px, py, pz, s_from, s_to):
     """The true nearest point (module doc) of the branch from ``s_from`` to ``s_to``.
 
@@ -601,7 +602,7 @@ def branch_nearest(kind, s0, data, bound, px, py, pz, s_from, s_to):
     return branch_nearest_from(kind, s0, data, bound, px, py, pz, s_from, s_to, qx, qy, qz)
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def branch_nearest_from(kind, s0, data, bound, px, py, pz, s_from, s_to, qx, qy, qz):
     """:func:`branch_nearest` given ``q = P(s_from)`` (the loop keeps its foot points).
 
@@ -617,7 +618,7 @@ def branch_nearest_from(kind, s0, data, bound, px, py, pz, s_from, s_to, qx, qy,
     return search_branch(kind, s0, data, bound, px, py, pz, s_from, s_to)
 
 
-@numba.njit
+@callee
 def search_branch(kind, s0, data, bound, px, py, pz, s_from, s_to):
     """The nearest point of the branch from ``s_from`` to ``s_to``, by searching all of it.
 
@@ -637,7 +638,7 @@ def search_branch(kind, s0, data, bound, px, py, pz, s_from, s_to):
     return search_tree(kind, s0, data, bound, px, py, pz, windows, seed, windows[0], np.inf)
 
 
-@numba.njit
+@callee
 def nearest_in(kind, s0, data, bound, px, py, pz, closed, lo, hi):
     """Nearest point with arc length in ``[lo, hi]``, wrapped on a closed path.
 
@@ -657,7 +658,7 @@ def nearest_in(kind, s0, data, bound, px, py, pz, closed, lo, hi):
     return sf, d2
 
 
-@numba.njit
+@callee
 def branch_has_nearer(kind, s0, data, bound, px, py, pz, s, bar):
     """Whether the reference ``s``'s branch holds a point nearer ``p`` than ``sqrt(bar)``.
 
@@ -677,7 +678,7 @@ def branch_has_nearer(kind, s0, data, bound, px, py, pz, s, bar):
     return best < bar
 
 
-@numba.njit
+@callee
 def nearest_global(kind, s0, data, bound, px, py, pz):
     """Exact nearest point over the whole path: ``(s_foot, dist2)``.
 

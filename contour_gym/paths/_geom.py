@@ -42,6 +42,8 @@ import math
 import numba
 import numpy as np
 
+from contour_gym._callee import callee
+
 LINE = 0
 HELIX = 1
 POLY5 = 2
@@ -54,7 +56,7 @@ _NEWTON_TOL = 1e-14  # Newton step size at which the foot point is final, m
 _BOUND_SAMPLES = 32  # sub-intervals per segment when building bounding spheres
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def find_segment(s0, s):
     """Index of the segment containing arc length ``s`` (binary search, clamped to [0, n-1]).
 
@@ -91,7 +93,7 @@ def _poly_axis(data, i, j, t):
     return p, d1, d2
 
 
-@numba.njit(forceinline=True)
+@callee(forceinline=True)
 def eval_segment(kind, data, i, t):
     """Point, dP/ds and d2P/ds2 of segment ``i`` at local arc length ``t`` (9 floats).
 
@@ -218,7 +220,7 @@ def _norm3(data, i, j):
     return math.sqrt(x * x + y * y + z * z)
 
 
-@numba.njit
+@callee
 def _g2_bound(data, i, seg_len, dmax):
     """Upper bound of |g''| = |3 P'.P'' + (P - p).P'''| over a POLY5 span, |P - p| <= dmax."""
     n1 = _norm3(data, i, 3)
@@ -245,7 +247,7 @@ def _g_at(kind, data, i, px, py, pz, local, t):
     return _dist2_at(kind, data, i, t, px, py, pz)
 
 
-@numba.njit
+@callee
 def _root(kind, data, i, px, py, pz, local, lo, hi, glo, ghi):
     """Root of g in (lo, hi) with g(lo) < 0 < g(hi): Newton safeguarded by bisection.
 
@@ -276,7 +278,7 @@ def _root(kind, data, i, px, py, pz, local, lo, hi, glo, ghi):
 _NO_LOCAL = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
-@numba.njit
+@callee
 def _nearest_sweep(kind, data, i, px, py, pz, ta, tb, g2max):
     """Exact nearest point on a POLY5 span over local [ta, tb] (see the module doc).
 
@@ -306,7 +308,7 @@ def _nearest_sweep(kind, data, i, px, py, pz, ta, tb, g2max):
     return best_t, best_d2
 
 
-@numba.njit
+@callee
 def _helix_local(data, i, px, py, pz):
     """Coordinates of p in the helix frame (e1, e2, a) about its centre."""
     qx = px - data[i, 0]
@@ -318,7 +320,7 @@ def _helix_local(data, i, px, py, pz):
     return x, y, z
 
 
-@numba.njit
+@callee
 def _helix_f(r, w, h, x, y, z, t):
     """Squared distance, g and g' at t for a helix point in local coordinates (x, y, z)."""
     phi = w * t
@@ -332,7 +334,7 @@ def _helix_f(r, w, h, x, y, z, t):
     return ex * ex + ey * ey + ez * ez, g, gp
 
 
-@numba.njit
+@callee
 def _nearest_helix(kind, data, i, px, py, pz, ta, tb):
     """Exact nearest point on a helix segment over local [ta, tb].
 
@@ -453,7 +455,7 @@ def _visit(kind, s0, data, bound, j, px, py, pz, s_lo, s_hi, best_s, best_d2):
     return search_segment(kind, s0, data, bound, j, px, py, pz, s_lo, s_hi, best_s, best_d2)
 
 
-@numba.njit
+@callee
 def nearest_window(kind, s0, data, bound, px, py, pz, s_lo, s_hi):
     """Exact nearest point with arc length in [s_lo, s_hi] (clamped to [0, L]): (s_foot, dist2).
 
@@ -502,7 +504,7 @@ def unit_tangent(kind, data, i, t):
     return r[3] / norm, r[4] / norm, r[5] / norm
 
 
-@numba.njit
+@callee
 def side_2d(kind, s0, data, closed, s, px, py):
     """Sign (+1 left of travel, -1 right) of a 2-D point whose foot point is at ``s``.
 
