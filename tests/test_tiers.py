@@ -1,7 +1,10 @@
 """The run's own kernel and the built-ins' kernel (contour_gym.jit.tiers)."""
 
+import contextlib
+import os
 import pickle
 import re
+import signal
 import subprocess
 import sys
 import time
@@ -69,19 +72,52 @@ def test_a_detached_worker_takes_a_request(
     assert "a test's kernel in the background" in notice and f"kill {pid}" in notice
 
 
-def test_a_background_process_ends_when_its_cache_folder_is_gone(tmp_path: Path) -> None:
+def _watching(folder: Path) -> tuple[subprocess.Popen[bytes], int]:
+    """A process as :func:`tiers._detach` starts one (a session of its own), watching
+    ``folder``, with a worker of its own; the process and the worker's pid."""
+    code = (f"from contour_gym.jit import tiers; tiers._watch({str(folder)!r}); "
+            "import subprocess, sys, time; "
+            "w = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(120)']); "
+            "print(w.pid, flush=True); time.sleep(120)")
+    process = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                               start_new_session=True)
+    assert process.stdout is not None
+    return process, int(process.stdout.readline())
+
+
+def _gone(pid: int, timeout: float = 30.0) -> bool:
+    """Whether ``pid`` ended within ``timeout`` s (a zombie not yet reaped counts as ended)."""
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        except (FileNotFoundError, ProcessLookupError):
+            return True
+        if state == "Z":
+            return True
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(0.1)
+
+
+@pytest.mark.parametrize("how", ["folder removed", "kill PID"])
+def test_a_background_process_and_its_workers_end(tmp_path: Path, how: str) -> None:
     folder = tmp_path / "generated"
     folder.mkdir()
-    code = (f"from contour_gym.jit import tiers; tiers._watch({str(folder)!r}); "
-            "import time; time.sleep(120)")
-    process = subprocess.Popen([sys.executable, "-c", code])
+    process, worker = _watching(folder)
     try:
-        time.sleep(3.0)  # imported and watching
-        assert process.poll() is None
-        folder.rmdir()
+        time.sleep(1.0)
+        assert process.poll() is None and not _gone(worker, timeout=0.0)
+        if how == "folder removed":
+            folder.rmdir()
+        else:
+            process.terminate()
         assert process.wait(timeout=30.0) == 0
+        assert _gone(worker)  # the worker it started ended with it
     finally:
         process.kill()
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(worker, signal.SIGKILL)
 
 
 def _module(folder: Path, name: str, compiled: bool) -> types.ModuleType:

@@ -29,6 +29,7 @@ from __future__ import annotations
 import functools
 import os
 import pickle
+import signal
 import subprocess
 import sys
 import tempfile
@@ -154,14 +155,34 @@ def _detach(
 WATCH_SECONDS = 1.0  # how often a background process checks that its cache folder exists
 
 
+_ENDING = threading.Event()
+
+
+def _end_group() -> None:
+    """End this background process and the compile workers it started.
+
+    A background process leads a session of its own (:func:`_detach`), so its workers are in
+    its process group: the group gets SIGTERM (this process's handler, :func:`_watch`, then
+    only exits), and this process exits.
+    """
+    if not _ENDING.is_set() and os.getpgrp() == os.getpid():
+        _ENDING.set()
+        os.killpg(os.getpid(), signal.SIGTERM)
+    os._exit(0)
+
+
 def _watch(folder: str) -> None:
-    """In a background process: end it once ``folder`` (its compiled code's) is gone."""
+    """In a background process: end it and its workers when ``folder`` goes, or on SIGTERM.
+
+    ``folder`` holds its compiled code; SIGTERM is ``kill PID``, as the terminal was told.
+    """
 
     def watch() -> None:
         while os.path.isdir(folder):
             time.sleep(WATCH_SECONDS)
-        os._exit(0)
+        _end_group()
 
+    signal.signal(signal.SIGTERM, lambda signum, frame: _end_group())
     threading.Thread(target=watch, name="contour-gym cache watch", daemon=True).start()
 
 
