@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 from numba.core import event
 
-OWN_KERNEL_SECONDS = 35.0
+OWN_KERNEL_SECONDS = 20.0
 """About how long one kernel compiles in-process on a 2-core machine, for the progress line: the
 servo loop's kernel of a fresh-cache ``contour-gym simulate`` (the rest of its first run builds
 the path's tables; docs/measurements.md)."""
