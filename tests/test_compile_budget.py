@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-# numba 0.68: 27 853 statements in 95 compiled functions (the first run took 45-50 s on two
+# numba 0.68: 27 885 statements in 99 compiled functions (the first run took 28-31 s on two
 # cores); the budget leaves 4 % for changes that do not need a word.
 STATEMENT_BUDGET = 29_000
 
