@@ -23,15 +23,17 @@ draws the largest error at 5 % of the path's extent) beside |contour error| agai
 feedrate scenarios the feedrate against path length (:func:`contour_gym.render.feedrate_figure`).
 
 **The run folder** (``--out DIR``; default ``runs/bench/<suite>-<hash>``) holds ``suite.json``
-(the suite's name, source and content hash), ``suite.yaml`` (a copy), one
+(the suite's name, source, content hash and code digest), ``suite.yaml`` (a copy), one
 ``cells/<scenario>/<policy>.json`` per finished cell (its episodes' metrics, each with its
 seed) and ``.npz`` (the plotted seed's per-tick trace), written at once and atomically (temp
 file, then rename), the plots and the tables. A run that stops (Ctrl-C, a crash) resumes
 where it stopped when run again with the same folder: finished cells are read back, never
 recomputed. The content hash (of the parsed YAML: comments and layout do not count) guards the
-folder: a folder holding a run of a different suite raises ValueError (pass a new ``--out``
-or delete the folder); the default folder is named by the hash, so an edited suite starts a
-new one. The hash covers the suite, not the code: after changing a policy, delete the folder.
+folder, with a digest of the code (:func:`agents.suites.code_digest`: every file of
+``contour_gym`` and ``agents``): a folder holding a run of a different suite, or one computed by
+other code (another version, a changed policy), raises ValueError (pass a new ``--out`` or
+delete the folder); the default folder is named by both, so an edited suite or an upgrade
+starts a new one.
 
 A bad suite or a run folder of another suite raises ValueError before any cell runs.
 """
@@ -39,6 +41,7 @@ A bad suite or a run folder of another suite raises ValueError before any cell r
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import json
 import math
@@ -62,7 +65,7 @@ from agents.generalization import format_value, summary_rows
 from agents.generalization import markdown as summary_markdown
 from agents.parallel import Runner, runner
 from agents.policies import Policy
-from agents.suites import PolicySpec, ScenarioSpec, Suite, load_suite
+from agents.suites import PolicySpec, ScenarioSpec, Suite, code_digest, load_suite
 from contour_gym.envs.core import FEEDRATE
 from contour_gym.files import write_atomically, write_handle_atomically, write_text
 from contour_gym.loop import Trace
@@ -186,6 +189,13 @@ class RunFolder:
                     f"{str(held.get('hash'))[:12]}), not of {suite.source} (hash "
                     f"{suite.digest[:12]}): pass another --out, or delete {root} to start over"
                 )
+            if held.get("code") != code_digest():
+                raise ValueError(
+                    f"{root} holds a run computed by other contour-gym code (code digest "
+                    f"{str(held.get('code'))[:12]}, this code's {code_digest()[:12]}): its "
+                    f"cells would mix with this code's; pass another --out, or delete {root} "
+                    "to start over"
+                )
         elif root.exists() and any(root.iterdir()):
             raise ValueError(f"{root} is not empty and holds no bench run (no suite.json): "
                              "pass another --out")
@@ -195,7 +205,7 @@ class RunFolder:
         self.root.mkdir(parents=True, exist_ok=True)
         if not (self.root / "suite.json").is_file():
             identity = {"name": self.suite.name, "source": str(self.suite.source),
-                        "hash": self.suite.digest}
+                        "hash": self.suite.digest, "code": code_digest()}
             write_text(self.root / "suite.json", json.dumps(identity, indent=1) + "\n")
         if not (self.root / "suite.yaml").is_file():
             write_text(self.root / "suite.yaml", self.suite.text)
@@ -420,8 +430,9 @@ class BenchResult:
 
 
 def default_out(suite: Suite) -> Path:
-    """``runs/bench/<suite>-<first 12 hex digits of its hash>``."""
-    return DEFAULT_RUNS / f"{suite.name}-{suite.digest[:12]}"
+    """``runs/bench/<suite>-<12 hex digits>``, named by the suite's hash and the code's digest."""
+    both = hashlib.sha256(f"{suite.digest} {code_digest()}".encode()).hexdigest()
+    return DEFAULT_RUNS / f"{suite.name}-{both[:12]}"
 
 
 def plan(suite: Suite) -> dict[tuple[str, str], str]:

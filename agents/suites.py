@@ -69,6 +69,7 @@ the policy rejects.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib
 import inspect
@@ -301,6 +302,22 @@ def suite_file(name_or_path: str | os.PathLike[str]) -> Path:
         raise ValueError(f"unknown suite {text!r}; shipped: {', '.join(shipped_suites())} "
                          "(or give a path to a .yaml file)")
     return SUITES_DIR / f"{text}.yaml"
+
+
+@functools.cache
+def code_digest() -> str:
+    """SHA-256 of this installation's code and data: every file of ``contour_gym`` and ``agents``.
+
+    Beside a suite's :attr:`Suite.digest` it names what a bench run's cells were computed with:
+    a run folder resumes only under the same code (:class:`agents.bench.RunFolder`).
+    """
+    digest = hashlib.sha256()
+    for package in (Path(contour_gym.__file__).parent, Path(__file__).parent):
+        files = (f for f in package.rglob("*") if f.is_file() and "__pycache__" not in f.parts)
+        for file in sorted(files):
+            digest.update(file.relative_to(package.parent).as_posix().encode() + b"\0")
+            digest.update(file.read_bytes())
+    return digest.hexdigest()
 
 
 def load_suite(name_or_path: str | os.PathLike[str] = "default") -> Suite:

@@ -143,6 +143,27 @@ def test_a_folder_of_another_suite_is_refused_before_any_work(tiny_run, tmp_path
     assert counted == []
 
 
+def test_a_folder_computed_by_other_code_is_refused_before_any_work(
+    tiny_run, tmp_path, monkeypatch, counted
+):
+    copy = tmp_path / "run"
+    shutil.copytree(tiny_run[0], copy)
+    monkeypatch.setattr(bench, "code_digest", lambda: "f" * 64)  # an upgrade, a changed policy
+    with pytest.raises(ValueError, match=r"holds a run computed by other contour-gym code "
+                                         r"\(code digest \w{12}, this code's f{12}\)"):
+        run_suite("tiny", copy, progress=False)
+    assert counted == []
+
+
+def test_the_default_folder_is_named_by_the_suite_and_the_code(monkeypatch):
+    suite = bench.load_suite("tiny")
+    here = bench.default_out(suite)
+    monkeypatch.setattr(bench, "code_digest", lambda: "f" * 64)
+    assert bench.default_out(suite) != here
+    assert bench.default_out(suite).parent == here.parent
+    assert here.name.startswith(f"{suite.name}-")
+
+
 def _bad(tmp_path, text):
     path = tmp_path / "bad.yaml"
     path.write_text(textwrap.dedent(text))
