@@ -5,7 +5,7 @@ boxing the result) and a C wrapper beside the function itself, and makes machine
 three, although a function only a kernel calls never runs through them: the kernel links the
 function's own code and LLVM inlines it there. :func:`callee` compiles a function without them
 (numba's ``no_cpython_wrapper`` and ``no_cfunc_wrapper``): the same code where compiled code
-calls it, less for numba and LLVM to make (a fresh-cache ``contour-gym simulate`` compiles ~80
+calls it, less for numba and LLVM to make (a fresh-cache ``contour-gym simulate`` compiles 53
 such functions; docs/measurements.md). Called from Python, such a function would jump to an
 entry point that does not exist, so :class:`Callee` runs such a call through a small compiled
 function of its own.

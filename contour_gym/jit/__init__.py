@@ -16,8 +16,10 @@
 ground truth, the estimators, the history ring) is a :func:`contour_gym._callee.callee`: an
 ``@numba.njit`` without ``cache`` and without the entry points Python calls through. It
 compiles in the process that compiles the kernel, where LLVM can inline it; one loaded from
-numba's cache is machine code LLVM cannot inline. The kernels themselves and the functions
-called from Python (:mod:`contour_gym.paths._batch`, the estimator API's kernel) are cached.
+numba's cache is machine code LLVM cannot inline. The public building blocks of
+:mod:`contour_gym.contour.kernels` stay plain ``@numba.njit`` (a user may call them from
+Python). The kernels themselves and the functions called from Python
+(:mod:`contour_gym.paths._batch`, the estimator API's kernel) are cached.
 
 **Inlined by whom.** ``inline="always"`` makes numba inline a function's IR at every call
 site, typing it again each time; ``forceinline=True`` types it once and has LLVM inline it.

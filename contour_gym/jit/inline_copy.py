@@ -20,7 +20,9 @@ result depends only on the function and the compile's settings. :func:`install` 
 first result per function and settings and inlines it at each call site under a new function
 identity (a new unique name for the inlined variables, as a fresh run gives); ``inline_ir``
 copies the callee's blocks before it changes them, so the kept IR stays as the pipeline left
-it. A function whose settings cannot be keyed runs the pipeline as before.
+it. A function whose settings cannot be keyed runs the pipeline as before. The kept IR holds the
+globals a callee read when it was first inlined in the process: a global changed later reaches
+its callers in a new process (as numba's cache, which freezes globals too, behaves).
 """
 
 from __future__ import annotations
