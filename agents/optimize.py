@@ -35,8 +35,12 @@ halves came out at one feed joined again (``split=False``: only F words change).
 With ``robust=N`` every candidate runs on the machine and on N machines drawn around it
 (:func:`random_machines`, the envs' domain randomisation) as members of the same loop, and a
 block's peak is its worst over them plus :data:`SPREAD` standard deviations: the program then
-holds on machines the model only approximates. :func:`peaks_on_machines` checks a program on
-others.
+holds on machines the model only approximates. Every whole program run as written (the repair,
+the polish's checks, the result) also runs on :data:`AUDIT` times N machines more, drawn after
+them: where one of those breaks the tolerance, its run is recorded and its per-block peaks
+count too (the search's N machines alone leave the blocks at the edge of their sample, and a
+program of many such blocks broke on one fresh machine in ten). :func:`peaks_on_machines`
+checks a program on others.
 """
 
 from __future__ import annotations
@@ -89,6 +93,7 @@ REACH = 2  # blocks either side of a raised one whose peaks judge the raise
 SPREAD = 1.0  # robust: a block's peak counts as its worst over the machines plus this many
 # standard deviations of its peaks over them (a program at the edge on every block of N drawn
 # machines breaks on a fresh one as often as one block of many is past the sample's worst)
+AUDIT = 3  # robust N: whole programs also run on AUDIT * N machines more (their own peaks)
 VERIFY = 3  # runs of the whole program a polish round may take to find its raises hold
 
 
@@ -102,12 +107,13 @@ class OptimizedPart:
         feeds: Feed move line -> its new feedrate, m/s (as written: the program's decimals).
         before: The given program's run: ``cycle_time`` (s), ``max_contour_error`` (m).
         after: The new program's run, read back from ``text``, the same keys (and with
-            ``robust`` machines ``worst_machine_error``, m: the largest peak over them).
+            ``robust`` machines ``worst_machine_error``, m: the largest peak over them and
+            the :data:`AUDIT` machines).
         block_peak: Feed move line -> the peak true contour error of the new run there, m
             (ticks whose foot and reference are on that block; at a stop a tick may count
             for two blocks, so their largest is at least the run's ``max_contour_error``;
             with ``robust`` machines, the worst over them plus :data:`SPREAD` standard
-            deviations).
+            deviations, or an audit machine's peak where it is larger).
         too_tight: Lines of ``text`` the tolerance cannot be held on even at the slowest feed.
         source_lines: Line of ``text`` -> the line of the given program it comes from (a
             move split in two: both its lines; :func:`~contour_gym.paths.split_moves`).
@@ -139,7 +145,8 @@ def optimize_part(
         ccc_gains: The CCC ("machine": the machine's own PID CCC gains; None: no CCC).
         robust: Keep the tolerance on this many machines drawn besides (the env's domain
             randomisation, :func:`random_machines`), not on the machine alone: each block's
-            worst peak over them plus :data:`SPREAD` standard deviations of its peaks.
+            worst peak over them plus :data:`SPREAD` standard deviations of its peaks, and
+            every whole program also within it on :data:`AUDIT` times as many more.
         seed: Seed of those machines' draw.
         method: The search (:data:`METHODS`): ``"levels"`` (default: :data:`LEVELS` feeds
             per block at once, :data:`ROUNDS` rounds) or ``"bisection"`` (one, 12 rounds).
@@ -158,10 +165,11 @@ def optimize_part(
     if not (math.isfinite(tolerance) and tolerance > 0.0):
         raise ValueError(f"tolerance must be positive and finite, got {tolerance!r}")
     choice(method, "method", tuple(METHODS))
-    machines = random_machines(plant, robust, seed)
+    drawn = random_machines(plant, robust * (1 + AUDIT), seed)
+    machines, audit = drawn[:robust], drawn[robust:]
 
     def make(program: str) -> _Search:
-        return _Search(program, plant, tolerance, max_feed, ccc_gains, read, machines)
+        return _Search(program, plant, tolerance, max_feed, ccc_gains, read, machines, audit)
 
     search = make(text)
     final = _searched(search, method)
@@ -169,7 +177,8 @@ def optimize_part(
     if halves:
         final = _with_splits(final, text, halves, make, method, read)
     if final.too_tight and not best_effort:
-        where = f" on {robust} machines more (worst + {SPREAD:g} sd)" if robust else ""
+        where = (f" on {robust} machines more (worst + {SPREAD:g} sd) and {len(audit)} checks"
+                 if robust else "")
         given = sorted({final.source_lines.get(line, line) for line in final.too_tight})
         raise ValueError(f"the tolerance of {tolerance * 1e6:g} um cannot be held{where} at the "
                          f"slowest feed ({search.slowest * 6e4:.4g} mm/min) on G-code lines "
@@ -328,10 +337,11 @@ class _Search:
     """One program on one machine: its blocks, runs of many feed sets at once, the search."""
 
     def __init__(self, text: str, plant: Any, tolerance: float, max_feed: float | None,
-                 ccc_gains: Any, read: Mapping[str, Any], machines: list[dict[str, Array]]
-                 ) -> None:
+                 ccc_gains: Any, read: Mapping[str, Any], machines: list[dict[str, Array]],
+                 audit: list[dict[str, Array]] | None = None) -> None:
         self.tolerance = tolerance
         self.machines = machines
+        self.audit = audit or []  # machines whole programs are checked on besides
         self.plant = plant
         self.text = text
         self.read = dict(read)
@@ -372,11 +382,35 @@ class _Search:
     def run_as_written(self, program: GcodePath) -> tuple[dict[str, float], Array]:
         """Run a program as ``contour-gym simulate`` runs it: its metrics and per-block peaks.
 
-        Its own scenario, as the command builds it from the program alone.
+        Its own scenario, as the command builds it from the program alone; checked on the
+        audit machines too (:meth:`checked`).
         """
         scenario = make_scenario(self.plant, program)
-        results, peaks = self.simulate([scenario.path], scenario)  # type: ignore[list-item]
-        return results[0], peaks[0]
+        return self.checked(scenario.path, scenario)  # type: ignore[arg-type]
+
+    def checked(self, path: GcodePath, scenario: Scenario | None = None
+                ) -> tuple[dict[str, float], Array]:
+        """One whole program's metrics and per-block peaks, on the audit machines as well.
+
+        The peaks are the search's (:meth:`simulate`); the program also runs unrecorded on
+        each audit machine, and the ones where it breaks the tolerance (or does not finish)
+        run again recorded: each block's peak is the larger of the two.
+        """
+        own = scenario or make_scenario(self.scenario.preset, path)
+        results, peaks = self.simulate([path], own)
+        result, peak = results[0], peaks[0]
+        if not self.audit:
+            return result, peak
+        loop = machine_loop(own, [path], self.audit, self.gains, record=False)
+        error = np.asarray(loop.run()["max_contour_error"], dtype=float)[1:]
+        error = np.where(np.asarray(loop.done, dtype=bool)[1:], error, math.inf)
+        result["worst_machine_error"] = max(
+            result.get("worst_machine_error", result["max_contour_error"]), float(error.max()))
+        broke = [m for m, e in zip(self.audit, error, strict=True) if not e <= self.tolerance]
+        if broke:
+            _, found = self._run_halving([path], own, broke, spread=False)
+            peak = np.maximum(peak, found[0])
+        return result, peak
 
     def with_blocks(self, feeds: Array) -> GcodePath:
         """The program with block ``i`` at ``feeds[i]`` (m/s), mapped onto the machine.
@@ -396,46 +430,64 @@ class _Search:
         """Run each program once: its metrics and ``(members, blocks)`` peak |contour error|.
 
         The programs run as members of loops, each as ``contour-gym simulate`` runs it (a
-        member's plan follows its own F words, whatever the loop's nominal feed).
+        member's plan follows its own F words, whatever the loop's nominal feed), on the
+        machine and the search's machines (:func:`_worst` of their peaks).
         """
         own = scenario or make_scenario(self.scenario.preset, paths[0])
         per = max(1, MEMBERS // (1 + len(self.machines)))  # programs per loop
         out: list[dict[str, float]] = []
         peaks = []
         for first in range(0, len(paths), per):
-            results, found = self._run_halving(paths[first:first + per], own)
+            results, found = self._run_halving(paths[first:first + per], own, self.machines)
             out += results
             peaks.append(found)
         return out, np.concatenate(peaks)
 
-    def _run_halving(self, paths: list[GcodePath], scenario: Scenario
+    def _run_halving(self, paths: list[GcodePath], scenario: Scenario,
+                     machines: list[dict[str, Array]], spread: bool = True
                      ) -> tuple[list[dict[str, float]], Array]:
-        """:meth:`_run_members`, in halves where the record of all at once is too large."""
+        """:meth:`_run_members`, in halves where the record of all at once is too large.
+
+        Halves of the programs, or of the machines for a single program (its peaks then the
+        larger of the halves', which only ``spread=False`` allows).
+        """
         try:
-            return self._run_members(paths, scenario)
+            return self._run_members(paths, scenario, machines, spread)
         except ValueError as exc:  # the loop's record memory check (slow candidates)
-            if len(paths) == 1 or "recording it needs" not in str(exc):
+            if "recording it needs" not in str(exc) or (
+                    len(paths) == 1 and (spread or len(machines) <= 1)):
                 raise
+        if len(paths) == 1:
+            half = len(machines) // 2
+            parts = [self._run_halving(paths, scenario, part, spread)
+                     for part in (machines[:half], machines[half:])]
+            return parts[0][0], np.maximum(parts[0][1], parts[1][1])
         half = len(paths) // 2
-        first, second = (self._run_halving(part, scenario) for part in (paths[:half],
-                                                                         paths[half:]))
+        first, second = (self._run_halving(part, scenario, machines, spread)
+                         for part in (paths[:half], paths[half:]))
         return first[0] + second[0], np.concatenate([first[1], second[1]])
 
-    def _run_members(self, paths: list[GcodePath], scenario: Scenario
+    def _run_members(self, paths: list[GcodePath], scenario: Scenario,
+                     machines: list[dict[str, Array]], spread: bool
                      ) -> tuple[list[dict[str, float]], Array]:
-        """The programs' metrics on the machine and their per-block peaks on all machines."""
-        loop = machine_loop(scenario, paths, self.machines, self.gains, record=True)
+        """The programs' metrics on the machine and their per-block peaks on all machines.
+
+        A block's peak over the machines is :func:`_worst` of them (``spread``) or their
+        largest.
+        """
+        loop = machine_loop(scenario, paths, machines, self.gains, record=True)
         metrics = loop.run()
         trace = loop.trace()
-        m, n = 1 + len(self.machines), len(paths)
+        m, n = 1 + len(machines), len(paths)
         peaks = np.stack([self._block_peaks(paths[b % n], trace, b) for b in range(m * n)])
-        peaks = _worst(peaks.reshape(m, n, -1))
+        peaks = peaks.reshape(m, n, -1)
+        peaks = _worst(peaks) if spread else peaks.max(axis=0)
         done = np.asarray(loop.done, dtype=bool).reshape(m, n)
         failed = np.logical_not(np.all(done, axis=0))
         worst = np.asarray(metrics["max_contour_error"]).reshape(m, n).max(axis=0)
         out = [{"cycle_time": float(metrics["cycle_time"][b]) if not failed[b] else math.inf,
                 "max_contour_error": float(metrics["max_contour_error"][b]),
-                **({"worst_machine_error": float(worst[b])} if self.machines else {})}
+                **({"worst_machine_error": float(worst[b])} if machines else {})}
                for b in range(n)]
         peaks[failed] = math.inf
         return out, peaks
@@ -593,8 +645,8 @@ class _Search:
         for _ in range(VERIFY):
             if np.array_equal(feeds, base):
                 return base
-            _, peaks = self.simulate([self.with_blocks(feeds)])
-            bad = peaks[0] > self.tolerance
+            _, peaks = self.checked(self.with_blocks(feeds))
+            bad = peaks > self.tolerance
             if not bad.any():
                 return feeds
             near = np.convolve(bad, np.ones(2 * REACH + 1), mode="same") > 0
@@ -613,6 +665,6 @@ class _Search:
             too_tight=tuple(self.lines[i] for i in np.flatnonzero(peaks > self.tolerance)))
 
 
-__all__ = ["LEVELS", "METHODS", "OVERRIDE_STEP", "ROUNDS", "SPREAD", "OptimizedPart",
+__all__ = ["AUDIT", "LEVELS", "METHODS", "OVERRIDE_STEP", "ROUNDS", "SPREAD", "OptimizedPart",
            "ccc_gains_of", "counted_ticks", "machine_loop", "optimize_part", "peaks_on_machines",
            "random_machines"]

@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.optimize import optimize_part, peaks_on_machines, random_machines
+from agents.optimize import AUDIT, _Search, optimize_part, peaks_on_machines, random_machines
 from contour_gym import simulate
+from contour_gym.api import make_scenario
 from contour_gym.paths import from_gcode
 
 PART = (Path(__file__).parent / "data" / "gcode" / "part_2d.ngc").read_text()
@@ -77,21 +78,47 @@ def test_the_command_writes_the_program_and_its_tables(tmp_path: Path, capsys) -
 
 
 def test_robust_feeds_hold_on_every_machine_they_were_searched_on() -> None:
-    machines = random_machines("xy_servo_coulomb", 3, seed=0)
+    # the search's 3 machines, then the audit's 3 * AUDIT drawn after them
+    machines = random_machines("xy_servo_coulomb", 3 * (1 + AUDIT), seed=0)
     result = optimize_part(PART, "xy_servo_coulomb", 5e-6, robust=3, seed=0)
     peaks = peaks_on_machines(result.text, "xy_servo_coulomb", machines)
-    assert peaks.shape == (3,) and np.all(peaks <= 5e-6)
+    assert peaks.shape == (3 * (1 + AUDIT),) and np.all(peaks <= 5e-6)
     assert result.after["worst_machine_error"] == pytest.approx(
         max(peaks.max(), result.after["max_contour_error"]))
     # the machines differ (mass within 10 %, friction 0.5-1.5x, disturbance 0-2x) and come
     # again from the seed
-    assert len({float(m["friction"][0]) for m in machines}) == 3
-    again = random_machines("xy_servo_coulomb", 3, seed=0)
+    assert len({float(m["friction"][0]) for m in machines}) == len(machines)
+    again = random_machines("xy_servo_coulomb", len(machines), seed=0)
     assert all(np.array_equal(a[k], b[k]) for a, b in zip(machines, again, strict=True)
                for k in a)
     # the robust program is no faster than the one for the machine alone
     alone = optimize_part(PART, "xy_servo_coulomb", 5e-6)
     assert result.after["cycle_time"] >= alone.after["cycle_time"] * (1 - 1e-3)
+
+
+def test_an_audit_machine_that_breaks_the_tolerance_adds_its_block_peaks() -> None:
+    plant, given = "xy_servo_coulomb", from_gcode(PART)
+    hard = {"mass": np.array([0.9, 1.1]), "damping": np.ones(2),
+            "force_constant": np.array([1.1, 0.9]), "friction": np.array([0.5, 1.5]),
+            "disturbance": np.array([2.0, 2.0])}
+    own = peaks_on_machines(PART, plant, [hard])[0]
+    alone = simulate(plant, given, ccc_gains=_gains())["max_contour_error"]
+    assert own > alone  # the hard machine is worse than the nominal one
+    tolerance = (own + alone) / 2.0
+    search = _Search(PART, plant, tolerance, None, "machine", {}, [], [hard])
+    plain = _Search(PART, plant, tolerance, None, "machine", {}, [], [])
+    path = search.path
+    result, peaks = search.checked(path)
+    _, nominal = plain.checked(path)
+    scenario = make_scenario(plant, given)
+    _, on_hard = plain._run_members([path], scenario, [hard], spread=False)
+    # the machine broke it: its run recorded, each block's peak the larger of the two
+    assert result["worst_machine_error"] == pytest.approx(own)
+    np.testing.assert_array_equal(peaks, np.maximum(nominal, on_hard[0]))
+    assert peaks.max() > tolerance >= nominal.max()
+    # an audit machine that holds it changes nothing
+    easy = _Search(PART, plant, own * 2.0, None, "machine", {}, [], [hard])
+    np.testing.assert_array_equal(easy.checked(path)[1], nominal)
 
 
 @pytest.mark.parametrize("n", [-1, 1.5, True])
