@@ -197,7 +197,7 @@ def _nominal_feedrate(
         rate = path.time_law.mean_speed()
         return rate, override * (1.0 if given is None else given / rate)
     rate = given or _programmed_feedrate(path) or preset.feedrate
-    if rate * override > preset.max_feedrate:
+    if rate * override > preset.max_feedrate * (1.0 + 1e-9):  # not for a rounding's ulp
         warnings.warn(
             f"feedrate {rate * override:.4g} m/s exceeds {preset.name}'s machine limit "
             f"{preset.max_feedrate:.4g} m/s; the interpolator caps it, as a CNC does",

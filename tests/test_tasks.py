@@ -167,6 +167,14 @@ def test_a_huge_feedrate_does_not_report_a_small_error():
     assert huge["cycle_time"] > 1.0  # the machine really went round (capped at 50 mm/s)
 
 
+def test_the_machine_limit_itself_does_not_warn():
+    # an F word at the largest feed, read back in another unit, may land an ulp above it
+    top = make_scenario("xy_servo_coulomb").preset.max_feedrate
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        make_scenario("xy_servo_coulomb", feedrate=float(np.nextafter(top, 1.0)))
+
+
 def test_gcode_part_runs_each_block_at_its_own_feedrate():
     part = from_gcode(PART)
     sc = make_scenario("xy_servo_coulomb", part, ideal=True)
