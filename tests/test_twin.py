@@ -15,7 +15,7 @@ from agents.twin.check import REST_SAMPLES, following_nrmse, split_at_rest, verd
 from agents.twin.fit import identify
 from agents.twin.generate import excitation, machine_log, perturbed_plant
 from agents.twin.replay import command_path, replay, replay_loop
-from contour_gym.api import make_scenario
+from contour_gym.api import make_scenario, simulate
 from contour_gym.logs import AxisLog, ServoLog, read_csv, write_csv, write_halsampler
 from contour_gym.plant.friction import law_for
 from contour_gym.presets import resolve_preset
@@ -240,11 +240,39 @@ def test_the_regression_counts_the_known_forces_and_reads_the_command() -> None:
                               for k, v in plant["stage"]["axes"].items()}
     log = machine_log(plant, excitation(resolve_preset(plant), rng, seconds=30.0), seed=5,
                       ideal=True)
-    theta = inverse_dynamics(_Problem([log], "xyz_pmlsm", 2, ideal=True))
+    found = inverse_dynamics(_Problem([log], "xyz_pmlsm", 2, ideal=True))
     true, base = resolve_preset(plant), resolve_preset("xyz_pmlsm")
     for a, (t, b) in enumerate(zip(true.stage.axes, base.stage.axes, strict=True)):
-        assert np.exp(theta[a, 0]) * b.mass == pytest.approx(t.mass / t.force_constant
-                                                             * b.force_constant, rel=0.01)
+        assert np.exp(found.theta[a, 0]) * b.mass == pytest.approx(
+            t.mass / t.force_constant * b.force_constant, rel=0.01)
+        # the sine's newtons in the twin's units: the force constant stays the preset's
+        assert found.disturbance[a] == pytest.approx(b.force_constant / t.force_constant,
+                                                     rel=0.02)
+    assert len(set(np.round(found.disturbance, 3))) == 3  # three force constants
+
+
+def test_the_twin_carries_the_disturbance_in_its_own_units() -> None:
+    # a machine whose force constant is 0.7 times the preset's: its 2 N disturbance is
+    # 2 / 0.7 N in a twin that keeps the preset's force constant
+    plant = {"preset": "xyz_pmlsm", "stage": {"axes": {
+        n: {"force_constant": 21.0, "mass": m * 0.7, "damping": b * 0.7}
+        for n, m, b in (("x", 4.0, 8.0), ("y", 3.0, 6.0), ("z", 2.0, 4.0))}}}
+    rng = np.random.default_rng(3)
+    log = machine_log(plant, excitation(resolve_preset(plant), rng, seconds=12.0), seed=3)
+    twin = identify([log], "xyz_pmlsm", starts=1, screen=8)
+    for name in "xyz":
+        changes = twin.plant["stage"]["axes"][name]["disturbance"]
+        # read through the random part's 2 N: a few per cent
+        assert changes["sin_amp"] == pytest.approx(2.0 / 0.7, rel=0.1)
+        assert changes["random_std"] == changes["sin_amp"]  # the preset's 2 N and 2 N, alike
+        assert "read from the logged effort" in twin.fixed[f"{name}.disturbance"]
+    # the same random disturbance (seed) moves the twin as it moves the machine
+    machine, model = (simulate(p, None, seed=1)["max_contour_error"] for p in (plant, twin.plant))
+    assert model == pytest.approx(machine, rel=0.1)
+    before = simulate({"preset": "xyz_pmlsm", "stage": {"axes": {
+        n: {k: v for k, v in c.items() if k != "disturbance"}
+        for n, c in twin.plant["stage"]["axes"].items()}}}, None, seed=1)["max_contour_error"]
+    assert abs(before / machine - 1.0) > 0.2  # in the preset's newtons it was far off
 
 
 def test_a_log_in_the_wrong_length_unit_is_refused(tmp_path: Path, capsys) -> None:

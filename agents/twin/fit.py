@@ -8,7 +8,9 @@ with each channel weighed by its residual at the first fit).
 The unknowns are factors on the preset's values, searched in log space: per axis its mass,
 viscous damping and the friction parameters :data:`FITTED_FRICTION` names for its law. The
 force constant is fixed at the preset's: with the axis controller's gains known, positions
-and the control signal depend on mass, damping and friction only through their ratios to it.
+and the control signal depend on mass, damping and friction only through their ratios to it;
+the preset's disturbance forces are scaled into those units by a level the force balance reads
+from the logged control signal (:func:`inverse_dynamics`), and replayed at it.
 A Jacobian's columns are members of one run (axis ``a``'s residual depends on axis ``a``'s
 factors only, so parameter ``j`` of every axis moves in the same member).
 """
@@ -20,7 +22,7 @@ import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -44,6 +46,9 @@ VISCOUS = ("fv", "sigma2")
 from the axis's damping, so they keep the preset's values and the fitted damping holds the
 sum."""
 FIXED = ("force_constant",)
+REGRESSED = ("mass", "damping", "fc")
+"""The values the force balance reads (:func:`inverse_dynamics`), in its columns' order; on an
+axis under a random disturbance the twin keeps these (:func:`_process_noise_axes`)."""
 BOUNDS = (0.2, 5.0)  # factors on the preset's values searched within
 STEP = 2e-2  # the Jacobian's step in log factor
 XTOL = 1e-4  # least_squares stops when the log factors move less than this (0.01 %)
@@ -63,7 +68,7 @@ class Identified:
         values: Per axis, each identified parameter's value (SI).
         std: Per axis, each one's standard deviation (from the Jacobian at the solution).
         fixed: What was kept at the preset's values (a parameter, or an axis that never
-            moved), and why.
+            moved), or read from the logs another way than the replay's fit, and why.
         nrmse: Per axis, the RMS of the twin's following error minus the measured one, over
             the RMS of the measured one, on the logs fitted.
         cost: The final least-squares cost.
@@ -157,6 +162,8 @@ class _Problem:
         self.first_scale: Array = scale.copy()  # what the reported NRMSE divides by
         self.channel_axis = np.tile(np.arange(len(axes)), 2 if self.effort else 1)
         self.loops = [replay_loop(log, like, members=members, ideal=ideal) for log in self.logs]
+        # per axis, the preset's disturbance (step, sine) is replayed this many times over
+        self.disturbance: Array = np.ones(len(axes))
         self._last: tuple[bytes, Array, Array] | None = None
 
     def outputs(self, theta: Array) -> list[Array]:
@@ -171,7 +178,7 @@ class _Problem:
                 fric.setdefault(name, np.ones((m, len(self.names))))[:, a] = factors[:, a, j]
         out = []
         for loop, log in zip(self.loops, self.logs, strict=True):
-            _scale(loop, factors, fric)
+            _scale(loop, factors, fric, self.disturbance)
             loop.reset(0)
             loop.step(len(log.time), skip=np.arange(m, loop.batch_size))  # the rest sit out
             trace = loop.trace()
@@ -236,10 +243,12 @@ def _effort(log: ServoLog, name: str) -> Array:
     return effort
 
 
-def _scale(loop: ServoLoop, factors: Array, fric: dict[str, Array]) -> None:
+def _scale(loop: ServoLoop, factors: Array, fric: dict[str, Array], disturbance: Array
+           ) -> None:
     m = factors.shape[0]
     loop.set_plant_scaling(np.arange(m), mass=factors[:, :, 0], damping=factors[:, :, 1],
-                           friction_params=fric, random_disturbance=0.0)  # as replay_loop
+                           friction_params=fric, disturbance=disturbance[None, :],
+                           random_disturbance=0.0)  # as replay_loop
 
 
 def identify(
@@ -272,7 +281,9 @@ def identify(
     rng = np.random.default_rng(seed)
     points = rng.uniform(lo, hi, size=(screen, a, p))
     points[0] = 0.0
-    points[1] = np.clip(inverse_dynamics(problem), lo, hi)  # with effort logged: the regression
+    regressed = inverse_dynamics(problem)  # with effort logged
+    points[1] = np.clip(regressed.theta, lo, hi)
+    _use_levels(problem, regressed)
     res = problem.residuals(problem.outputs(points))
     rows = problem.axis_rows(res.shape[1])
     # the axes are fitted apart (each one's residuals follow its own factors only): start k
@@ -285,8 +296,41 @@ def identify(
     if problem.effort:  # positions and control signals: each weighed by its own noise
         problem.reweight(best.fun)
         best = _solve(problem, best.x, (lo, hi))
+    sd = _process_noise_axes(problem, best, regressed, spread)
     _check_bounds(problem, best.x.reshape(a, p))
-    return _result(problem, best, spread)
+    return _result(problem, best, spread, sd)
+
+
+def _process_noise_axes(problem: _Problem, best: Any, regressed: Regressed, spread: Array
+                        ) -> dict[tuple[int, int], float]:
+    """On axes under a random disturbance, the force balance's values replace the fit's.
+
+    Output error takes the residual for measurement noise; a random force acting through the
+    closed loop is not (001's machine: its damping came out 62-79 % low, the twin-tuned CCC
+    gains up to 15 % worse). The instrumental-variable regression
+    (:func:`inverse_dynamics`) is not biased by it: with the effort logged, the
+    :data:`REGRESSED` values of such an axis are its (``best.x`` changed in place, their
+    ``spread`` 0). Returns their standard deviations, (axis, parameter) -> log factor's.
+    """
+    a, p = len(problem.names), problem.n_params
+    x = best.x.reshape(a, p).copy()
+    lo, hi = np.log(BOUNDS[0]), np.log(BOUNDS[1])
+    out: dict[tuple[int, int], float] = {}
+    for ax, axis in enumerate(problem.preset.stage.axes):
+        noisy = axis.disturbance is not None and axis.disturbance.random_std > 0.0
+        if not (noisy and problem.effort) or ax in problem.still:
+            continue
+        taken = [j for j, name in enumerate(problem.names[ax]) if name in REGRESSED]
+        for j in taken:
+            x[ax, j] = np.clip(regressed.theta[ax, j], lo, hi)
+            spread[ax, j] = 0.0
+            out[(ax, j)] = float(regressed.std[ax, j])
+        problem.read[f"{axis.name}.regressed"] = (
+            f"{', '.join(problem.names[ax][j] for j in taken)} from the force balance "
+            "(instrumental variables), not the replay's fit: the axis's random disturbance "
+            "biases that")
+    best.x = x.ravel()
+    return out
 
 
 def _like_spec(like: Any) -> Any:
@@ -368,20 +412,43 @@ def _solve(problem: _Problem, start: Array, bounds: tuple[Array, Array]) -> Any:
                          bounds=bounds, x_scale=1.0, max_nfev=60, xtol=XTOL, ftol=FTOL)
 
 
-def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Array:
-    """(A, P) log factors from the logged effort by instrumental variables (0 without effort).
+class Regressed(NamedTuple):
+    """What :func:`inverse_dynamics` reads from the logged effort."""
 
-    The axis's force balance ``K u = m a + b v + fc sgn(v) - d`` holds at every sample: with
-    the effort ``u`` logged and ``v``, ``a`` differenced from the feedback (smoothed over
-    ``smooth`` samples, the effort read one tick earlier: the loop's delay), ``m/K``, ``b/K``
-    and ``fc/K`` follow from one linear regression (the inverse dynamic model of the EMPS
-    benchmark). In closed loop the disturbance ``d`` moves ``a`` and ``v`` too, which biases
-    plain least squares; the same quantities differenced from the logged *command*, which
-    ``d`` does not move, are the instruments (IDIM-IV). Each ratio is turned into a factor on
-    the preset's value; friction parameters other than ``fc`` start at the factor ``fc`` got.
+    theta: Array
+    """(A, P) log factors on the preset's values (0 where nothing was read)."""
+    disturbance: Array
+    """(A,) the preset's disturbance forces' level in the twin's units (1: not read)."""
+    std: Array
+    """(A, P) the standard deviations of :attr:`theta` (0 where not read; the residuals'
+    correlation counted)."""
+
+
+def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Regressed:
+    """Log factors and force levels from the logged effort (IDIM-IV), per axis.
+
+    The axis's force balance ``K u = m a + b v + fc sgn(v) + r(x) - g d(t) - w`` holds at
+    every sample (``r`` the preset's force ripple, ``d`` its disturbance's step and sine,
+    ``w`` the random part): with the effort ``u`` logged and ``v``, ``a`` differenced from
+    the feedback (smoothed over ``smooth`` samples, the effort read one tick earlier: the
+    loop's delay), ``m/K``, ``b/K``, ``fc/K`` and ``g`` follow from one linear
+    regression (the inverse dynamic model of the EMPS benchmark). In closed loop the
+    disturbance moves ``a`` and ``v`` too, which biases plain least squares; the same
+    quantities differenced from the logged *command*, which it does not move, are the
+    instruments (IDIM-IV). Each ratio is turned into a factor on the preset's value; friction
+    parameters other than ``fc`` start at the factor ``fc`` got.
+
+    ``g`` is the disturbance's level in the twin's units: the force constant stays the
+    preset's (:data:`FIXED`), so a force the machine exerts in newtons is
+    ``K_preset / K_machine`` times as large in the twin. It is left 1 on an axis without a
+    step or sine to read it from, where it comes out outside :data:`BOUNDS`, or without
+    effort logged (then the search starts from the preset's values). The ripple stays in the
+    preset's newtons (read this way on 003's gantry from a noise-free log, its level came out
+    28 % and 74 % off on two axes and outside the bounds on the third: the coupled beam and
+    the Stribeck hump are not in this balance).
     """
     a_n, p = len(problem.names), problem.n_params
-    theta = np.zeros((a_n, p))
+    theta, level, std = np.zeros((a_n, p)), np.ones(a_n), np.zeros((a_n, p))
     for ax, (axis, names) in enumerate(zip(problem.preset.stage.axes, problem.names,
                                            strict=True)):
         rows = [_regressors(log, axis, problem.preset.stage.ts, smooth)
@@ -390,57 +457,100 @@ def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Array:
             continue
         x, z, y = (np.concatenate([r[i] for r in rows if r is not None]) for i in range(3))
         coef = np.linalg.lstsq(z.T @ x, z.T @ y, rcond=None)[0]
+        sd = _iv_std(x, z, y - x @ coef)
+        if _has_shape(axis) and BOUNDS[0] <= coef[3] <= BOUNDS[1]:
+            level[ax] = coef[3]
         nominal = _nominal(axis)
         fc = coef[2] / nominal["fc"] if nominal.get("fc") else 1.0
         for j, name in enumerate(names):
             ratio = {"mass": coef[0] / axis.mass, "damping": coef[1] / max(axis.damping, 1e-12)
                      }.get(name, fc)
             theta[ax, j] = math.log(ratio) if ratio > 0.0 else 0.0
-    return theta
+            k = REGRESSED.index(name) if name in REGRESSED else -1
+            std[ax, j] = sd[k] / abs(coef[k]) if k >= 0 and coef[k] != 0.0 else 0.0
+    return Regressed(theta, level, std)
+
+
+def _iv_std(x: Array, z: Array, e: Array) -> Array:
+    """Standard deviations of an IV estimate: ``s^2 (Z'X)^-1 Z'Z (X'Z)^-1``, ``e`` its residuals.
+
+    ``s^2`` the residuals' variance times their correlation time (:func:`_correlation_time`):
+    a disturbance that lasts many samples is worth fewer than their number.
+    """
+    zx = np.linalg.pinv(z.T @ x)
+    cov = zx @ (z.T @ z) @ zx.T * (float(e @ e) / max(len(e) - x.shape[1], 1))
+    return np.sqrt(np.clip(np.diag(cov), 0.0, None) * _correlation_time(e))
 
 
 def _regressors(log: ServoLog, axis: AxisParams, ts: float, smooth: int
                 ) -> tuple[Array, Array, Array] | None:
-    # [a, v, sgn v] from the feedback, the same from the command (the instruments) and the
-    # force K u plus the known external forces, of the moving samples; None without effort
+    # [a, v, sgn v] from the feedback (then -d(t) where the preset's disturbance has a step
+    # or sine), the same from the command (the instruments) and the force K u less the
+    # ripple, of the moving samples; None without effort
     logged = log.axis(axis.name)
     if logged.effort is None:
         return None
+    shape = disturbance_shape(axis, log.time - log.time[0])
     kernel = np.ones(smooth) / smooth
     columns = []
     for signal in (logged.fb, logged.cmd):
         v = np.gradient(np.convolve(signal, kernel, mode="same"), ts)
-        columns.append(np.stack([np.gradient(v, ts), v, np.sign(v)], axis=1))
+        known = [np.gradient(v, ts), v, np.sign(v)]
+        known += [-shape] if _has_shape(axis) else []
+        columns.append(np.stack(known, axis=1))
     u = np.r_[logged.effort[0], logged.effort[:-1]]  # the loop's one-tick delay
-    force = axis.force_constant * u + known_force(axis, log.time - log.time[0], logged.fb)
+    force = axis.force_constant * u - ripple_force(axis, logged.fb)
     v = columns[1][:, 1]  # the samples kept by the command's speed, which d does not move
     keep = np.abs(v) > 1e-3 * max(np.abs(v).max(), 1e-12)
     keep[: smooth] = keep[-smooth:] = False
     return columns[0][keep], columns[1][keep], force[keep]
 
 
-def known_force(axis: AxisParams, t: Array, x: Array) -> Array:
-    """The external force the twin keeps from ``axis``'s preset at times ``t``, positions ``x``.
-
-    The disturbance's step and sine (not its random part), less the force ripple, N (as
-    :func:`contour_gym.loop.kernel.axis_tick` applies them).
-    """
-    force = np.zeros_like(t)
+def _has_shape(axis: AxisParams) -> bool:
+    # whether the axis's disturbance has a step or a sine (a level to read)
     d = axis.disturbance
-    if d is not None:
-        force += np.where(t >= d.step_time, d.step_amp, 0.0)
-        force += d.sin_amp * np.sin(2.0 * math.pi * d.sin_freq * t + d.sin_phase)
+    return d is not None and (d.step_amp != 0.0 or (d.sin_amp != 0.0 and d.sin_freq > 0.0))
+
+
+def disturbance_shape(axis: AxisParams, t: Array) -> Array:
+    """The preset's disturbance on ``axis`` at times ``t``: its step and sine, N.
+
+    Not its random part (as :func:`contour_gym.loop.kernel.axis_tick` applies them).
+    """
+    d = axis.disturbance
+    if d is None:
+        return np.zeros_like(t)
+    return (np.where(t >= d.step_time, d.step_amp, 0.0)
+            + d.sin_amp * np.sin(2.0 * math.pi * d.sin_freq * t + d.sin_phase))
+
+
+def ripple_force(axis: AxisParams, x: Array) -> Array:
+    """The preset's force ripple on ``axis`` at positions ``x``, N (it opposes the motor)."""
+    force = np.zeros_like(x)
     if axis.ripple is not None:
         for a, b, w in zip(axis.ripple.sin_amp, axis.ripple.cos_amp, axis.ripple.wavenumber,
                            strict=True):
-            force -= a * np.sin(w * x) + b * np.cos(w * x)
+            force += a * np.sin(w * x) + b * np.cos(w * x)
     return force
 
 
-def _result(problem: _Problem, fit: Any, spread: Array) -> Identified:
+def _use_levels(problem: _Problem, regressed: Regressed) -> None:
+    """Replay at the disturbance levels :func:`inverse_dynamics` read, and say what was read."""
+    problem.disturbance = regressed.disturbance
+    for axis, g in zip(problem.preset.stage.axes, regressed.disturbance, strict=True):
+        if g != 1.0:
+            problem.read[f"{axis.name}.disturbance"] = (
+                f"{g:.4g} times the preset's (step, sine and random part), the sine's "
+                "amplitude read from the logged effort (not fitted: the replay runs it)")
+
+
+def _result(problem: _Problem, fit: Any, spread: Array,
+            regressed: dict[tuple[int, int], float]) -> Identified:
     a, p = len(problem.names), problem.n_params
     res, jac = problem.run(fit.x)
     sd = _std(problem, res, jac).reshape(a, p)
+    for (ax, j), value in regressed.items():  # the force balance's values: its deviations
+        sd[ax, j] = value
     seen = _visibility(problem, res, jac).reshape(a, p)
     factors = np.exp(fit.x.reshape(a, p))
     values: dict[str, dict[str, float]] = {}
@@ -455,7 +565,7 @@ def _result(problem: _Problem, fit: Any, spread: Array) -> Identified:
         std[axis.name] = {n: float(values[axis.name][n] * sd[ax, j]) for j, n in enumerate(names)}
         apart[axis.name] = {n: float(math.expm1(spread[ax, j])) for j, n in enumerate(names)}
         shown[axis.name] = {n: float(seen[ax, j]) for j, n in enumerate(names)}
-        axes[axis.name] = _axis_changes(axis, values[axis.name])
+        axes[axis.name] = _axis_changes(axis, values[axis.name], problem.disturbance[ax])
     fixed = {n: "not separable from the mass by positions and control (kept the preset's)"
              for n in FIXED}
     fixed.update(problem.read)
@@ -475,7 +585,7 @@ def _result(problem: _Problem, fit: Any, spread: Array) -> Identified:
     return Identified(
         plant=_merged(problem.spec, axes),
         values=values, std=std, fixed=fixed,
-        nrmse=_nrmse(problem, res), cost=float(fit.cost), spread=apart, visibility=shown,
+        nrmse=_nrmse(problem, res), cost=0.5 * float(res @ res), spread=apart, visibility=shown,
     )
 
 
@@ -535,9 +645,14 @@ def _correlation_time(e: Array) -> float:
     return float(1.0 + 2.0 * rho[: stop[0] if stop.size else n - 1].sum())
 
 
-def _axis_changes(axis: Any, values: dict[str, float]) -> dict[str, Any]:
-    # the machine file's changes of one axis: mass, damping, its friction model
+def _axis_changes(axis: Any, values: dict[str, float], level: float) -> dict[str, Any]:
+    # the machine file's changes of one axis: mass, damping, its friction model, and its
+    # disturbance's forces ``level`` times the preset's
     out: dict[str, Any] = {"mass": values["mass"], "damping": values["damping"]}
+    if axis.disturbance is not None and level != 1.0:
+        d = axis.disturbance
+        out["disturbance"] = {"step_amp": d.step_amp * level, "sin_amp": d.sin_amp * level,
+                              "random_std": d.random_std * level}
     if axis.friction is not None:
         fields = {**dataclasses.asdict(axis.friction),
                   **{k: v for k, v in values.items() if k not in ("mass", "damping")}}
@@ -557,6 +672,6 @@ def _nrmse(problem: _Problem, res: Array) -> dict[str, float]:
 
 
 __all__ = [
-    "BOUNDS", "DETERMINED", "FITTED_FRICTION", "FIXED", "VISCOUS", "Identified", "fitted_names",
-    "identify",
+    "BOUNDS", "DETERMINED", "FITTED_FRICTION", "FIXED", "VISCOUS", "Identified", "Regressed",
+    "fitted_names", "identify", "inverse_dynamics",
 ]
