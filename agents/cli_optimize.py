@@ -4,8 +4,9 @@ Reads the program, searches its feeds on the machine (:func:`agents.optimize.opt
 writes the new program beside it (or to ``--out``), and prints the cycle time and peak error
 before and after, the per-block table (line, old F, new F, peak error there) and, with
 ``--diff``, the changed lines; the part drawn by its new feed and its error goes to
-``OUT_report.png``. With ``--robust N`` the feeds hold on N machines drawn around the given one,
-and the new program is then run on N fresh ones: how many it holds on is printed.
+``OUT_report.png``. With ``--robust N`` the feeds hold on N machines drawn around the given one
+(and the whole program on ``AUDIT`` times N more), and the new program is then run on N fresh
+ones: how many it holds on is printed.
 """
 
 from __future__ import annotations

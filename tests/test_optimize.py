@@ -121,6 +121,17 @@ def test_an_audit_machine_that_breaks_the_tolerance_adds_its_block_peaks() -> No
     np.testing.assert_array_equal(easy.checked(path)[1], nominal)
 
 
+def test_the_blocks_near_a_broken_one_are_found_in_a_short_program() -> None:
+    from agents.optimize import _dilated
+
+    # fewer blocks than the reach's window (np.convolve's "same" would grow the array)
+    np.testing.assert_array_equal(_dilated(np.array([False, True, False, False]), 2),
+                                  [True, True, True, True])
+    np.testing.assert_array_equal(_dilated(np.array([True, False, False, False, False]), 1),
+                                  [True, True, False, False, False])
+    assert _dilated(np.array([True]), 2).tolist() == [True]
+
+
 @pytest.mark.parametrize("n", [-1, 1.5, True])
 def test_a_bad_number_of_robust_machines_is_named(n: object) -> None:
     with pytest.raises(ValueError, match="robust must be a whole number of machines"):
