@@ -186,6 +186,13 @@ def test_a_log_is_held_out_after_a_stop_and_judged() -> None:
     assert verdict({"x": 0.01}, {"x": 0.3}).startswith("the held-out error is 30.0x the fit's")
     assert verdict({"x": 0.01}, {"x": 0.05}, {"x": ["fc", "vs"]}).startswith(
         "fits to 5 % on held-out data; the logs do not determine x.fc, x.vs (they trade off")
+    # an axis under a random disturbance (001's) is judged apart: its NRMSE is the disturbance's
+    mixed = verdict({"x": 0.01, "y": 1.5}, {"x": 0.05, "y": 2.0}, random=("y",))
+    assert mixed.startswith("fits to 5 % on held-out data; y: the held-out NRMSE (200 %) is "
+                            "mostly the random disturbance's")
+    alone = verdict({"y": 1.5}, {"y": 2.0}, random=("y",))
+    assert alone.startswith("every axis's following error holds the machine's random "
+                            "disturbance") and "fits to" not in alone
     still = ServoLog(log.time, tuple(dataclasses.replace(a, cmd=a.cmd + 1e-9 * np.arange(
         len(a.cmd))) for a in log.axes), source="moving.csv")
     with pytest.raises(ValueError, match=r"moving\.csv: the machine never stands still"):
@@ -251,7 +258,7 @@ def test_the_regression_counts_the_known_forces_and_reads_the_command() -> None:
     assert len(set(np.round(found.disturbance, 3))) == 3  # three force constants
 
 
-def test_the_twin_carries_the_disturbance_in_its_own_units() -> None:
+def test_the_twin_carries_the_disturbance_in_its_own_units(tmp_path: Path) -> None:
     # a machine whose force constant is 0.7 times the preset's: its 2 N disturbance is
     # 2 / 0.7 N in a twin that keeps the preset's force constant
     plant = {"preset": "xyz_pmlsm", "stage": {"axes": {
@@ -266,6 +273,12 @@ def test_the_twin_carries_the_disturbance_in_its_own_units() -> None:
         assert changes["sin_amp"] == pytest.approx(2.0 / 0.7, rel=0.1)
         assert changes["random_std"] == changes["sin_amp"]  # the preset's 2 N and 2 N, alike
         assert "read from the logged effort" in twin.fixed[f"{name}.disturbance"]
+    # a machine file of plain numbers, read back as the twin
+    from contour_gym.machines import write_machine
+
+    written = write_machine(tmp_path / "mine.yaml", twin.plant)
+    assert resolve_preset(str(written)).stage.axes[2].disturbance.sin_amp == pytest.approx(
+        twin.plant["stage"]["axes"]["z"]["disturbance"]["sin_amp"])
     # the same random disturbance (seed) moves the twin as it moves the machine
     machine, model = (simulate(p, None, seed=1)["max_contour_error"] for p in (plant, twin.plant))
     assert model == pytest.approx(machine, rel=0.1)

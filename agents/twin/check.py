@@ -9,6 +9,7 @@ measured following error, :func:`nrmse` compares them, :func:`report_figure` dra
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -101,27 +102,43 @@ def report_figure(fitted: tuple[ServoLog, dict[str, tuple[Array, Array]]],
 
 
 def verdict(fit: dict[str, float], held: dict[str, float],
-            undetermined: dict[str, list[str]] | None = None) -> str:
+            undetermined: dict[str, list[str]] | None = None,
+            random: Sequence[str] = ()) -> str:
     """What the fit and held-out NRMSE mean, in a line a user can act on.
 
     ``undetermined`` (:meth:`~agents.twin.fit.Identified.undetermined`) adds which values not
-    to read as the machine's.
+    to read as the machine's. ``random`` names the axes under a random disturbance: their
+    measured following error holds the response to the one that acted, which a replay cannot
+    draw again, so their NRMSE is judged apart (it says how much of the error that makes).
     """
-    worst_fit, worst_held = max(fit.values()), max(held.values())
-    if worst_held > DRIFT * max(worst_fit, 1e-3) and worst_held > GOOD:
-        said = (f"the held-out error is {worst_held / max(worst_fit, 1e-3):.1f}x the fit's: the "
-                "structure misses something (another friction law, a disturbance, the delay); "
-                "check the log and try another --like")
-    elif worst_held > GOOD:
-        said = (f"fits to {100 * worst_held:.2g} % on held-out data: usable, but record a longer "
-                "log with more reversals to tighten it")
+    judged = [a for a in held if a not in random]
+    if judged:
+        said = _judged(max(fit[a] for a in judged), max(held[a] for a in judged))
     else:
-        said = f"fits to {100 * worst_held:.2g} % on held-out data"
+        said = "every axis's following error holds the machine's random disturbance"
+    noisy = [a for a in held if a in random]
+    if noisy:
+        said += (f"; {', '.join(noisy)}: the held-out NRMSE ("
+                 f"{', '.join(f'{100 * held[a]:.3g} %' for a in noisy)}) is mostly the random "
+                 "disturbance's, which a replay cannot draw again, not the fit's: judge the "
+                 "twin there by simulated runs (peaks, cycle) against the machine's")
     loose = [f"{axis}.{name}" for axis, names in (undetermined or {}).items() for name in names]
     if loose:
         said += (f"; the logs do not determine {', '.join(loose)} (they trade off: the twin may "
                  "behave like the machine, but do not read those as its values)")
     return said
+
+
+def _judged(worst_fit: float, worst_held: float) -> str:
+    # the verdict of the axes whose measured error a replay can match
+    if worst_held > DRIFT * max(worst_fit, 1e-3) and worst_held > GOOD:
+        return (f"the held-out error is {worst_held / max(worst_fit, 1e-3):.1f}x the fit's: the "
+                "structure misses something (another friction law, a disturbance, the delay); "
+                "check the log and try another --like")
+    if worst_held > GOOD:
+        return (f"fits to {100 * worst_held:.2g} % on held-out data: usable, but record a "
+                "longer log with more reversals to tighten it")
+    return f"fits to {100 * worst_held:.2g} % on held-out data"
 
 
 __all__ = [

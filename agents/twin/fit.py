@@ -651,8 +651,9 @@ def _axis_changes(axis: Any, values: dict[str, float], level: float) -> dict[str
     out: dict[str, Any] = {"mass": values["mass"], "damping": values["damping"]}
     if axis.disturbance is not None and level != 1.0:
         d = axis.disturbance
-        out["disturbance"] = {"step_amp": d.step_amp * level, "sin_amp": d.sin_amp * level,
-                              "random_std": d.random_std * level}
+        out["disturbance"] = {"step_amp": d.step_amp * float(level),
+                              "sin_amp": d.sin_amp * float(level),
+                              "random_std": d.random_std * float(level)}
     if axis.friction is not None:
         fields = {**dataclasses.asdict(axis.friction),
                   **{k: v for k, v in values.items() if k not in ("mass", "damping")}}
