@@ -208,6 +208,11 @@ def test_an_axis_that_never_moved_keeps_the_presets_values() -> None:
     assert "never moved" in twin.fixed["y"] and list(twin.values) == ["x"]
     assert list(twin.plant["stage"]["axes"]) == ["x"] and list(twin.nrmse) == ["x"]
     assert list(following_nrmse(y_still, twin.plant, ideal=True)) == ["x"]
+    # with its (zero) effort logged too: nothing to regress on it, no error
+    logged = ServoLog(log.time, (AxisLog("y", rest, rest, effort=rest), log.axis("x")),
+                      source="x_only")
+    again = identify([logged], "xy_dc_servo", ideal=True)
+    assert "never moved" in again.fixed["y"] and list(again.values) == ["x"]
     nothing = ServoLog(log.time, (AxisLog("x", rest, rest), AxisLog("y", rest, rest)), "none")
     with pytest.raises(ValueError, match=r"no axis of 'xy_dc_servo' moved in the logs"):
         identify([nothing], "xy_dc_servo", ideal=True)

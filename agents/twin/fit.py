@@ -453,9 +453,11 @@ def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Regressed:
                                            strict=True)):
         rows = [_regressors(log, axis, problem.preset.stage.ts, smooth)
                 for log in problem.logs]
-        if any(r is None for r in rows):
+        if ax in problem.still or any(r is None for r in rows):
             continue
         x, z, y = (np.concatenate([r[i] for r in rows if r is not None]) for i in range(3))
+        if len(y) <= x.shape[1]:  # too few moving samples to read anything from
+            continue
         coef = np.linalg.lstsq(z.T @ x, z.T @ y, rcond=None)[0]
         sd = _iv_std(x, z, y - x @ coef)
         if _has_shape(axis) and BOUNDS[0] <= coef[3] <= BOUNDS[1]:
