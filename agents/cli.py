@@ -411,7 +411,7 @@ def _compile_up_front(args: argparse.Namespace, *groups: str) -> None:
 def identify_command(args: argparse.Namespace) -> int:
     """Run ``contour-gym identify``: the machine file, its report, and the fit on stdout."""
     from agents.twin.check import following, nrmse, split_at_rest, verdict
-    from agents.twin.fit import identify
+    from agents.twin.fit import identify, random_axes
     from contour_gym.presets import resolve_preset
 
     logs = [read_log(p, columns=args.columns, period=args.period, joints=args.joints,
@@ -427,9 +427,8 @@ def identify_command(args: argparse.Namespace) -> int:
     held_errors = {a: e for a, e in following(held, plant, ideal=args.ideal).items()
                    if a in twin.nrmse}
     held_nrmse = nrmse(held_errors)
-    random = [a.name for a in resolve_preset(plant).stage.axes
-              if a.disturbance is not None and a.disturbance.random_std > 0.0]
-    said = verdict(twin.nrmse, held_nrmse, twin.undetermined(), random)
+    said = verdict(twin.nrmse, held_nrmse, twin.undetermined(),
+                   random_axes(resolve_preset(plant)))
     record = {"logs": list(args.logs), "values": twin.values, "std": twin.std,
               "undetermined": twin.undetermined(), "fixed": twin.fixed,
               "nrmse_fit": twin.nrmse, "nrmse_held_out": held_nrmse, "verdict": said}

@@ -274,10 +274,19 @@ def peaks_on_machines(text: str, plant: Any, machines: list[dict[str, Array]],
     ``robust`` on machines it was not tuned on (a fresh :func:`random_machines` draw).
     """
     scenario = make_scenario(plant, from_gcode(text, **read))
-    loop = machine_loop(scenario, [scenario.path], machines,  # type: ignore[list-item]
-                        ccc_gains_of(plant, ccc_gains), record=False)
+    return _machine_peaks(scenario, scenario.path, machines,  # type: ignore[arg-type]
+                          ccc_gains_of(plant, ccc_gains))
+
+
+def _machine_peaks(scenario: Scenario, path: GcodePath, machines: list[dict[str, Array]],
+                   gains: Any) -> Array:
+    """``path``'s peak true contour error on each of ``machines`` (unrecorded), m.
+
+    ``inf`` where one did not finish (member 0, the scenario's own machine, left out).
+    """
+    loop = machine_loop(scenario, [path], machines, gains, record=False)
     error = np.asarray(loop.run()["max_contour_error"], dtype=float)
-    return np.where(loop.done, error, math.inf)[1:]
+    return np.where(np.asarray(loop.done, dtype=bool), error, math.inf)[1:]
 
 
 def counted_ticks(path: GcodePath, trace: Any, b: int, contour: Any) -> tuple[Array, Any]:
@@ -412,9 +421,7 @@ class _Search:
         result, peak = results[0], peaks[0]
         if not self.audit:
             return result, peak
-        loop = machine_loop(own, [path], self.audit, self.gains, record=False)
-        error = np.asarray(loop.run()["max_contour_error"], dtype=float)[1:]
-        error = np.where(np.asarray(loop.done, dtype=bool)[1:], error, math.inf)
+        error = _machine_peaks(own, path, self.audit, self.gains)
         result["worst_machine_error"] = max(
             result.get("worst_machine_error", result["max_contour_error"]), float(error.max()))
         broke = [m for m, e in zip(self.audit, error, strict=True) if not e <= self.tolerance]

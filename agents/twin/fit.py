@@ -316,9 +316,9 @@ def _process_noise_axes(problem: _Problem, best: Any, regressed: Regressed, spre
     x = best.x.reshape(a, p).copy()
     lo, hi = np.log(BOUNDS[0]), np.log(BOUNDS[1])
     out: dict[tuple[int, int], float] = {}
+    noisy = random_axes(problem.preset)
     for ax, axis in enumerate(problem.preset.stage.axes):
-        noisy = axis.disturbance is not None and axis.disturbance.random_std > 0.0
-        if not (noisy and problem.effort) or ax in problem.still:
+        if not (axis.name in noisy and problem.effort) or ax in problem.still:
             continue
         taken = [j for j, name in enumerate(problem.names[ax]) if name in REGRESSED]
         for j in taken:
@@ -331,6 +331,12 @@ def _process_noise_axes(problem: _Problem, best: Any, regressed: Regressed, spre
             "biases that")
     best.x = x.ravel()
     return out
+
+
+def random_axes(preset: Preset) -> list[str]:
+    """The axes of ``preset`` under a random disturbance (what a replay cannot draw again)."""
+    return [a.name for a in preset.stage.axes
+            if a.disturbance is not None and a.disturbance.is_random]
 
 
 def _like_spec(like: Any) -> Any:
@@ -676,5 +682,5 @@ def _nrmse(problem: _Problem, res: Array) -> dict[str, float]:
 
 __all__ = [
     "BOUNDS", "DETERMINED", "FITTED_FRICTION", "FIXED", "VISCOUS", "Identified", "Regressed",
-    "fitted_names", "identify", "inverse_dynamics",
+    "fitted_names", "identify", "inverse_dynamics", "random_axes",
 ]
