@@ -38,9 +38,9 @@ block's peak is its worst over them plus :data:`SPREAD` standard deviations: the
 holds on machines the model only approximates. Every whole program run as written (the repair,
 the polish's checks, the result) also runs on :data:`AUDIT` times N machines more, drawn after
 them: where one of those breaks the tolerance, its run is recorded and its per-block peaks
-count too (the search's N machines alone leave the blocks at the edge of their sample, and a
-program of many such blocks broke on one fresh machine in ten). :func:`peaks_on_machines`
-checks a program on others.
+count too (the search's N machines alone leave many blocks at the edge of their sample at
+once, which a fresh machine breaks more often). :func:`peaks_on_machines` checks a program on
+others.
 """
 
 from __future__ import annotations

@@ -659,8 +659,7 @@ def encoder_step(fb: ArrayLike) -> float | None:
     as halsampler's six decimals round it, still fits), and fits if every move is within 0.02
     of a step of a multiple. None with fewer than 20 moves or when no divisor fits. The step
     is given to 12 significant digits: the fit's last bits are float noise, and a simulated
-    encoder near a step's edge reads on them (003's machine, its step 1e-12 larger, ended its
-    paper path 7 % sooner without CCC).
+    encoder whose axis settles near a step's edge reads on them.
 
     ``fb`` may be in any unit: the step is in the same.
 

@@ -306,8 +306,8 @@ def _process_noise_axes(problem: _Problem, best: Any, regressed: Regressed, spre
     """On axes under a random disturbance, the force balance's values replace the fit's.
 
     Output error takes the residual for measurement noise; a random force acting through the
-    closed loop is not (001's machine: its damping came out 62-79 % low, the twin-tuned CCC
-    gains up to 15 % worse). The instrumental-variable regression
+    closed loop is not, and biases it (docs/measurements.md, "IV values under a random
+    disturbance"). The instrumental-variable regression
     (:func:`inverse_dynamics`) is not biased by it: with the effort logged, the
     :data:`REGRESSED` values of such an axis are its (``best.x`` changed in place, their
     ``spread`` 0). Returns their standard deviations, (axis, parameter) -> log factor's.
@@ -449,9 +449,8 @@ def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Regressed:
     ``K_preset / K_machine`` times as large in the twin. It is left 1 on an axis without a
     step or sine to read it from, where it comes out outside :data:`BOUNDS`, or without
     effort logged (then the search starts from the preset's values). The ripple stays in the
-    preset's newtons (read this way on 003's gantry from a noise-free log, its level came out
-    28 % and 74 % off on two axes and outside the bounds on the third: the coupled beam and
-    the Stribeck hump are not in this balance).
+    preset's newtons: this balance has neither a gantry's coupled beam nor the Stribeck hump,
+    which a ripple level read from it would absorb.
     """
     a_n, p = len(problem.names), problem.n_params
     theta, level, std = np.zeros((a_n, p)), np.ones(a_n), np.zeros((a_n, p))
