@@ -231,3 +231,25 @@ def test_a_trace_window_before_the_rows_kept_raises() -> None:
     for start, ticks in ((-1, 2), (0, -1)):
         with pytest.raises(ValueError, match="start >= 0 and ticks >= 0"):
             trace.window(start, ticks)
+
+
+def test_a_reading_exactly_on_the_in_position_band_is_in_position() -> None:
+    # 003's machine of seed 5 rests on its paper path's end with X's reading exactly two
+    # counts (its band, 100 um) away; whether that counted depended on a float difference's
+    # last bit, so the encoder step scaled by 1 +- 1e-12 moved the cycle time by 7 %
+    from agents.twin.generate import perturbed_plant
+    from contour_gym.api import simulate
+    from contour_gym.presets import resolve_preset
+
+    hidden = perturbed_plant("xyy_gantry", np.random.default_rng(5))
+    axes = resolve_preset(hidden).stage.axes
+
+    def cycle(scale: float) -> float:
+        plant = {**hidden, "stage": {"axes": {a.name: {
+            **hidden["stage"]["axes"].get(a.name, {}),
+            "encoder_resolution": a.encoder_resolution * scale} for a in axes}}}
+        return simulate(plant, seed=1)["cycle_time"]
+
+    base = cycle(1.0)
+    for scale in (1.0 + 1e-12, 1.0 - 1e-12):
+        assert cycle(scale) == pytest.approx(base, rel=5e-3)

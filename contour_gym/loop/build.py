@@ -57,6 +57,11 @@ class HasArrays(Protocol):
 MEMBER_OBJECT_BYTES = 3000
 """Memory of a member's Python objects beside its arrays, bytes: its random generators and
 their seed sequences (0.57 + 0.48 kB each, measured with numpy 2), the loop's and an env's."""
+BAND_INCLUSIVE = 1.0 + 1e-9
+"""The in-position band's factor: a reading exactly on the band (a whole number of encoder
+counts from the end) is in position, as a controller comparing counts decides, not by the
+last bit of a float difference (a machine resting that many counts away was in position or not
+by rounding)."""
 
 
 def axis_arrays(
@@ -201,8 +206,8 @@ def config_row(stage: Stage, path: Path, opts: LoopOptions, record: bool, search
         ts=stage.ts, nsub=stage.substeps, dim=path.dim, meas_exact=float(exact),
         delay=0.0 if opts.ideal else float(stage.delay_ticks),
         inj_ref=float(opts.ccc_injection == "reference"), record=float(record),
-        settle_ticks=math.ceil(opts.settle_time / stage.ts), in_band=stage.in_position,
-        in_speed=stage.in_position_speed,
+        settle_ticks=math.ceil(opts.settle_time / stage.ts),
+        in_band=stage.in_position * BAND_INCLUSIVE, in_speed=stage.in_position_speed,
         law_dt=1.0 if path.time_law is None else path.time_law.dt,
         sample_every=every, search=float(search), **codes,
     )

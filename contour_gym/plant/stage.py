@@ -54,7 +54,8 @@ class Stage:
             computed from sample k acts from tick k + delay_ticks (rig model; ``ideal=True``
             drops it).
         in_position: In-position band of every axis, m: a contour has ended when the axes are
-            within it of the path's end point (a CNC's in-position check).
+            within it of the path's end point (a CNC's in-position check; a reading exactly
+            on it, a whole number of encoder counts away, is within).
         in_position_speed: ... and every axis is slower than this, m/s.
         notes: Where the numbers come from (published or chosen).
     """
