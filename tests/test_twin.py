@@ -12,7 +12,7 @@ import pytest
 
 from agents.cli import main
 from agents.twin.check import REST_SAMPLES, following_nrmse, split_at_rest, verdict
-from agents.twin.fit import identify
+from agents.twin.fit import VISCOUS, identify
 from agents.twin.generate import excitation, machine_log, perturbed_plant
 from agents.twin.replay import command_path, replay, replay_loop
 from contour_gym.api import make_scenario, simulate
@@ -84,20 +84,27 @@ def test_a_log_that_cannot_drive_the_machine_is_named() -> None:
 def _ratios(values: dict, plant: Any, like: str) -> dict:
     # identified values over the preset's force constant against the hidden machine's ratios
     # (positions and control see mass, damping and friction only over the force constant)
+    # (a Stribeck speed is compared as it is; the damping with the viscous friction added:
+    # the twin keeps the preset's and its damping holds the sum)
     true, base = resolve_preset(plant), resolve_preset(like)
     out = {}
     for t, b in zip(true.stage.axes, base.stage.axes, strict=True):
         for name, value in values[t.name].items():
             hidden = getattr(t, name) if name in ("mass", "damping") else getattr(t.friction, name)
-            out[(t.name, name)] = (value / b.force_constant) / (hidden / t.force_constant) - 1.0
+            mine = value
+            if name == "damping":
+                hidden += sum(getattr(t.friction, v, 0.0) or 0.0 for v in VISCOUS)
+                mine += sum(getattr(b.friction, v, 0.0) or 0.0 for v in VISCOUS)
+            per = (1.0, 1.0) if name == "vs" else (b.force_constant, t.force_constant)
+            out[(t.name, name)] = (mine / per[0]) / (hidden / per[1]) - 1.0
     return out
 
 
 @pytest.mark.parametrize(("ideal", "seconds", "within"), [
     (True, 4.0, {"mass": 0.01, "damping": 0.01, "fc": 0.01}),
-    # the issue's 30 s log; its x friction comes back 5.1 % off, at the truth's own residual
-    # (the feedback's 1 um steps limit it: docs/measurements.md)
-    pytest.param(False, 30.0, {"mass": 0.02, "damping": 0.02, "fc": 0.06},
+    # the issue's 30 s log (4.5 % off on x's friction when the starts searched the replay
+    # with the encoder's steps: its cost is rough there, docs/measurements.md)
+    pytest.param(False, 30.0, {"mass": 0.02, "damping": 0.02, "fc": 0.02},
                  marks=pytest.mark.slow),
 ])
 def test_identify_recovers_a_hidden_machine(
@@ -116,6 +123,21 @@ def test_identify_recovers_a_hidden_machine(
     assert resolve_preset(twin.plant).stage.axes[0].mass == twin.values["x"]["mass"]
     if ideal:
         assert max(twin.nrmse.values()) < 0.01
+
+
+@pytest.mark.slow
+def test_identify_finds_a_lugre_machine_the_replays_steps_hid() -> None:
+    # 002's machine of seed 5, a 10 s log: with the starts on the replay with the encoder's
+    # steps the fit stopped 150 % off on x's Coulomb force, calling it determined (its cost
+    # is rough there); the values it calls determined come back within the issue's 5 %
+    rng = np.random.default_rng(5)
+    plant = perturbed_plant("lugre_linear_motor", rng)
+    log = machine_log(plant, excitation(resolve_preset(plant), rng, seconds=10.0), seed=5)
+    twin = identify([log], "lugre_linear_motor")
+    loose = {(axis, name) for axis, names in twin.undetermined().items() for name in names}
+    errors = _ratios(twin.values, plant, "lugre_linear_motor")
+    determined = {k: e for k, e in errors.items() if k not in loose}
+    assert len(determined) >= 10 and all(abs(e) < 0.05 for e in determined.values()), errors
 
 
 def test_single_friction_parameters_scale_by_name() -> None:

@@ -3,8 +3,10 @@
 Output error (:mod:`agents.twin.replay`): the logs' commands drive a loop of the preset the
 machine is like, each member a candidate plant, and the simulated axis positions (and, when the
 logs hold it, the control signals) are matched to the logged ones by
-:func:`scipy.optimize.least_squares` (bounded, from several starts; with both, refitted once
-with each channel weighed by its residual at the first fit).
+:func:`scipy.optimize.least_squares` (bounded, from several starts on a replay with exact,
+noise-free encoders, whose cost is smooth in the values; then from the best on the replay with
+the logged encoder steps; with both channels, refitted once with each weighed by its residual
+at that fit).
 The unknowns are factors on the preset's values, searched in log space: per axis its mass,
 viscous damping and the friction parameters :data:`FITTED_FRICTION` names for its law. The
 force constant is fixed at the preset's: with the axis controller's gains known, positions
@@ -261,7 +263,8 @@ def identify(
         logs: Servo logs of the machine (one sample per servo tick).
         like: The preset (or machine file) whose structure, controllers and fixed values the
             twin keeps.
-        starts: Least-squares runs, from the best points of the screen.
+        starts: Least-squares runs, from the best points of the screen (on the replay with
+            exact, noise-free encoders; the best goes on with the logged encoder steps).
         screen: Random points (log factors within :data:`BOUNDS`) simulated at once to pick
             the starts from (the preset's own values among them).
         seed: Seed of the screen.
@@ -276,6 +279,10 @@ def identify(
         spec, read = _with_encoders(spec, logs)
     problem = _Problem(logs, spec, screen, ideal)
     problem.read = read
+    # the starts search a replay without the encoder's steps and noise (its cost is smooth
+    # in the values; with them it is rough at every scale and the starts stop in its dents),
+    # then the fit goes on from the best on the replay as the machine runs
+    smooth = problem if ideal else _Problem(logs, _without_encoders(spec), screen, ideal)
     a, p = len(problem.names), problem.n_params
     lo, hi = np.log(BOUNDS[0]), np.log(BOUNDS[1])
     rng = np.random.default_rng(seed)
@@ -284,15 +291,18 @@ def identify(
     regressed = inverse_dynamics(problem)  # with effort logged
     points[1] = np.clip(regressed.theta, lo, hi)
     _use_levels(problem, regressed)
-    res = problem.residuals(problem.outputs(points))
-    rows = problem.axis_rows(res.shape[1])
+    smooth.disturbance = problem.disturbance
+    res = smooth.residuals(smooth.outputs(points))
+    rows = smooth.axis_rows(res.shape[1])
     # the axes are fitted apart (each one's residuals follow its own factors only): start k
     # takes each axis's k-th best point of the screen
     ranked = [np.argsort((res[:, r] ** 2).sum(axis=1)) for r in rows]
-    fits = [_solve(problem, np.stack([points[ranked[ax][k], ax] for ax in range(a)]).ravel(),
+    fits = [_solve(smooth, np.stack([points[ranked[ax][k], ax] for ax in range(a)]).ravel(),
                    (lo, hi)) for k in range(starts)]
     best = min(fits, key=lambda f: f.cost)
-    spread = _spread(problem, fits, best)
+    spread = _spread(smooth, fits, best)
+    if smooth is not problem:
+        best = _solve(problem, best.x, (lo, hi))
     if problem.effort:  # positions and control signals: each weighed by its own noise
         problem.reweight(best.fun)
         best = _solve(problem, best.x, (lo, hi))
@@ -370,6 +380,12 @@ def _with_encoders(spec: Any, logs: Sequence[ServoLog]) -> tuple[Any, dict[str, 
             read[f"{axis.name}.encoder_resolution"] = (
                 f"{step * 1e6:.6g} um, read from the feedback's steps (not fitted)")
     return (_merged(spec, steps) if steps else spec), read
+
+
+def _without_encoders(spec: Any) -> dict[str, Any]:
+    """``spec`` with every axis's encoder exact and noise-free (the loop's delay kept)."""
+    return _merged(spec, {axis.name: {"encoder_resolution": 0.0, "noise_std": 0.0}
+                          for axis in resolve_preset(spec).stage.axes})
 
 
 def _check_span(preset: Preset, cmd: list[Array]) -> None:
