@@ -279,9 +279,8 @@ def identify(
         spec, read = _with_encoders(spec, logs)
     problem = _Problem(logs, spec, screen, ideal)
     problem.read = read
-    # the starts search a replay without the encoder's steps and noise (its cost is smooth
-    # in the values; with them it is rough at every scale and the starts stop in its dents),
-    # then the fit goes on from the best on the replay as the machine runs
+    # the starts search a replay with exact encoders (its cost is smooth in the values; with
+    # the steps it is rough and they stop in its dents), the best goes on with the steps
     smooth = problem if ideal else _Problem(logs, _without_encoders(spec), screen, ideal)
     a, p = len(problem.names), problem.n_params
     lo, hi = np.log(BOUNDS[0]), np.log(BOUNDS[1])
@@ -301,8 +300,7 @@ def identify(
                    (lo, hi)) for k in range(starts)]
     best = min(fits, key=lambda f: f.cost)
     spread = _spread(smooth, fits, best)
-    if smooth is not problem:
-        best = _solve(problem, best.x, (lo, hi))
+    best = best if smooth is problem else _solve(problem, best.x, (lo, hi))
     if problem.effort:  # positions and control signals: each weighed by its own noise
         problem.reweight(best.fun)
         best = _solve(problem, best.x, (lo, hi))
