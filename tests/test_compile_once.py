@@ -8,7 +8,10 @@ measured again when the CCC laws began to release their integral while the refer
 a stop (:mod:`contour_gym.ccc`, 2026-12-02): it moved them; 003's gantry and 001's helix (twice)
 did not move, to the last bit. 004's two rows moved again when a reading exactly on the
 in-position band began to count as in position (``contour_gym.loop.build.BAND_INCLUSIVE``: its
-machine rests two encoder counts, its band, from the end); the others did not move.
+machine rests two encoder counts, its band, from the end); the others did not move. 003's
+row moved when the in-position check began to read an axis's speed over as many ticks as its
+encoder needs to resolve it (``contour_gym.loop.build.in_position_ticks``: 20 and 4 ticks on
+003's axes, 1 on every other preset's).
 """
 
 from __future__ import annotations
@@ -39,8 +42,8 @@ REFERENCE: list[tuple[str, dict[str, Any], tuple[float, float, float, float]]] =
                          2.132)),
     ("xy_servo_coulomb", {}, (4.213831994765177e-06, 1.229124022714209e-06,
                               1.4909570768072196e-06, 2.59)),
-    ("xyy_gantry", {}, (0.0003788395429945025, 0.00011189048184615097, 0.0001338547576724028,
-                        10.194)),
+    ("xyy_gantry", {}, (0.0003788395429945025, 0.00011188261780425503, 0.00013384856137492503,
+                        10.195)),
     ("xyz_pmlsm", {}, (3.6000927451657324e-05, 7.929644142424692e-06, 9.259662325244627e-06,
                        12.647)),
     ("xy_dc_servo", {"ccc_law": "fuzzy_pid", "estimator": "two_circle"},

@@ -253,3 +253,26 @@ def test_a_reading_exactly_on_the_in_position_band_is_in_position() -> None:
     base = cycle(1.0)
     for scale in (1.0 + 1e-12, 1.0 - 1e-12):
         assert cycle(scale) == pytest.approx(base, rel=5e-3)
+
+
+def test_a_coarse_encoder_reads_an_axis_still_only_when_it_is() -> None:
+    # 003's X reads 50 um counts every 0.5 ms: a count per tick is 0.1 m/s, twenty times the
+    # 5 mm/s its in-position check asks, so over one tick "the reading did not change" passed
+    # an axis ringing through the end point at 0.08 m/s (this machine on this path did)
+    from agents.twin.generate import perturbed_plant
+    from contour_gym.api import make_scenario, run_trace
+    from contour_gym.loop.build import in_position_ticks
+    from contour_gym.paths import random_path
+    from contour_gym.presets import resolve_preset
+
+    hidden = perturbed_plant("xyy_gantry", np.random.default_rng(5))
+    stage = resolve_preset(hidden).stage
+    assert in_position_ticks(stage).tolist() == [20.0, 4.0, 4.0]
+    assert in_position_ticks(stage, ideal=True).tolist() == [1.0, 1.0, 1.0]
+    metrics, trace = run_trace(make_scenario(hidden, random_path(np.random.default_rng(106))),
+                               None, seed=1)
+    x = np.asarray(trace.x)[0]
+    x = x[~np.isnan(x[:, 0])]
+    speed = np.abs(x[-1] - x[-3]) / (2.0 * stage.ts)  # each axis's over the last two ticks
+    assert metrics["finished"] == 1.0
+    assert speed.max() < 4.0 * stage.in_position_speed, speed

@@ -29,7 +29,7 @@ from contour_gym.loop.state import (
 )
 from contour_gym.metrics import ACC_A, ACC_C
 from contour_gym.paths import Path
-from contour_gym.plant._kernel import STATE
+from contour_gym.plant._kernel import AX, STATE
 from contour_gym.plant.friction import law_for
 from contour_gym.plant.stage import (
     Stage,
@@ -78,6 +78,7 @@ def axis_arrays(
     ax_p = np.stack(
         [axis_row(x, friction_code[law_for(x.friction).name], ideal=ideal) for x in stage.axes]
     )
+    ax_p[:, AX.in_ticks] = in_position_ticks(stage, ideal)
     ax_p = np.repeat(ax_p[None], batch, axis=0)
     ad, bd = zoh_matrices(ax_p, stage.ts / stage.substeps)
     each = {
@@ -87,6 +88,19 @@ def axis_arrays(
     }
     return {"ax_p": ax_p, "ad": ad, "bd": bd,
             **{k: np.repeat(v[None], batch, axis=0) for k, v in each.items()}}
+
+
+def in_position_ticks(stage: Stage, ideal: bool = False) -> Array:
+    """(A,) per axis, the ticks the in-position check reads an axis's speed over.
+
+    The fewest over which one encoder count is no faster than the stage's
+    ``in_position_speed`` (1 for an exact encoder, or one fine enough): over a single tick a
+    coarse encoder reads only "moved a count" (50 um per 0.5 ms is 0.1 m/s), and an axis
+    ringing through the end point at up to that speed would pass for still.
+    """
+    step = np.array([0.0 if ideal else x.encoder_resolution for x in stage.axes])
+    ticks = np.ceil(step / (stage.in_position_speed * stage.ts) * (1.0 - 1e-9))
+    return np.maximum(ticks, 1.0)
 
 
 def contour_offsets(stage: Stage) -> Array:
@@ -122,7 +136,8 @@ def state_shapes(
         "hist": (b, HIST_WIDTH), "ip_s": (b, motion.IP_STATE.size), "foot": (b, c, FOOT.size),
         "last": (b, c, LAST.size), "acc_c": (b, c, ACC_C.size), "acc_a": (b, a, ACC_A.size),
         "ep_c": (b, c, ACC_C.size), "ep_a": (b, a, ACC_A.size), "u_cmd": (b, a),
-        "y_last": (b, a), "mem": (b, MEM.size), "work": (parts, WORK.size + WORK_PAD, a),
+        "y_last": (b, a), "x_ring": (b, int(in_position_ticks(stage).max()), a),
+        "mem": (b, MEM.size), "work": (parts, WORK.size + WORK_PAD, a),
     }
 
 

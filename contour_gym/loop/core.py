@@ -418,6 +418,7 @@ class ServoLoop(LoopViews):
             arr[idx] = 0.0
         self.ax_s[idx, :, ST.x] = start
         self.y_last[idx] = start
+        self.x_ring[idx] = start[:, None, :]
         q0, dim = self.bank.start_points(idx)[:, None, :], self.stage.dim
         self.foot[idx, :, FT.qx : FT.qx + dim] = q0
         self.foot[idx, :, FT.e_qx : FT.e_qx + dim] = q0

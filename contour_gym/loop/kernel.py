@@ -359,17 +359,21 @@ def _plant(loop, cfg, b, k, noise, j, n_axes, has_noise):
 
 
 @numba.njit(cache=True, inline="always")
-def _in_position(loop, cfg, b, n_axes):
+def _in_position(loop, cfg, b, k, n_axes):
     # a CNC's in-position check on the encoder (noise-free): following error within the band,
-    # and slow (the reading's change over this tick); asked only while something waits on it
-    # (an exact stop, or the path end: see member_run)
+    # and slow (the reading's change over the axis's last AX.in_ticks ticks: one count over
+    # them is no faster than in_speed); asked only while something waits on it (an exact
+    # stop, or the path end: see member_run)
     if not _waiting(loop, b):
         return False
     inpos = True
+    w = loop.x_ring.shape[1]
     for a in range(n_axes):
         i = b * n_axes + a
         y = measure(loop.ax_p, i, loop.ax_s[i, ST.x], 0.0)
-        speed = abs(y - measure(loop.ax_p, i, loop.work[WORK_ROW.x, a], 0.0)) / cfg.ts
+        n = int(loop.ax_p[i, AX.in_ticks])
+        then = measure(loop.ax_p, i, loop.x_ring[b, (k - n + w) % w, a], 0.0)
+        speed = abs(y - then) / (n * cfg.ts)
         near = abs(loop.work[WORK_ROW.r0, a] - y) <= cfg.in_band
         inpos = inpos and near and speed <= cfg.in_speed
     return inpos
@@ -440,9 +444,11 @@ def member_run(b, n, k0, cfg, loop, path, noise, rec):
         if not _plant(loop, cfg, b, k, noise, row + j, n_axes, has_noise):
             loop.mem[b, MEM_COL.reason], loop.mem[b, MEM_COL.end] = REASON_DIVERGED, k + 1
             return STATUS_FAILED
-        inpos = _in_position(loop, cfg, b, n_axes)
+        inpos = _in_position(loop, cfg, b, k, n_axes)
+        w = loop.x_ring.shape[1]
         for a in range(n_axes):
             loop.y_last[b, a] = loop.work[WORK_ROW.y, a]
+            loop.x_ring[b, k % w, a] = loop.ax_s[b * n_axes + a, ST.x]  # after tick k
         loop.mem[b, MEM_COL.in_pos] = 1.0 if inpos else 0.0
         if _arrived(loop, path, cfg, b, inpos):
             loop.mem[b, MEM_COL.arrival], loop.mem[b, MEM_COL.end] = k + 1, k + 1

@@ -20,7 +20,7 @@ from collections import namedtuple
 
 import numba
 
-from contour_gym._blob import carve, readonly, rows2, rows3, slab, view1, view2
+from contour_gym._blob import carve, readonly, rows2, rows3, slab, view1, view2, view3
 from contour_gym._schema import Param, Schema, state_schema
 from contour_gym._validate import number
 
@@ -32,8 +32,8 @@ FLOATS = (
     ("ccc_w", "rows2"), ("ccc_s", "rows2"), ("ccc_data", "view1"), ("est_p", "view1"),
     ("hist", "view2"), ("ip_p", "view2"), ("ip_s", "view2"), ("foot", "rows2"),
     ("last", "rows2"), ("acc_c", "rows2"), ("acc_a", "rows2"), ("ep_c", "rows2"),
-    ("ep_a", "rows2"), ("u_cmd", "view2"), ("y_last", "view2"), ("mem", "view2"),
-    ("work", "view3"), ("c_off", "view2"),
+    ("ep_a", "rows2"), ("u_cmd", "view2"), ("y_last", "view2"), ("x_ring", "view3"),
+    ("mem", "view2"), ("work", "view3"), ("c_off", "view2"),
 )
 # noise_at: each member's row in the noise buffer of its next tick (the kernel advances it)
 # p_at: each member's path in the path bank, row (first segment, segments, first s0 entry)
@@ -138,6 +138,7 @@ def loop_arrays(floats, float_layout, ints, int_layout, part):
         rows2(floats, float_layout, FLOAT_AT.ep_a),
         view2(floats, float_layout, FLOAT_AT.u_cmd),
         view2(floats, float_layout, FLOAT_AT.y_last),
+        view3(floats, float_layout, FLOAT_AT.x_ring),
         view2(floats, float_layout, FLOAT_AT.mem),
         slab(floats, float_layout, FLOAT_AT.work, part),
         view2(floats, float_layout, FLOAT_AT.c_off),

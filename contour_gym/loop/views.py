@@ -125,6 +125,7 @@ class LoopViews:
     ep_a = _float()
     u_cmd = _float()
     y_last = _float()
+    x_ring = _float()
     mem = _float()
     work = _float()
     c_off = _float()

@@ -32,7 +32,7 @@ from contour_gym._validate import number
 
 AXIS = Schema(
     "axis", m=1.0, b=0.0, ks=0.0, k=1.0, u_max=1.0, tau=0.0, enc=0.0, noise=0.0, nrip=0.0,
-    harm=0.0, law=0.0,
+    harm=0.0, law=0.0, in_ticks=1.0,
 )
 AX = AXIS.col
 STATE = state_schema("axis state", "x", "v", "i", "z0", "z1", "d")

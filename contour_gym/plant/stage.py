@@ -56,7 +56,9 @@ class Stage:
         in_position: In-position band of every axis, m: a contour has ended when the axes are
             within it of the path's end point (a CNC's in-position check; a reading exactly
             on it, a whole number of encoder counts away, is within).
-        in_position_speed: ... and every axis is slower than this, m/s.
+        in_position_speed: ... and every axis is slower than this, m/s (its reading's change
+            over as many ticks as its encoder needs to tell this speed from rest:
+            :func:`contour_gym.loop.build.in_position_ticks`).
         notes: Where the numbers come from (published or chosen).
     """
 
