@@ -277,10 +277,10 @@ def identify(
     read: dict[str, str] = {}
     if not ideal:  # the twin's encoders step as the logged feedback does
         spec, read = _with_encoders(spec, logs)
-    problem = _Problem(logs, spec, screen, ideal)
-    problem.read = read
     # the starts search a replay with exact encoders (its cost is smooth in the values; with
     # the steps it is rough and they stop in its dents), the best goes on with the steps
+    problem = _Problem(logs, spec, screen if ideal else 0, ideal)  # no screen: 1 + P members
+    problem.read = read
     smooth = problem if ideal else _Problem(logs, _without_encoders(spec), screen, ideal)
     a, p = len(problem.names), problem.n_params
     lo, hi = np.log(BOUNDS[0]), np.log(BOUNDS[1])
