@@ -3,10 +3,10 @@
 Output error (:mod:`agents.twin.replay`): the logs' commands drive a loop of the preset the
 machine is like, each member a candidate plant, and the simulated axis positions (and, when the
 logs hold it, the control signals) are matched to the logged ones by
-:func:`scipy.optimize.least_squares` (bounded, from several starts on a replay with exact,
-noise-free encoders, whose cost is smooth in the values; then from the best on the replay with
-the logged encoder steps; with both channels, refitted once with each weighed by its residual
-at that fit).
+:func:`scipy.optimize.least_squares` (bounded, from several starts; with both channels, refitted
+once with each weighed by its residual at that fit). The fit's replay has exact, noise-free
+encoders (the loop's delay kept): with the logged encoder steps the cost is rough at every
+scale, and the twin's misfit with them is what the report gives.
 The unknowns are factors on the preset's values, searched in log space: per axis its mass,
 viscous damping and the friction parameters :data:`FITTED_FRICTION` names for its law. The
 force constant is fixed at the preset's: with the axis controller's gains known, positions
@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from agents.twin.replay import replay_loop
+from agents.twin.stats import correlation_time, deviations
 from contour_gym.logs import STILL_BELOW, ServoLog, encoder_step
 from contour_gym.loop import ServoLoop
 from contour_gym.machines import plant_of
@@ -56,8 +57,7 @@ STEP = 2e-2  # the Jacobian's step in log factor
 XTOL = 1e-4  # least_squares stops when the log factors move less than this (0.01 %)
 FTOL = 1e-6  # or the cost falls by less than this fraction
 NEAR = 0.1  # starts within this fraction of an axis's best sum of squares fit it as well
-DETERMINED = 0.05  # a value is determined by the logs within this (relative std, spread)
-VISIBLE = 0.02  # ... and moving it that much, the others compensating, worsens the fit by this
+DETERMINED = 0.05  # a value is determined by the logs within this (relative std, spread, bias)
 FAILED = 1e3  # the residual of a sample a failed candidate did not reach (in following errors)
 
 
@@ -76,9 +76,9 @@ class Identified:
         cost: The final least-squares cost.
         spread: Per axis, each value's largest relative distance to another start's that fits
             the axis about as well: the logs cannot tell such values apart.
-        visibility: Per axis, how much a change of :data:`DETERMINED` in each value worsens
-            the axis's fit (the relative rise of its sum of squares, the other values
-            compensating; first order).
+        bias: Per axis, each value's relative bias (:func:`_bias`: what the fit finds when
+            the logs are the twin's own, over the value it started from, less 1); the
+            values are corrected by it.
     """
 
     plant: dict[str, Any]
@@ -88,23 +88,23 @@ class Identified:
     nrmse: dict[str, float]
     cost: float
     spread: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
-    visibility: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
+    bias: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
 
     def undetermined(self) -> dict[str, list[str]]:
         """Per axis, the values the logs do not determine within :data:`DETERMINED`.
 
-        Their standard deviation or their spread over starts that fit as well is over it, or
-        such a change worsens the fit by less than :data:`VISIBLE`: they trade off against
-        others (a friction law's low-speed parameters on a circle test, say), and a recording
-        that excites them (slow moves, reversals) would pin them. Not a proof of the others:
-        a valley the starts did not find is not seen.
+        Their standard deviation, their spread over starts that fit as well or their
+        :attr:`bias` is over it: they trade off against others (a friction law's low-speed
+        parameters on a circle test, say), and a recording that excites them (slow moves,
+        reversals) would pin them. Not a proof of the others: a valley the starts did not
+        find is not seen, nor what the twin's structure lacks.
         """
         out: dict[str, list[str]] = {}
         for axis, values in self.values.items():
             loose = [n for n, v in values.items()
                      if self.std[axis][n] > DETERMINED * abs(v)
                      or self.spread.get(axis, {}).get(n, 0.0) > DETERMINED
-                     or self.visibility.get(axis, {}).get(n, math.inf) < VISIBLE]
+                     or abs(self.bias.get(axis, {}).get(n, 0.0)) > DETERMINED]
             if loose:
                 out[axis] = loose
         return out
@@ -138,6 +138,7 @@ class _Problem:
 
     def __init__(self, logs: Sequence[ServoLog], like: Any, screen: int, ideal: bool) -> None:
         self.spec = like  # the plant the replays run (a preset name or a plant dict)
+        self.ideal = ideal
         self.read: dict[str, str] = {}  # what was read from the logs, not fitted
         self.preset = resolve_preset(like)
         self.names = fitted_names(self.preset)
@@ -264,7 +265,7 @@ def identify(
         like: The preset (or machine file) whose structure, controllers and fixed values the
             twin keeps.
         starts: Least-squares runs, from the best points of the screen (on the replay with
-            exact, noise-free encoders; the best goes on with the logged encoder steps).
+            exact, noise-free encoders, as the whole fit).
         screen: Random points (log factors within :data:`BOUNDS`) simulated at once to pick
             the starts from (the preset's own values among them).
         seed: Seed of the screen.
@@ -277,11 +278,13 @@ def identify(
     read: dict[str, str] = {}
     if not ideal:  # the twin's encoders step as the logged feedback does
         spec, read = _with_encoders(spec, logs)
-    # the starts search a replay with exact encoders (its cost is smooth in the values; with
-    # the steps it is rough and they stop in its dents), the best goes on with the steps
-    problem = _Problem(logs, spec, screen if ideal else 0, ideal)  # no screen: 1 + P members
+    # the fit searches a replay with exact encoders: with the steps its cost is rough at every
+    # scale (a 0.3 % move changes it by 2-20 %), starts stop in its dents and a refinement
+    # there fits them (docs/measurements.md); the replay with the steps, the twin as it runs,
+    # gives the reported misfit
+    problem = _Problem(logs, spec, 0, ideal)
     problem.read = read
-    smooth = problem if ideal else _Problem(logs, _without_encoders(spec), screen, ideal)
+    fitted = problem if ideal else _Problem(logs, _without_encoders(spec), 0, ideal)
     a, p = len(problem.names), problem.n_params
     lo, hi = np.log(BOUNDS[0]), np.log(BOUNDS[1])
     rng = np.random.default_rng(seed)
@@ -290,23 +293,72 @@ def identify(
     regressed = inverse_dynamics(problem)  # with effort logged
     points[1] = np.clip(regressed.theta, lo, hi)
     _use_levels(problem, regressed)
-    smooth.disturbance = problem.disturbance
-    res = smooth.residuals(smooth.outputs(points))
-    rows = smooth.axis_rows(res.shape[1])
-    # the axes are fitted apart (each one's residuals follow its own factors only): start k
-    # takes each axis's k-th best point of the screen
-    ranked = [np.argsort((res[:, r] ** 2).sum(axis=1)) for r in rows]
-    fits = [_solve(smooth, np.stack([points[ranked[ax][k], ax] for ax in range(a)]).ravel(),
-                   (lo, hi)) for k in range(starts)]
+    fitted.disturbance = problem.disturbance
+    fits = [_solve(fitted, x0, (lo, hi)) for x0 in _starts(fitted, points, starts)]
     best = min(fits, key=lambda f: f.cost)
-    spread = _spread(smooth, fits, best)
-    best = best if smooth is problem else _solve(problem, best.x, (lo, hi))
-    if problem.effort:  # positions and control signals: each weighed by its own noise
-        problem.reweight(best.fun)
-        best = _solve(problem, best.x, (lo, hi))
+    spread = _spread(fitted, fits, best)
+    if fitted.effort:  # positions and control signals: each weighed by its own noise
+        fitted.reweight(best.fun)
+        best = _solve(fitted, best.x, (lo, hi))
+    problem.scale = fitted.scale
     sd = _process_noise_axes(problem, best, regressed, spread)
     _check_bounds(problem, best.x.reshape(a, p))
-    return _result(problem, best, spread, sd)
+    bias = _bias(problem, fitted, best.x, (lo, hi))
+    for ax, j in sd:  # the force balance's values are not the fit's
+        bias[ax, j] = 0.0
+    best.x = np.clip(best.x - bias.ravel(), lo, hi)  # the fit lands ``bias`` off: correct it
+    return _result(problem, fitted, best, spread, sd, bias)
+
+
+def _starts(fitted: _Problem, points: Array, starts: int) -> list[Array]:
+    """The least-squares starts from a screen of ``points`` (M, A, P), run at once.
+
+    The axes are fitted apart (each one's residuals follow its own factors only): start k
+    takes each axis's k-th best point.
+    """
+    screened = _Problem(fitted.logs, fitted.spec, len(points), fitted.ideal)
+    screened.disturbance = fitted.disturbance
+    res = screened.residuals(screened.outputs(points))
+    ranked = [np.argsort((res[:, r] ** 2).sum(axis=1))
+              for r in screened.axis_rows(res.shape[1])]
+    return [np.stack([points[ranked[ax][k], ax] for ax in range(points.shape[1])]).ravel()
+            for k in range(starts)]
+
+
+def _bias(problem: _Problem, fitted: _Problem, x: Array, bounds: tuple[Array, Array]
+          ) -> Array:
+    """(A, P) the fit's bias at log factors ``x``: where it lands when the logs are the twin's own.
+
+    The twin (``x`` on ``problem``'s replay, with the logged encoder steps) replays the logs'
+    commands; its encoder readings (and control signals) become logs, and the fit runs on
+    them from ``x`` on ``fitted``'s replay, weighed as it was; the distance it moves is the
+    bias (a parametric bootstrap's, in log factor). The fit's exact encoders miss what the
+    steps do in the loop: a 10 um encoder on 004's axes biases its values by 4-17 %, and this
+    reads the bias within 1-2 % of it. The twin's logs hold no noise but the steps' and no
+    random disturbance: on an axis under one this is a lower bound.
+    """
+    a, p = len(problem.names), problem.n_params
+    out = problem.outputs(x.reshape(1, a, p))
+    logs = [_twin_log(problem, log, o[0]) for log, o in zip(problem.logs, out, strict=True)]
+    own = _Problem(logs, fitted.spec, 0, fitted.ideal)
+    own.disturbance, own.scale = fitted.disturbance, fitted.scale
+    found = _solve(own, x, bounds).x
+    return (found - x).reshape(a, p)
+
+
+def _twin_log(problem: _Problem, log: ServoLog, channels: Array) -> ServoLog:
+    # ``log`` with the preset's axes' feedback (and effort) from a replay's ``channels``
+    # (N, C): its positions read by the encoders as the logged feedback was
+    names = [axis.name for axis in problem.preset.stage.axes]
+    made = {}
+    for a, axis in enumerate(problem.preset.stage.axes):
+        q = 0.0 if problem.ideal else axis.encoder_resolution
+        x = np.nan_to_num(channels[:, a], nan=FAILED)
+        changes: dict[str, Any] = {"fb": q * np.round(x / q) if q > 0.0 else x}
+        if problem.effort:
+            changes["effort"] = np.nan_to_num(channels[:, len(names) + a], nan=FAILED)
+        made[axis.name] = dataclasses.replace(log.axis(axis.name), **changes)
+    return dataclasses.replace(log, axes=tuple(made.get(ax.name, ax) for ax in log.axes))
 
 
 def _process_noise_axes(problem: _Problem, best: Any, regressed: Regressed, spread: Array
@@ -495,12 +547,13 @@ def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Regressed:
 def _iv_std(x: Array, z: Array, e: Array) -> Array:
     """Standard deviations of an IV estimate: ``s^2 (Z'X)^-1 Z'Z (X'Z)^-1``, ``e`` its residuals.
 
-    ``s^2`` the residuals' variance times their correlation time (:func:`_correlation_time`):
-    a disturbance that lasts many samples is worth fewer than their number.
+    ``s^2`` the residuals' variance times their correlation time
+    (:func:`~agents.twin.stats.correlation_time`): a disturbance that lasts many samples is
+    worth fewer than their number.
     """
     zx = np.linalg.pinv(z.T @ x)
     cov = zx @ (z.T @ z) @ zx.T * (float(e @ e) / max(len(e) - x.shape[1], 1))
-    return np.sqrt(np.clip(np.diag(cov), 0.0, None) * _correlation_time(e))
+    return np.sqrt(np.clip(np.diag(cov), 0.0, None) * correlation_time(e))
 
 
 def _regressors(log: ServoLog, axis: AxisParams, ts: float, smooth: int
@@ -565,19 +618,22 @@ def _use_levels(problem: _Problem, regressed: Regressed) -> None:
                 "amplitude read from the logged effort (not fitted: the replay runs it)")
 
 
-def _result(problem: _Problem, fit: Any, spread: Array,
-            regressed: dict[tuple[int, int], float]) -> Identified:
+def _result(problem: _Problem, fitted: _Problem, fit: Any, spread: Array,
+            regressed: dict[tuple[int, int], float], bias: Array) -> Identified:
+    # ``fitted``: the replay fitted (its residuals and Jacobian give the deviations and the
+    # visibility); ``problem``: the twin as it runs (its residuals give the reported NRMSE)
     a, p = len(problem.names), problem.n_params
-    res, jac = problem.run(fit.x)
-    sd = _std(problem, res, jac).reshape(a, p)
+    res, jac = fitted.run(fit.x)
+    sd = deviations(fitted, res, jac).reshape(a, p)
     for (ax, j), value in regressed.items():  # the force balance's values: its deviations
         sd[ax, j] = value
-    seen = _visibility(problem, res, jac).reshape(a, p)
+    if fitted is not problem:
+        res = problem.residuals(problem.outputs(fit.x.reshape(1, a, p)))[0]
     factors = np.exp(fit.x.reshape(a, p))
     values: dict[str, dict[str, float]] = {}
     std: dict[str, dict[str, float]] = {}
     apart: dict[str, dict[str, float]] = {}
-    shown: dict[str, dict[str, float]] = {}
+    off: dict[str, dict[str, float]] = {}
     axes: dict[str, Any] = {}
     for ax, (axis, names) in enumerate(zip(problem.preset.stage.axes, problem.names,
                                            strict=True)):
@@ -585,7 +641,7 @@ def _result(problem: _Problem, fit: Any, spread: Array,
         values[axis.name] = {n: float(nominal[n] * factors[ax, j]) for j, n in enumerate(names)}
         std[axis.name] = {n: float(values[axis.name][n] * sd[ax, j]) for j, n in enumerate(names)}
         apart[axis.name] = {n: float(math.expm1(spread[ax, j])) for j, n in enumerate(names)}
-        shown[axis.name] = {n: float(seen[ax, j]) for j, n in enumerate(names)}
+        off[axis.name] = {n: float(math.expm1(bias[ax, j])) for j, n in enumerate(names)}
         axes[axis.name] = _axis_changes(axis, values[axis.name], problem.disturbance[ax])
     fixed = {n: "not separable from the mass by positions and control (kept the preset's)"
              for n in FIXED}
@@ -602,68 +658,12 @@ def _result(problem: _Problem, fit: Any, spread: Array,
         values.pop(name)
         std.pop(name)
         apart.pop(name)
-        shown.pop(name)
+        off.pop(name)
     return Identified(
         plant=_merged(problem.spec, axes),
         values=values, std=std, fixed=fixed,
-        nrmse=_nrmse(problem, res), cost=0.5 * float(res @ res), spread=apart, visibility=shown,
+        nrmse=_nrmse(problem, res), cost=0.5 * float(res @ res), spread=apart, bias=off,
     )
-
-
-def _std(problem: _Problem, res: Array, jac: Array) -> Array:
-    """(A P,) standard deviations of the log factors, the residuals' correlation counted.
-
-    Per axis (the axes are fitted apart): ``sqrt(diag((J'J)^-1) r'r / n_eff)``, with
-    ``n_eff`` the axis's residual samples over their integrated autocorrelation time. A model
-    that misses something leaves long-correlated residuals: few effective samples, and wide
-    deviations for the parameters that trade off against what it misses.
-    """
-    a, p = len(problem.names), problem.n_params
-    out = np.zeros(a * p)
-    channels = problem.channel_rows(res.size)
-    for ax, rows in enumerate(problem.axis_rows(res.size)):
-        n_eff = sum(len(r) / _correlation_time(res[r]) for r, c
-                    in zip(channels, problem.channel_axis, strict=True) if c == ax)
-        cols = slice(ax * p, (ax + 1) * p)
-        cov = np.linalg.pinv(jac[rows, cols].T @ jac[rows, cols])
-        variance = float(res[rows] @ res[rows]) / max(n_eff - p, 1.0)
-        out[cols] = np.sqrt(np.clip(np.diag(cov), 0.0, None) * variance)
-    return out
-
-
-def _visibility(problem: _Problem, res: Array, jac: Array) -> Array:
-    """(A P,) how much a change of :data:`DETERMINED` in each value worsens its axis's fit.
-
-    The relative rise of the axis's sum of squares when the value moves by that fraction and
-    the axis's other values follow to compensate, to first order: ``d^2 / (C_jj r'r)`` with
-    ``C`` the inverse of ``J'J`` (a tiny ridge keeps exact trade-offs: they show as 0).
-    """
-    a, p = len(problem.names), problem.n_params
-    out = np.zeros(a * p)
-    step = math.log1p(DETERMINED)
-    for ax, rows in enumerate(problem.axis_rows(res.size)):
-        cols = slice(ax * p, (ax + 1) * p)
-        info = jac[rows, cols].T @ jac[rows, cols]
-        ridge = 1e-12 * max(float(np.trace(info)), 1e-300) * np.eye(p)
-        cov = np.linalg.inv(info + ridge)
-        out[cols] = step**2 / (np.diag(cov) * max(float(res[rows] @ res[rows]), 1e-300))
-    return out
-
-
-def _correlation_time(e: Array) -> float:
-    """Integrated autocorrelation time of ``e``, samples (1 for white residuals).
-
-    ``1 + 2 sum rho(k)`` over the lags up to the first whose autocorrelation is not positive.
-    """
-    e = e - e.mean()
-    n = len(e)
-    spectrum = np.fft.rfft(e, 2 * n)
-    acf = np.fft.irfft(spectrum * np.conj(spectrum))[:n]
-    if acf[0] <= 0.0:
-        return 1.0
-    rho = acf[1:] / acf[0]
-    stop = np.flatnonzero(rho <= 0.0)
-    return float(1.0 + 2.0 * rho[: stop[0] if stop.size else n - 1].sum())
 
 
 def _axis_changes(axis: Any, values: dict[str, float], level: float) -> dict[str, Any]:
