@@ -6,7 +6,9 @@ logs hold it, the control signals) are matched to the logged ones by
 :func:`scipy.optimize.least_squares` (bounded, from several starts; with both channels, refitted
 once with each weighed by its residual at that fit). The fit's replay has exact, noise-free
 encoders (the loop's delay kept): with the logged encoder steps the cost is rough at every
-scale, and the twin's misfit with them is what the report gives.
+scale, and the twin's misfit with them is what the report gives. What the steps do in the loop
+biases such a fit; :func:`_bias` reads that bias on the twin's own logs and the values are
+corrected by it.
 The unknowns are factors on the preset's values, searched in log space: per axis its mass,
 viscous damping and the friction parameters :data:`FITTED_FRICTION` names for its law. The
 force constant is fixed at the preset's: with the axis controller's gains known, positions
@@ -620,8 +622,8 @@ def _use_levels(problem: _Problem, regressed: Regressed) -> None:
 
 def _result(problem: _Problem, fitted: _Problem, fit: Any, spread: Array,
             regressed: dict[tuple[int, int], float], bias: Array) -> Identified:
-    # ``fitted``: the replay fitted (its residuals and Jacobian give the deviations and the
-    # visibility); ``problem``: the twin as it runs (its residuals give the reported NRMSE)
+    # ``fitted``: the replay fitted (its residuals and Jacobian give the deviations);
+    # ``problem``: the twin as it runs (its residuals give the reported NRMSE)
     a, p = len(problem.names), problem.n_params
     res, jac = fitted.run(fit.x)
     sd = deviations(fitted, res, jac).reshape(a, p)
