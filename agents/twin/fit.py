@@ -7,7 +7,7 @@ logs hold it, the control signals) are matched to the logged ones by
 once with each weighed by its residual at that fit). The fit's replay has exact, noise-free
 encoders (the loop's delay kept): with the logged encoder steps the cost is rough at every
 scale, and the twin's misfit with them is what the report gives. What the steps do in the loop
-biases such a fit: :func:`_bias` reads that on the twin's own logs, and corrects the values.
+biases such a fit: :func:`_bias` reads it on the twin's own logs, and the fit is corrected by it.
 The unknowns are factors on the preset's values, searched in log space: per axis its mass,
 viscous damping and the friction parameters :data:`FITTED_FRICTION` names for its law. The
 force constant is fixed at the preset's: with the axis controller's gains known, positions
