@@ -457,30 +457,19 @@ def _identify_plot(target: FilePath, fitted: tuple, held: tuple) -> None:
 
 def _identify_report(twin: Identified, held: dict[str, float], said: str, figure: str) -> str:
     # the parameter table, the fit and held-out NRMSE per axis, the verdict and the plot
-    loose = twin.undetermined()
+    loose = twin.reasons()
     lines = ["| axis | parameter | value | std | fit's bias (corrected) | determined by the logs |",
              "|---|---|---|---|---|---|"]
     for axis, values in twin.values.items():
         sd, bias = twin.std[axis], twin.bias.get(axis, {})
         lines += [f"| {axis} | {k} | {v:.6g} | {sd[k]:.2g} | {100 * bias.get(k, 0.0):+.2g} % | "
-                  f"{_why_loose(twin, axis, k) if k in loose.get(axis, ()) else 'yes'} |"
+                  f"{'no: ' + loose[axis][k] if k in loose.get(axis, {}) else 'yes'} |"
                   for k, v in values.items()]
     lines += ["", "| axis | NRMSE, fitted | NRMSE, held out |", "|---|---|---|"]
     lines += [f"| {a} | {100 * twin.nrmse[a]:.3g} % | {100 * held[a]:.3g} % |" for a in held]
     lines += ["", *(f"{k}: {why}" for k, why in twin.fixed.items()), f"verdict: {said}", "",
               f"![measured and twin following error]({figure})", ""]
     return "\n".join(lines)
-
-
-def _why_loose(twin: Identified, axis: str, name: str) -> str:
-    # the report's reason a value is not determined by the logs
-    from agents.twin.fit import DETERMINED
-
-    if twin.std[axis][name] > DETERMINED * abs(twin.values[axis][name]):
-        return f"no: its std is over {100 * DETERMINED:g} %"
-    if abs(twin.bias.get(axis, {}).get(name, 0.0)) > DETERMINED:
-        return f"no: the fit's bias is over {100 * DETERMINED:g} %"
-    return "no: another start fits as well with another value"
 
 
 def simulate_command(args: argparse.Namespace) -> int:

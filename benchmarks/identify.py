@@ -19,18 +19,8 @@ import numpy as np
 
 from agents.twin.fit import identify
 from agents.twin.generate import excitation, machine_log, perturbed_plant
+from agents.twin.identified import ratio_errors
 from contour_gym.presets import resolve_preset
-
-
-def _worst_ratio(values: dict, plant: dict, like: str) -> float:
-    true, base = resolve_preset(plant), resolve_preset(like)
-    worst = 0.0
-    for t, b in zip(true.stage.axes, base.stage.axes, strict=True):
-        for name, value in values[t.name].items():
-            hidden = getattr(t, name) if name in ("mass", "damping") else getattr(t.friction, name)
-            ratio = (value / b.force_constant) / (hidden / t.force_constant) - 1.0
-            worst = max(worst, abs(ratio))
-    return worst
 
 
 def main() -> None:
@@ -48,7 +38,7 @@ def main() -> None:
         twin = identify([log], name)
         wall = time.perf_counter() - start
         nrmse = ", ".join(f"{100 * v:.2g} %" for v in twin.nrmse.values())
-        worst = _worst_ratio(twin.values, plant, name)
+        worst = max(abs(e) for e in ratio_errors(twin.values, plant, name).values())
         print(f"| {name} | {len(log.time)} | {wall:.1f} | {nrmse} | {100 * worst:.2g} % |")
 
 

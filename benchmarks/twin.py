@@ -32,8 +32,9 @@ from numpy.typing import NDArray
 
 from agents.tune import get_protocol, tune
 from agents.tune.setters import pid_gains
-from agents.twin.fit import VISCOUS, Identified, identify
+from agents.twin.fit import identify
 from agents.twin.generate import excitation, machine_log, perturbed_plant
+from agents.twin.identified import Identified, ratio_errors
 from contour_gym.api import simulate
 from contour_gym.paths import Path, helix, random_path
 from contour_gym.presets import PRESETS, resolve_preset
@@ -42,35 +43,6 @@ FloatArray = NDArray[np.float64]
 ALL = ("xy_dc_servo", "xyz_pmlsm", "lugre_linear_motor", "xyy_gantry", "xy_servo_coulomb")
 COMPARED = {"max_contour_error": "contour", "peak_tracking_error": "tracking",
             "cycle_time": "cycle"}
-
-
-def ratio_errors(values: dict[str, dict[str, float]], plant: dict[str, Any], like: str
-                 ) -> dict[tuple[str, str], float]:
-    """Each identified value's ratio to the force constant against the hidden machine's.
-
-    The damping is compared with the viscous friction added (``VISCOUS``: kept the preset's,
-    the fitted damping holds the sum).
-    """
-    true, base = resolve_preset(plant), resolve_preset(like)
-    out = {}
-    for t, b in zip(true.stage.axes, base.stage.axes, strict=True):
-        for name, value in values.get(t.name, {}).items():
-            hidden, mine = _value(t, name), value
-            if name == "damping":
-                hidden += sum(getattr(t.friction, v, 0.0) or 0.0 for v in VISCOUS)
-                mine += sum(getattr(b.friction, v, 0.0) or 0.0 for v in VISCOUS)
-            out[(t.name, name)] = (mine / b.force_constant) / (hidden / t.force_constant) - 1.0
-    return out
-
-
-def _value(axis: Any, name: str) -> float:
-    return float(getattr(axis, name) if name in ("mass", "damping")
-                 else getattr(axis.friction, name))
-
-
-def worst_ratio(values: dict[str, dict[str, float]], plant: dict[str, Any], like: str) -> float:
-    """The largest relative error of an identified ratio to the force constant."""
-    return max((abs(e) for e in ratio_errors(values, plant, like).values()), default=0.0)
 
 
 def held_out(name: str, seed: int) -> dict[str, str | Path | None]:
@@ -87,9 +59,12 @@ def held_out(name: str, seed: int) -> dict[str, str | Path | None]:
 
 
 def compare(hidden: dict[str, Any], twin: dict[str, Any], path: str | Path | None,
-            ccc: Any) -> dict[str, float]:
-    """The twin's relative error on each :data:`COMPARED` metric (inf when one failed)."""
-    true = simulate(hidden, path, ccc_gains=ccc, seed=1)
+            ccc: Any, true: dict[str, Any] | None = None) -> dict[str, float]:
+    """The twin's relative error on each :data:`COMPARED` metric (inf when one failed).
+
+    ``true``: the hidden machine's run on ``path`` if already made (``simulate``'s metrics).
+    """
+    true = simulate(hidden, path, ccc_gains=ccc, seed=1) if true is None else true
     model = simulate(twin, path, ccc_gains=ccc, seed=1)
     if true["failed"] or model["failed"]:
         return {key: float("inf") for key in COMPARED}
@@ -103,12 +78,13 @@ def sensitivity(hidden: dict[str, Any], path: str | Path | None, ccc: Any, nudge
     Over four copies: every axis's mass, or every axis's damping, times ``1 - nudge`` or
     ``1 + nudge`` (inf when a copy failed).
     """
+    true = simulate(hidden, path, ccc_gains=ccc, seed=1)
     out = dict.fromkeys(COMPARED, 0.0)
     for key in ("mass", "damping"):
         for factor in (1.0 - nudge, 1.0 + nudge):
             axes = {n: {**a, key: a[key] * factor} for n, a in hidden["stage"]["axes"].items()}
             moved = {**hidden, "stage": {**hidden["stage"], "axes": axes}}
-            for metric, error in compare(hidden, moved, path, ccc).items():
+            for metric, error in compare(hidden, moved, path, ccc, true).items():
                 out[metric] = max(out[metric], error)
     return out
 

@@ -5,15 +5,15 @@ from __future__ import annotations
 import dataclasses
 import math
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
 
 from agents.cli import main
 from agents.twin.check import REST_SAMPLES, following_nrmse, split_at_rest, verdict
-from agents.twin.fit import VISCOUS, identify
+from agents.twin.fit import identify
 from agents.twin.generate import excitation, machine_log, perturbed_plant
+from agents.twin.identified import ratio_errors
 from agents.twin.replay import command_path, replay, replay_loop
 from contour_gym.api import make_scenario, simulate
 from contour_gym.logs import AxisLog, ServoLog, read_csv, write_csv, write_halsampler
@@ -81,25 +81,6 @@ def test_a_log_that_cannot_drive_the_machine_is_named() -> None:
         command_path(slow, "xy_dc_servo")
 
 
-def _ratios(values: dict, plant: Any, like: str) -> dict:
-    # identified values over the preset's force constant against the hidden machine's ratios
-    # (positions and control see mass, damping and friction only over the force constant)
-    # (a Stribeck speed is compared as it is; the damping with the viscous friction added:
-    # the twin keeps the preset's and its damping holds the sum)
-    true, base = resolve_preset(plant), resolve_preset(like)
-    out = {}
-    for t, b in zip(true.stage.axes, base.stage.axes, strict=True):
-        for name, value in values[t.name].items():
-            hidden = getattr(t, name) if name in ("mass", "damping") else getattr(t.friction, name)
-            mine = value
-            if name == "damping":
-                hidden += sum(getattr(t.friction, v, 0.0) or 0.0 for v in VISCOUS)
-                mine += sum(getattr(b.friction, v, 0.0) or 0.0 for v in VISCOUS)
-            per = (1.0, 1.0) if name == "vs" else (b.force_constant, t.force_constant)
-            out[(t.name, name)] = (mine / per[0]) / (hidden / per[1]) - 1.0
-    return out
-
-
 @pytest.mark.parametrize(("ideal", "seconds", "within"), [
     (True, 4.0, {"mass": 0.01, "damping": 0.01, "fc": 0.01}),
     # the 30 s log: 4.5 % off on x's friction when the starts searched the replay
@@ -116,7 +97,7 @@ def test_identify_recovers_a_hidden_machine(
     log = machine_log(plant, excitation(resolve_preset(plant), rng, seconds=seconds), seed=5,
                       ideal=ideal)
     twin = identify([log], "xy_servo_coulomb", ideal=ideal)
-    errors = _ratios(twin.values, plant, "xy_servo_coulomb")
+    errors = ratio_errors(twin.values, plant, "xy_servo_coulomb")
     assert all(abs(e) < within[name] for (_, name), e in errors.items()), errors
     assert twin.undetermined() == {}
     assert set(twin.fixed) == {"force_constant"} | (
@@ -136,7 +117,7 @@ def test_identify_finds_a_lugre_machine_the_replays_steps_hid() -> None:
     log = machine_log(plant, excitation(resolve_preset(plant), rng, seconds=10.0), seed=5)
     twin = identify([log], "lugre_linear_motor")
     loose = {(axis, name) for axis, names in twin.undetermined().items() for name in names}
-    errors = _ratios(twin.values, plant, "lugre_linear_motor")
+    errors = ratio_errors(twin.values, plant, "lugre_linear_motor")
     determined = {k: e for k, e in errors.items() if k not in loose}
     assert len(determined) >= 10 and all(abs(e) < 0.05 for e in determined.values()), errors
 
@@ -152,7 +133,7 @@ def test_the_fits_bias_from_a_coarse_encoder_is_read_and_corrected() -> None:
         axis["encoder_resolution"] = 1e-5
     log = machine_log(plant, excitation(resolve_preset(plant), rng, seconds=10.0), seed=5)
     twin = identify([log], "xy_servo_coulomb")
-    errors = _ratios(twin.values, plant, "xy_servo_coulomb")
+    errors = ratio_errors(twin.values, plant, "xy_servo_coulomb")
     assert all(abs(e) < 0.03 for e in errors.values()), errors
     assert max(abs(twin.bias["x"][n]) for n in ("damping", "fc")) > 0.05
     assert twin.undetermined()["x"] == ["damping", "fc"]
@@ -378,3 +359,27 @@ def test_a_machine_without_a_largest_feed_records_at_its_own_feeds() -> None:
     assert excitation_feeds(preset) == (0.5 * preset.feedrate, preset.feedrate)
     path = excitation(preset, np.random.default_rng(0), seconds=3.0)
     assert np.all(np.isfinite(path.segment_feedrates))
+
+
+def test_undetermined_values_say_why() -> None:
+    from agents.twin.identified import Identified
+
+    twin = Identified(plant={}, values={"x": {"mass": 1.0, "fc": 2.0, "vs": 1.0, "damping": 3.0}},
+                      std={"x": {"mass": 0.1, "fc": 0.01, "vs": 0.0, "damping": 0.01}},
+                      fixed={}, nrmse={}, cost=0.0, spread={"x": {"vs": 0.2}},
+                      bias={"x": {"fc": -0.06, "damping": 0.04}})
+    assert twin.reasons() == {"x": {"mass": "its std is over 5 %",
+                                    "fc": "the fit's bias is over 5 %",
+                                    "vs": "another start fits as well with another value"}}
+    assert twin.undetermined() == {"x": ["mass", "fc", "vs"]}
+
+
+def test_a_twin_whose_own_replay_fails_is_refused_not_run_on_nan() -> None:
+    from agents.twin.fit import _Problem, _twin_log
+
+    _, log = _hidden_log("xy_servo_coulomb", ideal=False)
+    problem = _Problem([log], "xy_servo_coulomb", 0, False)
+    channels = np.zeros((len(log.time), 2 * len(log.axes)))
+    channels[7, 0] = np.nan
+    with pytest.raises(ValueError, match="the twin's own replay of this log failed"):
+        _twin_log(problem, log, channels)

@@ -106,7 +106,7 @@ def verdict(fit: dict[str, float], held: dict[str, float],
             random: Sequence[str] = ()) -> str:
     """What the fit and held-out NRMSE mean, in a line a user can act on.
 
-    ``undetermined`` (:meth:`~agents.twin.fit.Identified.undetermined`) adds which values not
+    ``undetermined`` (:meth:`~agents.twin.identified.Identified.undetermined`) adds which values not
     to read as the machine's. ``random`` names the axes under a random disturbance: their
     measured following error holds the response to the one that acted, which a replay cannot
     draw again, so their NRMSE is judged apart (it says how much of the error that makes).

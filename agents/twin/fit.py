@@ -24,13 +24,14 @@ import copy
 import dataclasses
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
+from agents.twin.generate import encoder_reading
+from agents.twin.identified import DETERMINED, VISCOUS, Identified
 from agents.twin.replay import replay_loop
 from agents.twin.stats import correlation_time, deviations
 from contour_gym.logs import STILL_BELOW, ServoLog, encoder_step
@@ -45,10 +46,6 @@ FITTED_FRICTION = {"none": (), "coulomb": ("fc",), "stribeck": ("fc", "fs", "vs"
                    "lugre": ("sigma0", "sigma1", "fc", "fs", "vs")}
 """Per friction law, the parameters identified (those the preset gives a value > 0: a factor
 cannot move a zero); the others stay the preset's."""
-VISCOUS = ("fv", "sigma2")
-"""Friction parameters that act as viscous damping (a force ``c v``): no signal separates them
-from the axis's damping, so they keep the preset's values and the fitted damping holds the
-sum."""
 FIXED = ("force_constant",)
 REGRESSED = ("mass", "damping", "fc")
 """The values the force balance reads (:func:`inverse_dynamics`), in its columns' order; on an
@@ -58,57 +55,7 @@ STEP = 2e-2  # the Jacobian's step in log factor
 XTOL = 1e-4  # least_squares stops when the log factors move less than this (0.01 %)
 FTOL = 1e-6  # or the cost falls by less than this fraction
 NEAR = 0.1  # starts within this fraction of an axis's best sum of squares fit it as well
-DETERMINED = 0.05  # a value is determined by the logs within this (relative std, spread, bias)
 FAILED = 1e3  # the residual of a sample a failed candidate did not reach (in following errors)
-
-
-@dataclass(frozen=True)
-class Identified:
-    """A twin found from logs.
-
-    Attributes:
-        plant: The machine file's plant dict (``{"preset": like, "stage": {"axes": ...}}``).
-        values: Per axis, each identified parameter's value (SI).
-        std: Per axis, each one's standard deviation (from the Jacobian at the solution).
-        fixed: What was kept at the preset's values (a parameter, or an axis that never
-            moved), or read from the logs another way than the replay's fit, and why.
-        nrmse: Per axis, the RMS of the twin's following error minus the measured one, over
-            the RMS of the measured one, on the logs fitted.
-        cost: The final least-squares cost.
-        spread: Per axis, each value's largest relative distance to another start's that fits
-            the axis about as well: the logs cannot tell such values apart.
-        bias: Per axis, each value's relative bias (:func:`_bias`: what the fit finds when
-            the logs are the twin's own, over the value it started from, less 1); the
-            values are corrected by it.
-    """
-
-    plant: dict[str, Any]
-    values: dict[str, dict[str, float]]
-    std: dict[str, dict[str, float]]
-    fixed: dict[str, str]
-    nrmse: dict[str, float]
-    cost: float
-    spread: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
-    bias: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
-
-    def undetermined(self) -> dict[str, list[str]]:
-        """Per axis, the values the logs do not determine within :data:`DETERMINED`.
-
-        Their standard deviation, their spread over starts that fit as well or their
-        :attr:`bias` is over it: they trade off against others (a friction law's low-speed
-        parameters on a circle test, say), and a recording that excites them (slow moves,
-        reversals) would pin them. Not a proof of the others: a valley the starts did not
-        find is not seen, nor what the twin's structure lacks.
-        """
-        out: dict[str, list[str]] = {}
-        for axis, values in self.values.items():
-            loose = [n for n, v in values.items()
-                     if self.std[axis][n] > DETERMINED * abs(v)
-                     or self.spread.get(axis, {}).get(n, 0.0) > DETERMINED
-                     or abs(self.bias.get(axis, {}).get(n, 0.0)) > DETERMINED]
-            if loose:
-                out[axis] = loose
-        return out
 
 
 def _nominal(axis: Any) -> dict[str, Any]:
@@ -280,9 +227,8 @@ def identify(
     if not ideal:  # the twin's encoders step as the logged feedback does
         spec, read = _with_encoders(spec, logs)
     # the fit searches a replay with exact encoders: with the steps its cost is rough at every
-    # scale (a 0.3 % move changes it by 2-20 %), starts stop in its dents and a refinement
-    # there fits them (docs/measurements.md); the replay with the steps, the twin as it runs,
-    # gives the reported misfit
+    # scale and a search there fits its dents (docs/measurements.md); the replay with the
+    # steps, the twin as it runs, gives the reported misfit
     problem = _Problem(logs, spec, 0, ideal)
     problem.read = read
     fitted = problem if ideal else _Problem(logs, _without_encoders(spec), 0, ideal)
@@ -333,10 +279,9 @@ def _bias(problem: _Problem, fitted: _Problem, x: Array, bounds: tuple[Array, Ar
     The twin (``x`` on ``problem``'s replay, with the logged encoder steps) replays the logs'
     commands; its encoder readings (and control signals) become logs, and the fit runs on
     them from ``x`` on ``fitted``'s replay, weighed as it was; the distance it moves is the
-    bias (a parametric bootstrap's, in log factor). The fit's exact encoders miss what the
-    steps do in the loop: a 10 um encoder on 004's axes biases its values by 4-17 %, and this
-    reads the bias within 1-2 % of it. The twin's logs hold no noise but the steps' and no
-    random disturbance: on an axis under one this is a lower bound.
+    bias (a parametric bootstrap's, in log factor): what the fit's exact encoders miss of what
+    the steps do in the loop. The twin's logs hold no noise but the steps' and no random
+    disturbance, so the bias those add is not in it.
     """
     a, p = len(problem.names), problem.n_params
     out = problem.outputs(x.reshape(1, a, p))
@@ -350,14 +295,16 @@ def _bias(problem: _Problem, fitted: _Problem, x: Array, bounds: tuple[Array, Ar
 def _twin_log(problem: _Problem, log: ServoLog, channels: Array) -> ServoLog:
     # ``log`` with the preset's axes' feedback (and effort) from a replay's ``channels``
     # (N, C): its positions read by the encoders as the logged feedback was
-    names = [axis.name for axis in problem.preset.stage.axes]
+    if not np.all(np.isfinite(channels)):
+        raise ValueError(f"{log.source}: the twin's own replay of this log failed (diverged): "
+                         "its values cannot drive the logged commands")
+    n_axes = len(problem.preset.stage.axes)
     made = {}
     for a, axis in enumerate(problem.preset.stage.axes):
-        q = 0.0 if problem.ideal else axis.encoder_resolution
-        x = np.nan_to_num(channels[:, a], nan=FAILED)
-        changes: dict[str, Any] = {"fb": q * np.round(x / q) if q > 0.0 else x}
+        step = 0.0 if problem.ideal else axis.encoder_resolution
+        changes: dict[str, Any] = {"fb": encoder_reading(channels[:, a], step)}
         if problem.effort:
-            changes["effort"] = np.nan_to_num(channels[:, len(names) + a], nan=FAILED)
+            changes["effort"] = channels[:, n_axes + a]
         made[axis.name] = dataclasses.replace(log.axis(axis.name), **changes)
     return dataclasses.replace(log, axes=tuple(made.get(ax.name, ax) for ax in log.axes))
 

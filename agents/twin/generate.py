@@ -15,6 +15,7 @@ import math
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from contour_gym.api import make_scenario
 from contour_gym.logs import AxisLog, ServoLog
@@ -181,8 +182,7 @@ def machine_log(
         x = trace.x[0, :rows, a]
         fb = x.copy()
         if not ideal:
-            q = axis.encoder_resolution
-            fb = q * np.round(x / q) if q > 0.0 else fb
+            fb = encoder_reading(x, axis.encoder_resolution)
             fb = fb + axis.noise_std * rng.standard_normal(rows) if axis.noise_std else fb
         axes.append(AxisLog(axis.name, cmd=trace.r[0, :rows, a], fb=fb,
                             effort=trace.u[0, :rows, a]))
@@ -190,4 +190,9 @@ def machine_log(
     return ServoLog(trace.t[:rows].copy(), tuple(axes), source=source)
 
 
-__all__ = ["excitation", "excitation_feeds", "machine_log", "perturbed_plant"]
+def encoder_reading(x: NDArray[np.float64], step: float) -> NDArray[np.float64]:
+    """Positions ``x`` as an encoder of ``step`` reads them (the loop's own rounding; 0: exact)."""
+    return step * np.floor(x / step + 0.5) if step > 0.0 else x.copy()
+
+
+__all__ = ["encoder_reading", "excitation", "excitation_feeds", "machine_log", "perturbed_plant"]

@@ -1,0 +1,102 @@
+"""What identifying a twin found (:func:`agents.twin.fit.identify`), and how sure it is."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from contour_gym.presets import resolve_preset
+
+DETERMINED = 0.05  # a value is determined by the logs within this (relative std, spread, bias)
+VISCOUS = ("fv", "sigma2")
+"""Friction parameters that act as viscous damping (a force ``c v``): no signal separates them
+from the axis's damping, so they keep the preset's values and the fitted damping holds the
+sum."""
+
+
+@dataclass(frozen=True)
+class Identified:
+    """A twin found from logs.
+
+    Attributes:
+        plant: The machine file's plant dict (``{"preset": like, "stage": {"axes": ...}}``).
+        values: Per axis, each identified parameter's value (SI).
+        std: Per axis, each one's standard deviation (from the Jacobian at the solution).
+        fixed: What was kept at the preset's values (a parameter, or an axis that never
+            moved), or read from the logs another way than the replay's fit, and why.
+        nrmse: Per axis, the RMS of the twin's following error minus the measured one, over
+            the RMS of the measured one, on the logs fitted.
+        cost: The final least-squares cost.
+        spread: Per axis, each value's largest relative distance to another start's that fits
+            the axis about as well: the logs cannot tell such values apart.
+        bias: Per axis, each value's relative bias (what the fit finds when the logs are the
+            twin's own, over the value it started from, less 1: ``agents.twin.fit._bias``);
+            the values are corrected by it.
+    """
+
+    plant: dict[str, Any]
+    values: dict[str, dict[str, float]]
+    std: dict[str, dict[str, float]]
+    fixed: dict[str, str]
+    nrmse: dict[str, float]
+    cost: float
+    spread: dict[str, dict[str, float]] = field(default_factory=dict)
+    bias: dict[str, dict[str, float]] = field(default_factory=dict)
+
+    def undetermined(self) -> dict[str, list[str]]:
+        """Per axis, the values the logs do not determine within :data:`DETERMINED`.
+
+        Their standard deviation, their spread over starts that fit as well or their
+        :attr:`bias` is over it (:meth:`reasons` says which): they trade off against others (a
+        friction law's low-speed parameters on a circle test, say), and a recording that
+        excites them (slow moves, reversals) would pin them. Not a proof of the others: a
+        valley the starts did not find is not seen, nor what the twin's structure lacks.
+        """
+        return {axis: list(why) for axis, why in self.reasons().items()}
+
+    def reasons(self) -> dict[str, dict[str, str]]:
+        """Per axis, each value :meth:`undetermined` lists and why, in words."""
+        out: dict[str, dict[str, str]] = {}
+        cut = f"{100 * DETERMINED:g} %"
+        for axis, values in self.values.items():
+            for n, v in values.items():
+                hit = [self.std[axis][n] > DETERMINED * abs(v),
+                       abs(self.bias.get(axis, {}).get(n, 0.0)) > DETERMINED,
+                       self.spread.get(axis, {}).get(n, 0.0) > DETERMINED]
+                if any(hit):
+                    out.setdefault(axis, {})[n] = (
+                        f"its std is over {cut}", f"the fit's bias is over {cut}",
+                        "another start fits as well with another value")[hit.index(True)]
+        return out
+
+
+
+def ratio_errors(values: dict[str, dict[str, float]], plant: Any, like: Any
+                 ) -> dict[tuple[str, str], float]:
+    """Each identified value against a known machine's (a hidden one's, in tests), relative.
+
+    Values are compared as the logs see them: a force's or a mass's over the axis's force
+    constant (the twin keeps ``like``'s), a Stribeck speed as it is, the damping with the
+    viscous friction added (:data:`VISCOUS`: the twin keeps ``like``'s, its damping holds
+    the sum).
+
+    Args:
+        values: Per axis, identified values (:attr:`Identified.values`).
+        plant: The machine the logs came from (a plant spec).
+        like: The preset (or machine file) the twin was identified like.
+    """
+    true, base = resolve_preset(plant), resolve_preset(like)
+    out = {}
+    for t, b in zip(true.stage.axes, base.stage.axes, strict=True):
+        for name, mine in values.get(t.name, {}).items():
+            hidden = float(getattr(t, name) if name in ("mass", "damping")
+                           else getattr(t.friction, name))
+            if name == "damping":
+                hidden += sum(getattr(t.friction, v, 0.0) or 0.0 for v in VISCOUS)
+                mine += sum(getattr(b.friction, v, 0.0) or 0.0 for v in VISCOUS)
+            per = (1.0, 1.0) if name == "vs" else (b.force_constant, t.force_constant)
+            out[(t.name, name)] = (mine / per[0]) / (hidden / per[1]) - 1.0
+    return out
+
+
+__all__ = ["DETERMINED", "VISCOUS", "Identified", "ratio_errors"]
