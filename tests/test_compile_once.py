@@ -6,12 +6,7 @@ components by code inside one kernel must give the same results (bit for bit whe
 measured; to 1e-9 of the value on other CPUs and toolchains, see the test). Seven rows were
 measured again when the CCC laws began to release their integral while the reference waits at
 a stop (:mod:`contour_gym.ccc`, 2026-12-02): it moved them; 003's gantry and 001's helix (twice)
-did not move, to the last bit. 004's two rows moved again when a reading exactly on the
-in-position band began to count as in position (``contour_gym.loop.build.BAND_INCLUSIVE``: its
-machine rests two encoder counts, its band, from the end); the others did not move. 003's
-row moved when the in-position check began to read an axis's speed over as many ticks as its
-encoder needs to resolve it (``contour_gym.loop.build.in_position_ticks``: 20 and 4 ticks on
-003's axes, 1 on every other preset's).
+did not move, to the last bit. Later renewals are in docs/measurements.md.
 """
 
 from __future__ import annotations
