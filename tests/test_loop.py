@@ -233,6 +233,13 @@ def test_a_trace_window_before_the_rows_kept_raises() -> None:
             trace.window(start, ticks)
 
 
+def _without_ripple_factor(hidden: dict) -> dict:
+    # the hidden machine these cases were found on: drawn before its ripple was scaled too
+    for changes in hidden["stage"]["axes"].values():
+        changes.pop("ripple", None)
+    return hidden
+
+
 def test_a_reading_exactly_on_the_in_position_band_is_in_position() -> None:
     # 003's machine of seed 5 rests on its paper path's end with X's reading exactly two
     # counts (its band, 100 um) away; whether that counted depended on a float difference's
@@ -241,7 +248,7 @@ def test_a_reading_exactly_on_the_in_position_band_is_in_position() -> None:
     from contour_gym.api import simulate
     from contour_gym.presets import resolve_preset
 
-    hidden = perturbed_plant("xyy_gantry", np.random.default_rng(5))
+    hidden = _without_ripple_factor(perturbed_plant("xyy_gantry", np.random.default_rng(5)))
     axes = resolve_preset(hidden).stage.axes
 
     def cycle(scale: float) -> float:
@@ -265,7 +272,7 @@ def test_a_coarse_encoder_reads_an_axis_still_only_when_it_is() -> None:
     from contour_gym.paths import random_path
     from contour_gym.presets import resolve_preset
 
-    hidden = perturbed_plant("xyy_gantry", np.random.default_rng(5))
+    hidden = _without_ripple_factor(perturbed_plant("xyy_gantry", np.random.default_rng(5)))
     stage = resolve_preset(hidden).stage
     assert in_position_ticks(stage).tolist() == [20.0, 4.0, 4.0]
     assert in_position_ticks(stage, ideal=True).tolist() == [1.0, 1.0, 1.0]

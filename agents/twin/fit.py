@@ -9,7 +9,8 @@ encoders (the loop's delay kept): with the logged encoder steps the cost is roug
 scale, and the twin's misfit with them is what the report gives. What the steps do in the loop
 biases such a fit: :func:`_bias` reads it on the twin's own logs, and the fit is corrected by it.
 The unknowns are factors on the preset's values, searched in log space: per axis its mass,
-viscous damping and the friction parameters :data:`FITTED_FRICTION` names for its law. The
+viscous damping, the friction parameters :data:`FITTED_FRICTION` names for its law and, where
+the preset has a force ripple, its level (every harmonic's amplitude by one factor). The
 force constant is fixed at the preset's: with the axis controller's gains known, positions
 and the control signal depend on mass, damping and friction only through their ratios to it;
 the preset's disturbance forces are scaled into those units by a level the force balance reads
@@ -61,17 +62,23 @@ FAILED = 1e3  # the residual of a sample a failed candidate did not reach (in fo
 def _nominal(axis: Any) -> dict[str, Any]:
     """The preset's values of an axis's identified parameters (and its friction model's)."""
     friction = dataclasses.asdict(axis.friction) if axis.friction is not None else {}
-    return {"mass": axis.mass, "damping": axis.damping, **friction}
+    ripple = {"ripple": axis.ripple.amplitude} if axis.ripple is not None else {}
+    return {"mass": axis.mass, "damping": axis.damping, **friction, **ripple}
 
 
 def fitted_names(preset: Preset) -> list[tuple[str, ...]]:
-    """Per axis, the parameters identified: mass, damping and its law's :data:`FITTED_FRICTION`."""
+    """Per axis, the parameters identified.
+
+    Mass, damping, its law's :data:`FITTED_FRICTION` and ``ripple`` (the force ripple's
+    largest amplitude) where the preset has a ripple.
+    """
     out = []
     for axis in preset.stage.axes:
         law = law_for(axis.friction).name
         given = _nominal(axis)
         friction = [n for n in FITTED_FRICTION.get(law, ()) if (given.get(n) or 0.0) > 0.0]
-        out.append(("mass", "damping", *friction))
+        ripple = ["ripple"] if (given.get("ripple") or 0.0) > 0.0 else []
+        out.append(("mass", "damping", *friction, *ripple))
     return out
 
 
@@ -127,9 +134,10 @@ class _Problem:
         for a, names in enumerate(self.names):
             for j, name in enumerate(names[2:], start=2):
                 fric.setdefault(name, np.ones((m, len(self.names))))[:, a] = factors[:, a, j]
+        ripple = fric.pop("ripple", np.ones((m, len(self.names))))
         out = []
         for loop, log in zip(self.loops, self.logs, strict=True):
-            _scale(loop, factors, fric, self.disturbance)
+            _scale(loop, factors, fric, ripple, self.disturbance)
             loop.reset(0)
             loop.step(len(log.time), skip=np.arange(m, loop.batch_size))  # the rest sit out
             trace = loop.trace()
@@ -194,11 +202,12 @@ def _effort(log: ServoLog, name: str) -> Array:
     return effort
 
 
-def _scale(loop: ServoLoop, factors: Array, fric: dict[str, Array], disturbance: Array
-           ) -> None:
+def _scale(loop: ServoLoop, factors: Array, fric: dict[str, Array], ripple: Array,
+           disturbance: Array) -> None:
     m = factors.shape[0]
     loop.set_plant_scaling(np.arange(m), mass=factors[:, :, 0], damping=factors[:, :, 1],
-                           friction_params=fric, disturbance=disturbance[None, :],
+                           friction_params=fric, ripple=ripple,
+                           disturbance=disturbance[None, :],
                            random_disturbance=0.0)  # as replay_loop
 
 
@@ -462,9 +471,10 @@ def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Regressed:
     preset's (:data:`FIXED`), so a force the machine exerts in newtons is
     ``K_preset / K_machine`` times as large in the twin. It is left 1 on an axis without a
     step or sine to read it from, where it comes out outside :data:`BOUNDS`, or without
-    effort logged (then the search starts from the preset's values). The ripple stays in the
-    preset's newtons: this balance has neither a gantry's coupled beam nor the Stribeck hump,
-    which a ripple level read from it would absorb.
+    effort logged (then the search starts from the preset's values). The preset's ripple is
+    taken off the force as it is; its level starts at the preset's and the replay's fit
+    finds it: this balance has neither a gantry's coupled beam nor the Stribeck hump, which
+    a ripple level read from it would absorb.
     """
     a_n, p = len(problem.names), problem.n_params
     theta, level, std = np.zeros((a_n, p)), np.ones(a_n), np.zeros((a_n, p))
@@ -484,8 +494,8 @@ def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Regressed:
         nominal = _nominal(axis)
         fc = coef[2] / nominal["fc"] if nominal.get("fc") else 1.0
         for j, name in enumerate(names):
-            ratio = {"mass": coef[0] / axis.mass, "damping": coef[1] / max(axis.damping, 1e-12)
-                     }.get(name, fc)
+            ratio = {"mass": coef[0] / axis.mass, "damping": coef[1] / max(axis.damping, 1e-12),
+                     "ripple": 1.0}.get(name, fc)
             theta[ax, j] = math.log(ratio) if ratio > 0.0 else 0.0
             k = REGRESSED.index(name) if name in REGRESSED else -1
             std[ax, j] = sd[k] / abs(coef[k]) if k >= 0 and coef[k] != 0.0 else 0.0
@@ -615,17 +625,19 @@ def _result(problem: _Problem, fitted: _Problem, fit: Any, spread: Array,
 
 
 def _axis_changes(axis: Any, values: dict[str, float], level: float) -> dict[str, Any]:
-    # the machine file's changes of one axis: mass, damping, its friction model, and its
-    # disturbance's forces ``level`` times the preset's
+    # the machine file's changes of one axis: mass, damping, its friction model, its ripple,
+    # and its disturbance's forces ``level`` times the preset's
     out: dict[str, Any] = {"mass": values["mass"], "damping": values["damping"]}
     if axis.disturbance is not None and level != 1.0:
         d = axis.disturbance
         out["disturbance"] = {"step_amp": d.step_amp * float(level),
                               "sin_amp": d.sin_amp * float(level),
                               "random_std": d.random_std * float(level)}
+    if axis.ripple is not None and "ripple" in values:
+        out["ripple"] = axis.ripple.scaled(values["ripple"] / axis.ripple.amplitude)
     if axis.friction is not None:
         fields = {**dataclasses.asdict(axis.friction),
-                  **{k: v for k, v in values.items() if k not in ("mass", "damping")}}
+                  **{k: v for k, v in values.items() if k not in ("mass", "damping", "ripple")}}
         if "fs" in fields and fields.get("fc") is not None and fields["fs"] is not None:
             fields["fs"] = max(fields["fs"], fields["fc"])
         out["friction"] = {"law": law_for(axis.friction).name, **fields}

@@ -35,9 +35,10 @@ def perturbed_plant(
 ) -> dict[str, Any]:
     """A hidden machine: ``preset`` with each axis parameter scaled by a factor in [low, high].
 
-    Scaled: :data:`SCALED` and every positive friction parameter but a Stribeck exponent (the
-    static force keeps its excess over the Coulomb force, scaled by its own factor). Axes that
-    drive the same coordinate (a gantry's two motors on one beam) share their factors.
+    Scaled: :data:`SCALED`, every positive friction parameter but a Stribeck exponent (the
+    static force keeps its excess over the Coulomb force, scaled by its own factor) and the
+    force ripple's amplitudes (by one factor, drawn after every other). Axes that drive the
+    same coordinate (a gantry's two motors on one beam) share their factors.
 
     Returns:
         The plant dict (``{"preset": preset, "stage": {"axes": {...}}}``, a machine file's).
@@ -51,6 +52,11 @@ def perturbed_plant(
         if axis.friction is not None:
             changes["friction"] = _scaled_friction(axis.friction, factors)
         axes[axis.name] = changes
+    ripples: dict[int, float] = {}
+    for a, axis in enumerate(base.stage.axes):
+        if axis.ripple is not None:
+            level = ripples.setdefault(_coordinate(base, a), float(rng.uniform(low, high)))
+            axes[axis.name]["ripple"] = axis.ripple.scaled(level)
     return {"preset": preset, "name": f"{preset}_hidden", "stage": {"axes": axes}}
 
 
@@ -161,7 +167,9 @@ def machine_log(
 
     Args:
         plant: The machine (a plant spec: :func:`~contour_gym.presets.resolve_preset`).
-        path: The recording's path (its feeds: :func:`excitation`).
+        path: The recording's path (its feeds: :func:`excitation`), run as the machine's CNC
+            runs a part: at its acceleration limit, or :data:`ACCEL` where the preset has
+            none (a paper's time-parameterised reference; a real CNC's planner always has one).
         seed: Seed of the machine's noise and disturbances and of the feedback's noise.
         ideal: Without encoder, noise or delay (the feedback is then the true position).
 
@@ -170,7 +178,7 @@ def machine_log(
         (quantised to the axis's ``encoder_resolution``, plus its ``noise_std``), ``effort``
         the control signal, one row per servo tick until the run ends.
     """
-    scenario = make_scenario(plant, path, ideal=ideal)
+    scenario = make_scenario(_planned(plant), path, ideal=ideal)
     loop = scenario.loop(record=True)
     loop.reset(seed)
     loop.run()
@@ -188,6 +196,15 @@ def machine_log(
                             effort=trace.u[0, :rows, a]))
     source = f"{scenario.preset.name} on {path.name}"
     return ServoLog(trace.t[:rows].copy(), tuple(axes), source=source)
+
+
+def _planned(plant: Any) -> Any:
+    # ``plant`` with a finite acceleration for its CNC's planner (a user's recording never
+    # asks a bend of a random path for hundreds of m/s^2; docs/measurements.md)
+    preset = resolve_preset(plant)
+    if math.isfinite(preset.accel) or preset.part_accel is not None:
+        return plant
+    return dataclasses.replace(preset, accel=ACCEL)
 
 
 def encoder_reading(x: NDArray[np.float64], step: float) -> NDArray[np.float64]:

@@ -20,7 +20,8 @@ class Identified:
 
     Attributes:
         plant: The machine file's plant dict (``{"preset": like, "stage": {"axes": ...}}``).
-        values: Per axis, each identified parameter's value (SI).
+        values: Per axis, each identified parameter's value (SI; ``ripple``: the force
+            ripple's largest harmonic amplitude, N, every harmonic scaled alike).
         std: Per axis, each one's standard deviation (from the Jacobian at the solution).
         fixed: What was kept at the preset's values (a parameter, or an axis that never
             moved), or read from the logs another way than the replay's fit, and why.
@@ -75,10 +76,10 @@ def ratio_errors(values: dict[str, dict[str, float]], plant: Any, like: Any
                  ) -> dict[tuple[str, str], float]:
     """Each identified value against a known machine's (a hidden one's, in tests), relative.
 
-    Values are compared as the logs see them: a force's or a mass's over the axis's force
-    constant (the twin keeps ``like``'s), a Stribeck speed as it is, the damping with the
-    viscous friction added (:data:`VISCOUS`: the twin keeps ``like``'s, its damping holds
-    the sum).
+    Values are compared as the logs see them: a force's (a ripple's amplitude too) or a
+    mass's over the axis's force constant (the twin keeps ``like``'s), a Stribeck speed as it
+    is, the damping with the viscous friction added (:data:`VISCOUS`: the twin keeps
+    ``like``'s, its damping holds the sum).
 
     Args:
         values: Per axis, identified values (:attr:`Identified.values`).
@@ -89,14 +90,22 @@ def ratio_errors(values: dict[str, dict[str, float]], plant: Any, like: Any
     out = {}
     for t, b in zip(true.stage.axes, base.stage.axes, strict=True):
         for name, mine in values.get(t.name, {}).items():
-            hidden = float(getattr(t, name) if name in ("mass", "damping")
-                           else getattr(t.friction, name))
+            hidden = _value(t, name)
             if name == "damping":
                 hidden += sum(getattr(t.friction, v, 0.0) or 0.0 for v in VISCOUS)
                 mine += sum(getattr(b.friction, v, 0.0) or 0.0 for v in VISCOUS)
             per = (1.0, 1.0) if name == "vs" else (b.force_constant, t.force_constant)
             out[(t.name, name)] = (mine / per[0]) / (hidden / per[1]) - 1.0
     return out
+
+
+def _value(axis: Any, name: str) -> float:
+    # an axis's value of an identified parameter (its mass, damping, friction or ripple)
+    if name in ("mass", "damping"):
+        return float(getattr(axis, name))
+    if name == "ripple":
+        return float(axis.ripple.amplitude) if axis.ripple is not None else 0.0
+    return float(getattr(axis.friction, name))
 
 
 __all__ = ["DETERMINED", "VISCOUS", "Identified", "ratio_errors"]

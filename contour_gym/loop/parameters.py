@@ -34,8 +34,8 @@ class Parameters:
     def __init__(self, loop: LoopViews, ccc_law: CCCLaw, interpolator: Interpolator) -> None:
         self.loop, self.ccc_law, self.interpolator = loop, ccc_law, interpolator
         self.stage, self.batch_size = loop.stage, loop.batch_size
-        # the stage's ax_p, fr_p, dist before any scaling
-        self._nominal = (loop.ax_p.copy(), loop.fr_p.copy(), loop.dist.copy())
+        # the stage's ax_p, fr_p, dist, rip before any scaling
+        self._nominal = (loop.ax_p.copy(), loop.fr_p.copy(), loop.dist.copy(), loop.rip.copy())
 
     def __getstate__(self) -> dict[str, object]:
         # the law is pickled by name with its loop, which gives it back on load
@@ -125,6 +125,7 @@ class Parameters:
         disturbance: ArrayLike = 1.0,
         friction_params: Mapping[str, ArrayLike] | None = None,
         random_disturbance: ArrayLike = 1.0,
+        ripple: ArrayLike = 1.0,
     ) -> None:
         """Scale members' axis parameters relative to the stage's nominal values.
 
@@ -135,15 +136,16 @@ class Parameters:
         ``scale``; ``friction_params`` scales single friction parameters by name (``fc``,
         ``sigma0``, ...) on the axes whose law has them, on top of ``friction``;
         ``random_disturbance`` scales the disturbance's random part alone, on top of
-        ``disturbance`` (0: its deterministic part only, as an identification replays a log).
+        ``disturbance`` (0: its deterministic part only, as an identification replays a log);
+        ``ripple`` scales the force ripple's amplitudes (>= 0).
         """
         idx = self._members(members)
         shape = (len(idx), self.stage.n_axes)
         f = _scale_factors(shape, mass=mass, damping=damping, force_constant=force_constant,
                            friction=friction, disturbance=disturbance,
-                           random_disturbance=random_disturbance)
+                           random_disturbance=random_disturbance, ripple=ripple)
         one = _friction_factors(self.stage, shape, friction_params or {})
-        ax_p, fr_p, dist = (arr[idx].copy() for arr in self._nominal)
+        ax_p, fr_p, dist, rip = (arr[idx].copy() for arr in self._nominal)
         ax_p[..., AX.m] *= f["mass"]
         ax_p[..., AX.b] *= f["damping"]
         ax_p[..., AX.k] *= f["force_constant"]
@@ -157,8 +159,9 @@ class Parameters:
         for name in ("step_a", "sin_a", "rnd_std"):
             dist[..., DISTURBANCE.names.index(name)] *= f["disturbance"]
         dist[..., DISTURBANCE.names.index("rnd_std")] *= f["random_disturbance"]
+        rip[..., :2] *= f["ripple"][:, :, None, None]  # (a_j, b_j); the wavenumbers stay
         loop = self.loop
-        loop.ax_p[idx], loop.fr_p[idx], loop.dist[idx] = ax_p, fr_p, dist
+        loop.ax_p[idx], loop.fr_p[idx], loop.dist[idx], loop.rip[idx] = ax_p, fr_p, dist, rip
         loop.ad[idx], loop.bd[idx] = zoh_matrices(ax_p, self.stage.ts / self.stage.substeps)
 
 
@@ -168,7 +171,7 @@ def _scale_factors(shape: tuple[int, int], **factors: ArrayLike) -> dict[str, Ar
     for k in ("mass", "damping", "force_constant"):
         if np.any(f[k] <= 0):
             raise ValueError(f"{k} scale must be > 0, got {f[k].min()}")
-    for k in ("friction", "disturbance", "random_disturbance"):
+    for k in ("friction", "disturbance", "random_disturbance", "ripple"):
         if np.any(f[k] < 0):
             raise ValueError(f"{k} scale must be >= 0, got {f[k].min()}")
     return f

@@ -61,6 +61,17 @@ class Ripple:
         j = np.arange(1, len(w) + 1)
         return bool(w[0] != 0.0 and np.all(np.abs(w - j * w[0]) <= 1e-12 * np.abs(j * w[0])))
 
+    @property
+    def amplitude(self) -> float:
+        """The largest harmonic's amplitude ``max_j hypot(a_j, b_j)``, N (the ripple's level)."""
+        return float(np.max(np.hypot(self.sin_amp, self.cos_amp)))
+
+    def scaled(self, factor: float) -> dict[str, tuple[float, ...]]:
+        """This ripple with every amplitude times ``factor``, as a machine file's fields."""
+        return {"sin_amp": tuple(float(a * factor) for a in self.sin_amp),
+                "cos_amp": tuple(float(b * factor) for b in self.cos_amp),
+                "wavenumber": tuple(float(w) for w in self.wavenumber)}
+
     def as_array(self) -> np.ndarray:
         """Return a (MAX_HARMONICS, 3) array of (a_j, b_j, w_j), zero-padded."""
         out = np.zeros((MAX_HARMONICS, 3))
