@@ -487,18 +487,21 @@ def inverse_dynamics(problem: _Problem, smooth: int = 9) -> Regressed:
         x, z, y = (np.concatenate([r[i] for r in rows if r is not None]) for i in range(3))
         if len(y) <= x.shape[1]:  # too few moving samples to read anything from
             continue
-        coef = np.linalg.lstsq(z.T @ x, z.T @ y, rcond=None)[0]
-        sd = _iv_std(x, z, y - x @ coef)
-        if _has_shape(axis) and BOUNDS[0] <= coef[3] <= BOUNDS[1]:
-            level[ax] = coef[3]
+        fit = np.linalg.lstsq(z.T @ x, z.T @ y, rcond=None)[0]
+        cols = _columns(axis)
+        coef = dict(zip(cols, fit, strict=True))
+        sd = dict(zip(cols, _iv_std(x, z, y - x @ fit), strict=True))
+        if "level" in coef and BOUNDS[0] <= coef["level"] <= BOUNDS[1]:
+            level[ax] = coef["level"]
         nominal = _nominal(axis)
-        fc = coef[2] / nominal["fc"] if nominal.get("fc") else 1.0
+        fc = coef["fc"] / nominal["fc"] if "fc" in coef else 1.0
         for j, name in enumerate(names):
-            ratio = {"mass": coef[0] / axis.mass, "damping": coef[1] / max(axis.damping, 1e-12),
+            ratio = {"mass": coef["mass"] / axis.mass,
+                     "damping": coef["damping"] / max(axis.damping, 1e-12),
                      "ripple": 1.0}.get(name, fc)
             theta[ax, j] = math.log(ratio) if ratio > 0.0 else 0.0
-            k = REGRESSED.index(name) if name in REGRESSED else -1
-            std[ax, j] = sd[k] / abs(coef[k]) if k >= 0 and coef[k] != 0.0 else 0.0
+            read = name in REGRESSED and name in coef and coef[name] != 0.0
+            std[ax, j] = sd[name] / abs(coef[name]) if read else 0.0
     return Regressed(theta, level, std)
 
 
@@ -514,11 +517,20 @@ def _iv_std(x: Array, z: Array, e: Array) -> Array:
     return np.sqrt(np.clip(np.diag(cov), 0.0, None) * correlation_time(e))
 
 
+def _columns(axis: AxisParams) -> list[str]:
+    # the force balance's unknowns on ``axis``: mass and damping, the Coulomb force where its
+    # friction law has one (a column the twin does not have would only blur the damping: at
+    # a circle's speeds sgn v follows v closely), the disturbance's level where it has a shape
+    coulomb = (_nominal(axis).get("fc") or 0.0) > 0.0
+    return ["mass", "damping", *(["fc"] if coulomb else []),
+            *(["level"] if _has_shape(axis) else [])]
+
+
 def _regressors(log: ServoLog, axis: AxisParams, ts: float, smooth: int
                 ) -> tuple[Array, Array, Array] | None:
-    # [a, v, sgn v] from the feedback (then -d(t) where the preset's disturbance has a step
-    # or sine), the same from the command (the instruments) and the force K u less the
-    # ripple, of the moving samples; None without effort
+    # :func:`_columns`' regressors ([a, v, sgn v, -d(t)]) from the feedback, the same from
+    # the command (the instruments) and the force K u less the ripple, of the moving
+    # samples; None without effort
     logged = log.axis(axis.name)
     if logged.effort is None:
         return None
@@ -527,9 +539,8 @@ def _regressors(log: ServoLog, axis: AxisParams, ts: float, smooth: int
     columns = []
     for signal in (logged.fb, logged.cmd):
         v = np.gradient(np.convolve(signal, kernel, mode="same"), ts)
-        known = [np.gradient(v, ts), v, np.sign(v)]
-        known += [-shape] if _has_shape(axis) else []
-        columns.append(np.stack(known, axis=1))
+        known = {"mass": np.gradient(v, ts), "damping": v, "fc": np.sign(v), "level": -shape}
+        columns.append(np.stack([known[c] for c in _columns(axis)], axis=1))
     u = np.r_[logged.effort[0], logged.effort[:-1]]  # the loop's one-tick delay
     force = axis.force_constant * u - ripple_force(axis, logged.fb)
     v = columns[1][:, 1]  # the samples kept by the command's speed, which d does not move
