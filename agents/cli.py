@@ -34,6 +34,7 @@ from agents._files import check_plot, save_figure
 from agents.cli_optimize import add_optimize_parser, default_out, optimize_command
 from agents.parallel import exit_quickly
 from agents.rl.algorithms import ALGORITHMS
+from agents.twin.check import caution
 from contour_gym import precompile
 from contour_gym.api import Scenario, make_scenario, run_trace
 from contour_gym.files import output_file, output_folder, write_text
@@ -526,6 +527,8 @@ def train_command(args: argparse.Namespace) -> int:
         print(f"training {len(todo)} run(s) of {args.env}", file=sys.stderr)
         for folder in run_trials(todo, args.workers, args.ray):
             print(f"run written to {folder}")
+        for line in caution(args.plant):
+            print(line)
         return 0
     args.algo, args.seed = args.algo[0], seeds[0]
     return _train_one(args)
@@ -550,7 +553,10 @@ def _train_one(args: argparse.Namespace) -> int:
               f"contour-gym train --resume {shlex.quote(str(run))}", file=sys.stderr)
         return 130
     print(f"run written to {run} (model.zip, eval.csv, eval.png, checkpoints/, tensorboard/)")
+    for line in caution(args.plant):
+        print(line)
     return 0
+
 
 
 def tune_command(args: argparse.Namespace) -> int:
@@ -590,6 +596,8 @@ def tune_command(args: argparse.Namespace) -> int:
         print(f"  {env_id}: {value * 1e6:.6g} um")
     if plant is not None:
         print("\n".join(carry_to_machine(result.params, protocol, plant)))
+        for line in caution(args.plant):
+            print(line)
     print(f"results written to {out}")
     return 0
 

@@ -87,6 +87,24 @@ def _folder_safe(name: object) -> str:
     return re.sub(r"[^A-Za-z0-9_.+-]+", "_", str(name)).strip(".") or "machine"
 
 
+def undetermined_of(plant: object) -> dict[str, list[str]]:
+    """Per axis, the values a twin's machine file records its logs did not determine.
+
+    ``{}`` for a preset name, a plant dict, or a machine file that ``identify`` did not write
+    (its ``identified`` record says which values; :meth:`agents.twin.identified.Identified.reasons`
+    says why).
+    """
+    if not is_machine_file(plant):
+        return {}
+    data = yaml.safe_load(Path(plant).read_text(encoding="utf-8"))  # type: ignore[arg-type]
+    record = data.get("identified") if isinstance(data, dict) else None
+    found = record.get("undetermined") if isinstance(record, dict) else None
+    if not isinstance(found, dict):
+        return {}
+    return {str(axis): [str(n) for n in names] for axis, names in found.items()
+            if isinstance(names, list) and names}
+
+
 def write_machine(path: str | Path, plant: dict[str, Any], identified: Any = None) -> Path:
     """Write a machine file (whole or not at all) and return its path.
 
@@ -108,4 +126,5 @@ def write_machine(path: str | Path, plant: dict[str, Any], identified: Any = Non
     return target
 
 
-__all__ = ["SUFFIXES", "is_machine_file", "plant_of", "read_machine", "write_machine"]
+__all__ = ["SUFFIXES", "is_machine_file", "plant_of", "read_machine", "undetermined_of",
+           "write_machine"]

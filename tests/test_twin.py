@@ -414,11 +414,12 @@ def test_a_machine_without_a_largest_feed_records_at_its_own_feeds() -> None:
 def test_undetermined_values_say_why() -> None:
     from agents.twin.identified import Identified
 
+    # mass: a std of 3 % is a 95 % interval of +-5.9 %
     twin = Identified(plant={}, values={"x": {"mass": 1.0, "fc": 2.0, "vs": 1.0, "damping": 3.0}},
-                      std={"x": {"mass": 0.1, "fc": 0.01, "vs": 0.0, "damping": 0.01}},
+                      std={"x": {"mass": 0.03, "fc": 0.01, "vs": 0.0, "damping": 0.07}},
                       fixed={}, nrmse={}, cost=0.0, spread={"x": {"vs": 0.2}},
                       bias={"x": {"fc": -0.06, "damping": 0.04}})
-    assert twin.reasons() == {"x": {"mass": "its std is over 5 %",
+    assert twin.reasons() == {"x": {"mass": "its 95 % interval reaches past 5 %",
                                     "fc": "the fit's bias is over 5 %",
                                     "vs": "another start fits as well with another value"}}
     assert twin.undetermined() == {"x": ["mass", "fc", "vs"]}

@@ -14,7 +14,7 @@ from agents.tune import get_protocol, tune
 from agents.tune.objective import PopulationObjective
 from agents.tune.setters import PID_FACTOR_NAMES, pid_gains
 from contour_gym.api import simulate
-from contour_gym.machines import plant_of, write_machine
+from contour_gym.machines import plant_of, undetermined_of, write_machine
 from contour_gym.presets import resolve_preset
 
 SLOW = {"preset": "xy_dc_servo", "name": "slow_mill",
@@ -60,6 +60,7 @@ def test_tune_on_a_machine_file_says_the_gains_to_carry(tmp_path: Path, capsys) 
     kp, ki, kd = pid_gains([list(result["params"].values())],
                            resolve_preset(SLOW).ccc_gains.as_tuple())[0]
     assert "on the machine (slow_mill): the CCC law 'pid'" in said
+    assert "caution" not in said  # a machine file identify did not write
     assert f"kp = {kp:.6g} control unit/m" in said and f"kd = {kd:.6g} control unit s/m" in said
     # the line to paste into the machine file runs the tuned gains there
     pasted = yaml.safe_load(said.split("add to the machine file: ")[1].splitlines()[0])
@@ -69,6 +70,18 @@ def test_tune_on_a_machine_file_says_the_gains_to_carry(tmp_path: Path, capsys) 
     again = tune(get_protocol("pid").on_plant(SLOW, "slow_mill"), population=4, iterations=1,
                  progress=False)
     assert again.params == result["params"]
+
+
+def test_tune_on_a_twin_names_the_values_its_logs_left_open(tmp_path: Path, capsys) -> None:
+    record = {"undetermined": {"x": ["damping"], "y": ["mass", "damping"]}}
+    path = str(write_machine(tmp_path / "twin.yaml", SLOW, identified=record))
+    assert main(["tune", "pid", "--plant", path, "--population", "4", "--iterations", "1",
+                 "--out", str(tmp_path / "run"), "--quiet"]) == 0
+    said = capsys.readouterr().out
+    assert f"caution: the logs {path} was identified from do not determine x.damping, " \
+           "y.mass, y.damping" in said
+    assert undetermined_of(path) == record["undetermined"]
+    assert undetermined_of("xy_dc_servo") == {} and undetermined_of(SLOW) == {}
 
 
 def test_train_on_a_machine_file_records_it(tmp_path: Path, capsys) -> None:

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from agents.twin.replay import replay, replay_loop
 from contour_gym.logs import ServoLog
+from contour_gym.machines import undetermined_of
 from contour_gym.presets import resolve_preset
 
 Array = NDArray[np.float64]
@@ -141,6 +142,22 @@ def _judged(worst_fit: float, worst_held: float) -> str:
     return f"fits to {100 * worst_held:.2g} % on held-out data"
 
 
+def caution(plant: Any) -> list[str]:
+    """What to print after tuning or training on ``plant``: a caution, or nothing.
+
+    A line naming the values its logs left undetermined when ``plant`` is a twin's machine
+    file that records such values (:func:`contour_gym.machines.undetermined_of`).
+    """
+    loose = undetermined_of(plant)
+    if not loose:
+        return []
+    names = ", ".join(f"{axis}.{n}" for axis, ns in loose.items() for n in ns)
+    return [f"caution: the logs {plant} was identified from do not determine {names} (its "
+            "report says why): what is tuned or trained on it can do worse on the machine "
+            "than on the twin; run it on the machine (and tune with several --seed) before "
+            "you keep it"]
+
+
 __all__ = [
-    "following", "following_nrmse", "nrmse", "report_figure", "split_at_rest", "verdict",
+    "caution", "following", "following_nrmse", "nrmse", "report_figure", "split_at_rest", "verdict",
 ]

@@ -8,6 +8,7 @@ from typing import Any
 from contour_gym.presets import resolve_preset
 
 DETERMINED = 0.05  # a value is determined by the logs within this (relative std, spread, bias)
+Z95 = 1.96  # a value's 95 % interval is this many standard deviations each side
 VISCOUS = ("fv", "sigma2")
 """Friction parameters that act as viscous damping (a force ``c v``): no signal separates them
 from the axis's damping, so they keep the preset's values and the fitted damping holds the
@@ -47,10 +48,11 @@ class Identified:
     def undetermined(self) -> dict[str, list[str]]:
         """Per axis, the values the logs do not determine within :data:`DETERMINED`.
 
-        Their standard deviation, their spread over starts that fit as well or their
-        :attr:`bias` is over it (:meth:`reasons` says which): they trade off against others (a
-        friction law's low-speed parameters on a circle test, say), and a recording that
-        excites them (slow moves, reversals) would pin them. Not a proof of the others: a
+        Their 95 % interval (:data:`Z95` standard deviations each side), their spread over
+        starts that fit as well or their :attr:`bias` reaches past it (:meth:`reasons` says
+        which): they trade off against others (a friction law's low-speed parameters on a
+        circle test, say), and a recording that excites them (slow moves, reversals) would
+        pin them. Not a proof of the others: a
         valley the starts did not find is not seen, nor what the twin's structure lacks.
         """
         return {axis: list(why) for axis, why in self.reasons().items()}
@@ -61,12 +63,12 @@ class Identified:
         cut = f"{100 * DETERMINED:g} %"
         for axis, values in self.values.items():
             for n, v in values.items():
-                hit = [self.std[axis][n] > DETERMINED * abs(v),
+                hit = [Z95 * self.std[axis][n] > DETERMINED * abs(v),
                        abs(self.bias.get(axis, {}).get(n, 0.0)) > DETERMINED,
                        self.spread.get(axis, {}).get(n, 0.0) > DETERMINED]
                 if any(hit):
                     out.setdefault(axis, {})[n] = (
-                        f"its std is over {cut}", f"the fit's bias is over {cut}",
+                        f"its 95 % interval reaches past {cut}", f"the fit's bias is over {cut}",
                         "another start fits as well with another value")[hit.index(True)]
         return out
 
@@ -108,4 +110,4 @@ def _value(axis: Any, name: str) -> float:
     return float(getattr(axis.friction, name))
 
 
-__all__ = ["DETERMINED", "VISCOUS", "Identified", "ratio_errors"]
+__all__ = ["DETERMINED", "VISCOUS", "Z95", "Identified", "ratio_errors"]
