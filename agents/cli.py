@@ -34,7 +34,8 @@ from agents._files import check_plot, save_figure
 from agents.cli_optimize import add_optimize_parser, default_out, optimize_command
 from agents.parallel import exit_quickly
 from agents.rl.algorithms import ALGORITHMS
-from agents.twin.check import caution
+from agents.twin.check import caution, copies_of
+from agents.twin.identified import COPIES
 from contour_gym import precompile
 from contour_gym.api import Scenario, make_scenario, run_trace
 from contour_gym.files import output_file, output_folder, write_text
@@ -243,6 +244,9 @@ def _add_tune_parser(sub: argparse._SubParsersAction) -> None:
                       help="candidates per generation (default: the protocol's)")
     _add_plant_argument(tune, "run the protocol's scenarios on this machine (a twin from "
                         "contour-gym identify) and say how to carry the result to it")
+    tune.add_argument("--copies", type=int, default=COPIES, metavar="K",
+                      help="on a twin whose logs left values undetermined: tune on it and K "
+                      f"copies drawn within their uncertainty (default {COPIES}; 0: it alone)")
     tune.add_argument("--out", default=None, metavar="DIR",
                       help="run folder (default runs/tune/PROTOCOL-OPTIMIZER-seedN[-ideal]"
                       "[-on-MACHINE])")
@@ -572,14 +576,16 @@ def tune_command(args: argparse.Namespace) -> int:
     if out is None:
         suffix = ("-ideal" if args.ideal else "") + (f"-on-{machine}" if machine else "")
         out = os.path.join("runs", "tune", f"{protocol.name}-{optimizer}-seed{args.seed}{suffix}")
+    copies = copies_of(args.plant, args.copies)
     if plant is not None:
-        protocol = protocol.on_plant(plant, machine)
+        protocol = protocol.on_plant(plant, machine, copies)
     argv = ["contour-gym", "tune", protocol.name, "--optimizer", optimizer, "--seed",
             str(args.seed)]
     for flag, value in (("--population", args.population), ("--iterations", args.iterations)):
         if value is not None:
             argv += [flag, str(value)]
     argv += ["--ideal"] * args.ideal + (["--plant", args.plant] if plant is not None else [])
+    argv += ["--copies", str(args.copies)] if copies else []
     argv += ["--out", out]
     result = tune(protocol, optimizer, seed=args.seed, population=args.population,
                   iterations=args.iterations, ideal=args.ideal, out=out,
@@ -596,7 +602,7 @@ def tune_command(args: argparse.Namespace) -> int:
         print(f"  {env_id}: {value * 1e6:.6g} um")
     if plant is not None:
         print("\n".join(carry_to_machine(result.params, protocol, plant)))
-        for line in caution(args.plant):
+        for line in caution(args.plant, len(copies)):
             print(line)
     print(f"results written to {out}")
     return 0

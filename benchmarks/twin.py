@@ -12,8 +12,9 @@ on the held-out max contour error, max tracking error and cycle time (the target
 1 %), beside the largest change of the machine's own metrics when every axis's mass, or every
 axis's damping, moves by 0.1 % (``--nudge``): where that is over a target, no twin can be
 expected to meet it (a run that saturates, or ends when a coarse encoder's count creeps into
-its in-position band). With ``--tune``, the ``pid`` protocol is tuned on the twin and on the
-true machine and both gains run on the true machine: its paper path (tuned on) and paths
+its in-position band). With ``--tune``, the ``pid`` protocol is tuned on the twin (as ``tune``
+does: with copies within its values' uncertainty where its logs left some undetermined) and
+on the true machine and both gains run on the true machine: its paper path (tuned on) and paths
 neither saw (the target: within 10 %), each with ``--tuner-seeds`` optimiser seeds and their
 medians compared.
 
@@ -89,22 +90,31 @@ def sensitivity(hidden: dict[str, Any], path: str | Path | None, ccc: Any, nudge
     return out
 
 
-def tuned_on(plant: dict[str, Any], seed: int) -> FloatArray:
-    """The ``pid`` protocol's gains (absolute) tuned on ``plant`` (protocol defaults)."""
-    protocol = get_protocol("pid").on_plant(plant, str(plant.get("name", plant["preset"])))
+def tuned_on(plant: dict[str, Any], seed: int, copies: list[dict[str, Any]] | None = None
+             ) -> FloatArray:
+    """The ``pid`` protocol's gains (absolute) tuned on ``plant`` (protocol defaults).
+
+    ``copies``: machines tuned on beside it, as ``tune`` does on a twin whose logs left
+    values undetermined (:meth:`Identified.copies`).
+    """
+    protocol = get_protocol("pid").on_plant(plant, str(plant.get("name", plant["preset"])),
+                                            copies or [])
     result = tune(protocol, seed=seed, progress=False)
     base = resolve_preset(plant).ccc_gains.as_tuple()
     return pid_gains([list(result.params.values())], base)[0]
 
 
-def tuning_rows(name: str, hidden: dict[str, Any], twin: dict[str, Any], seeds: range
+def tuning_rows(name: str, hidden: dict[str, Any], twin: Identified, seeds: range
                 ) -> list[str]:
     """Gains tuned on the twin and on the true machine, both run on the true machine.
 
     Each tuned with every optimiser seed of ``seeds``: one tuning's score spreads over seeds
-    as much as the target (10 %), so the medians are compared.
+    as much as the target (10 %), so the medians are compared. The twin is tuned as ``tune``
+    tunes it: with its copies within its values' uncertainty where its logs left some.
     """
-    gains = {k: [tuned_on(p, s) for s in seeds] for k, p in (("true", hidden), ("twin", twin))}
+    plant, copies = {**twin.plant, "name": f"{name}_twin"}, twin.copies()
+    gains = {"true": [tuned_on(hidden, s) for s in seeds],
+             "twin": [tuned_on(plant, s, copies) for s in seeds]}
     rows = []
     for label, path in held_out(name, seeds[0] + 200).items():
         peak = {k: np.array([simulate(hidden, path, ccc_gains=tuple(g), seed=1)[
@@ -146,7 +156,7 @@ def main() -> None:
         for row in _check_rows(name, hidden, twin, (wall, args.nudge), args.seed):
             print(row, flush=True)
         if args.tune:
-            tuning += tuning_rows(name, hidden, {**twin.plant, "name": f"{name}_twin"},
+            tuning += tuning_rows(name, hidden, twin,
                                   range(args.seed, args.seed + args.tuner_seeds))
     if tuning:
         print("\n| preset | path (paper: tuned on) | peak, tuned on the machine: median "

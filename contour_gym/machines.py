@@ -87,6 +87,18 @@ def _folder_safe(name: object) -> str:
     return re.sub(r"[^A-Za-z0-9_.+-]+", "_", str(name)).strip(".") or "machine"
 
 
+def identified_of(plant: object) -> dict[str, Any]:
+    """The ``identified`` record of a twin's machine file (what ``identify`` found).
+
+    ``{}`` for a preset name, a plant dict, or a machine file without one.
+    """
+    if not is_machine_file(plant):
+        return {}
+    data = yaml.safe_load(Path(plant).read_text(encoding="utf-8"))  # type: ignore[arg-type]
+    record = data.get("identified") if isinstance(data, dict) else None
+    return record if isinstance(record, dict) else {}
+
+
 def undetermined_of(plant: object) -> dict[str, list[str]]:
     """Per axis, the values a twin's machine file records its logs did not determine.
 
@@ -94,11 +106,7 @@ def undetermined_of(plant: object) -> dict[str, list[str]]:
     (its ``identified`` record says which values; :meth:`agents.twin.identified.Identified.reasons`
     says why).
     """
-    if not is_machine_file(plant):
-        return {}
-    data = yaml.safe_load(Path(plant).read_text(encoding="utf-8"))  # type: ignore[arg-type]
-    record = data.get("identified") if isinstance(data, dict) else None
-    found = record.get("undetermined") if isinstance(record, dict) else None
+    found = identified_of(plant).get("undetermined")
     if not isinstance(found, dict):
         return {}
     return {str(axis): [str(n) for n in names] for axis, names in found.items()
@@ -126,5 +134,5 @@ def write_machine(path: str | Path, plant: dict[str, Any], identified: Any = Non
     return target
 
 
-__all__ = ["SUFFIXES", "is_machine_file", "plant_of", "read_machine", "undetermined_of",
-           "write_machine"]
+__all__ = ["SUFFIXES", "identified_of", "is_machine_file", "plant_of", "read_machine",
+           "undetermined_of", "write_machine"]

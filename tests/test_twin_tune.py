@@ -13,6 +13,8 @@ from agents.cli import main
 from agents.tune import get_protocol, tune
 from agents.tune.objective import PopulationObjective
 from agents.tune.setters import PID_FACTOR_NAMES, pid_gains
+from agents.twin.check import copies_of
+from agents.twin.identified import tuning_copies
 from contour_gym.api import simulate
 from contour_gym.machines import plant_of, undetermined_of, write_machine
 from contour_gym.presets import resolve_preset
@@ -82,6 +84,50 @@ def test_tune_on_a_twin_names_the_values_its_logs_left_open(tmp_path: Path, caps
            "y.mass, y.damping" in said
     assert undetermined_of(path) == record["undetermined"]
     assert undetermined_of("xy_dc_servo") == {} and undetermined_of(SLOW) == {}
+
+
+TWIN = {"preset": "xy_servo_coulomb", "name": "twin",
+        "stage": {"axes": {n: {"mass": m, "damping": 40.0,
+                               "friction": {"law": "coulomb", "fc": 2.0}}
+                           for n, m in (("x", 5.0), ("y", 4.0))}}}
+FOUND = {"values": {"x": {"mass": 5.0, "damping": 40.0, "fc": 2.0},
+                    "y": {"mass": 4.0, "damping": 40.0, "fc": 2.0}},
+         "std": {"x": {"mass": 0.05, "damping": 20.0, "fc": 0.01},
+                 "y": {"mass": 0.04, "damping": 4.0, "fc": 0.01}},
+         "undetermined": {"x": ["damping"], "y": ["damping"]}}
+
+
+def test_a_twin_with_undetermined_values_has_copies_within_their_uncertainty() -> None:
+    copies = tuning_copies(TWIN, FOUND["values"], FOUND["std"], FOUND["undetermined"], 50)
+    assert len(copies) == 50 and copies == tuning_copies(
+        TWIN, FOUND["values"], FOUND["std"], FOUND["undetermined"], 50)  # seeded
+    assert tuning_copies(TWIN, FOUND["values"], FOUND["std"], {}, 50) == []  # all determined
+    factors = np.array([[c["stage"]["axes"][a][k] / TWIN["stage"]["axes"][a][k]
+                         for a in ("x", "y") for k in ("mass", "damping")] for c in copies])
+    # each value within two of its log-std, which is capped at 0.3 (x's damping: 0.5)
+    assert np.all(np.abs(np.log(factors)) <= 2 * np.array([0.01, 0.3, 0.01, 0.1]) + 1e-12)
+    assert np.all(np.abs(np.log(factors)).max(axis=0) > [0.01, 0.3, 0.01, 0.1])
+    assert TWIN["stage"]["axes"]["x"]["mass"] == 5.0  # the twin itself is left alone
+    protocol = get_protocol("pid").on_plant(TWIN, "twin", copies[:2])
+    assert protocol.scenarios == ("paper", "random-101", "random-102", "paper#1",
+                                  "random-101#1", "random-102#1", "paper#2", "random-101#2",
+                                  "random-102#2")
+    assert protocol.scenario_kwargs["random-101#2"] == {
+        "id": "contour_gym/CCC-v1", "path": "random", "path_seed": 101, "plant": copies[1]}
+
+
+def test_tune_on_a_twin_runs_its_copies_too(tmp_path: Path, capsys) -> None:
+    path = str(write_machine(tmp_path / "twin.yaml", TWIN, identified=FOUND))
+    out = tmp_path / "run"
+    assert main(["tune", "pid", "--plant", path, "--population", "4", "--iterations", "1",
+                 "--copies", "2", "--out", str(out), "--quiet"]) == 0
+    said = capsys.readouterr().out
+    assert "do not determine x.damping, y.damping (its report says why): tuned on it and 2 " \
+           "copies drawn within those values' uncertainty" in said
+    result = json.loads((out / "result.json").read_text())
+    kwargs = result["settings"]["scenario_kwargs"]
+    assert len(kwargs) == 9 and kwargs["paper#2"]["plant"] == copies_of(path, 2)[1]
+    assert "--copies 2" in result["settings"]["command"]
 
 
 def test_train_on_a_machine_file_records_it(tmp_path: Path, capsys) -> None:

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -194,7 +194,8 @@ class Protocol:
         z[:, logs] = np.log10(z[:, logs])
         return z
 
-    def on_plant(self, plant: str | Mapping[str, Any], name: str) -> Protocol:
+    def on_plant(self, plant: str | Mapping[str, Any], name: str,
+                 copies: Sequence[Mapping[str, Any]] = ()) -> Protocol:
         """This protocol with every scenario run on ``plant`` (a twin of your machine).
 
         Args:
@@ -204,6 +205,10 @@ class Protocol:
                 paths on a 3-D machine, which :func:`~contour_gym.paths.random_path` does not
                 draw: those scenarios are left out).
             name: The machine's name, for the returned protocol's (``"000@my_mill"``).
+            copies: More machines every scenario also runs on (``"paper#1"``, ...), the
+                fitness their mean: a twin's copies within its values' uncertainty
+                (:func:`agents.twin.identified.uncertain_copies`), so that what is tuned
+                holds on the machine whichever of them it is.
 
         Returns:
             The protocol on that machine (not registered).
@@ -217,10 +222,12 @@ class Protocol:
         if not kept:
             raise ValueError(f"protocol {self.name!r} runs random paths only, which a 3-D "
                              f"machine ({name}) does not draw")
-        kwargs = {s: {**self.scenario_kwargs.get(s, {}), "plant": plant} for s in kept}
-        return dataclasses.replace(self, name=f"{self.name}@{name}", scenarios=tuple(kept),
+        kwargs = {(s if k == 0 else f"{s}#{k}"): {**self.scenario_kwargs.get(s, {}), "plant": p}
+                  for k, p in enumerate([plant, *copies]) for s in kept}
+        within = f", and {len(copies)} copies within its uncertainty" if copies else ""
+        return dataclasses.replace(self, name=f"{self.name}@{name}", scenarios=tuple(kwargs),
                                    scenario_kwargs=kwargs,
-                                   doc=f"{self.doc} (on the machine {name})")
+                                   doc=f"{self.doc} (on the machine {name}{within})")
 
 
 PROTOCOLS: Registry[Protocol] = Registry("tuning protocol")

@@ -15,9 +15,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agents.twin.identified import tuning_copies
 from agents.twin.replay import replay, replay_loop
 from contour_gym.logs import ServoLog
-from contour_gym.machines import undetermined_of
+from contour_gym.machines import identified_of, plant_of, undetermined_of
 from contour_gym.presets import resolve_preset
 
 Array = NDArray[np.float64]
@@ -142,22 +143,40 @@ def _judged(worst_fit: float, worst_held: float) -> str:
     return f"fits to {100 * worst_held:.2g} % on held-out data"
 
 
-def caution(plant: Any) -> list[str]:
+def caution(plant: Any, copies: int = 0) -> list[str]:
     """What to print after tuning or training on ``plant``: a caution, or nothing.
 
     A line naming the values its logs left undetermined when ``plant`` is a twin's machine
-    file that records such values (:func:`contour_gym.machines.undetermined_of`).
+    file that records such values (:func:`contour_gym.machines.undetermined_of`), and how
+    many ``copies`` of it within their uncertainty the tuning ran on too.
     """
     loose = undetermined_of(plant)
     if not loose:
         return []
     names = ", ".join(f"{axis}.{n}" for axis, ns in loose.items() for n in ns)
+    within = (f"tuned on it and {copies} copies drawn within those values' uncertainty; "
+              if copies else "what is tuned or trained on it can do worse on the machine "
+              "than on the twin; ")
     return [f"caution: the logs {plant} was identified from do not determine {names} (its "
-            "report says why): what is tuned or trained on it can do worse on the machine "
-            "than on the twin; run it on the machine (and tune with several --seed) before "
-            "you keep it"]
+            f"report says why): {within}run it on the machine before you keep it"]
+
+
+def copies_of(plant: Any, count: int) -> list[dict[str, Any]]:
+    """Copies of a twin's machine file to tune on beside it (none for another plant).
+
+    :func:`~agents.twin.identified.tuning_copies` of its ``identified`` record: ``count``
+    of them when its logs left values undetermined.
+    """
+    record = identified_of(plant)
+    if not record or count <= 0:
+        return []
+    twin, _ = plant_of(plant)
+    assert isinstance(twin, dict)  # a machine file's content
+    return tuning_copies(twin, record.get("values", {}), record.get("std", {}),
+                         record.get("undetermined", {}), count)
 
 
 __all__ = [
-    "caution", "following", "following_nrmse", "nrmse", "report_figure", "split_at_rest", "verdict",
+    "caution", "copies_of", "following", "following_nrmse", "nrmse", "report_figure",
+    "split_at_rest", "verdict",
 ]

@@ -2,13 +2,20 @@
 
 from __future__ import annotations
 
+import copy
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
+
+import numpy as np
 
 from contour_gym.presets import resolve_preset
 
 DETERMINED = 0.05  # a value is determined by the logs within this (relative std, spread, bias)
 Z95 = 1.96  # a value's 95 % interval is this many standard deviations each side
+COPIES = 8  # a twin with undetermined values is tuned on itself and this many copies (chosen)
+SPREAD_CAP = 0.3  # a copy's values are drawn with at most this log-std, within 2 of them
 VISCOUS = ("fv", "sigma2")
 """Friction parameters that act as viscous damping (a force ``c v``): no signal separates them
 from the axis's damping, so they keep the preset's values and the fitted damping holds the
@@ -57,6 +64,10 @@ class Identified:
         """
         return {axis: list(why) for axis, why in self.reasons().items()}
 
+    def copies(self, count: int = COPIES, seed: int = 0) -> list[dict[str, Any]]:
+        """Copies of the twin to tune on beside it (:func:`tuning_copies`)."""
+        return tuning_copies(self.plant, self.values, self.std, self.undetermined(), count, seed)
+
     def reasons(self) -> dict[str, dict[str, str]]:
         """Per axis, each value :meth:`undetermined` lists and why, in words."""
         out: dict[str, dict[str, str]] = {}
@@ -72,6 +83,56 @@ class Identified:
                         "another start fits as well with another value")[hit.index(True)]
         return out
 
+
+
+def tuning_copies(plant: Mapping[str, Any], values: Mapping[str, Mapping[str, float]],
+                  std: Mapping[str, Mapping[str, float]], undetermined: Mapping[str, Any],
+                  count: int = COPIES, seed: int = 0) -> list[dict[str, Any]]:
+    """``count`` copies of a twin, its values drawn within their uncertainty; none if sure.
+
+    Gains tuned on a twin whose logs left values undetermined fit those values' errors (on
+    001's test machine up to 14 % worse than the machine's own, docs/measurements.md);
+    tuned on the twin and these copies at once (the protocol's
+    :meth:`~agents.tune.protocols.Protocol.on_plant`), they hold whichever the machine is.
+    Each identified value is multiplied by ``exp(N(0, s))``, ``s`` its relative standard
+    deviation capped at :data:`SPREAD_CAP`, the draw clipped to two ``s``.
+
+    Args:
+        plant: The twin's plant dict (:attr:`Identified.plant`, a machine file's).
+        values: Per axis, its identified values.
+        std: Per axis, their standard deviations.
+        undetermined: Per axis, the values its logs left undetermined (``{}``: no copies).
+        count: How many copies.
+        seed: Seed of the draws.
+    """
+    if not any(undetermined.values()):
+        return []
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(count):
+        twin = copy.deepcopy(dict(plant))
+        for axis, found in values.items():
+            for name, value in found.items():
+                s = min(abs(std[axis][name] / value), SPREAD_CAP) if value else 0.0
+                factor = math.exp(float(np.clip(rng.normal(0.0, s), -2.0 * s, 2.0 * s)))
+                _scale_value(twin["stage"]["axes"][axis], name, factor)
+        out.append(twin)
+    return out
+
+
+def _scale_value(changes: dict[str, Any], name: str, factor: float) -> None:
+    # one identified value of an axis's machine-file changes times ``factor``
+    if name in ("mass", "damping"):
+        changes[name] *= factor
+    elif name == "ripple":
+        changes["ripple"] = {**changes["ripple"],
+                             **{k: [a * factor for a in changes["ripple"][k]]
+                                for k in ("sin_amp", "cos_amp")}}
+    else:
+        friction = changes["friction"]
+        friction[name] *= factor
+        if friction.get("fs") is not None and friction.get("fc") is not None:
+            friction["fs"] = max(friction["fs"], friction["fc"])
 
 
 def ratio_errors(values: dict[str, dict[str, float]], plant: Any, like: Any
@@ -110,4 +171,5 @@ def _value(axis: Any, name: str) -> float:
     return float(getattr(axis.friction, name))
 
 
-__all__ = ["DETERMINED", "VISCOUS", "Z95", "Identified", "ratio_errors"]
+__all__ = ["COPIES", "DETERMINED", "VISCOUS", "Z95", "Identified", "ratio_errors",
+           "tuning_copies"]
