@@ -108,6 +108,10 @@ def test_a_twin_with_undetermined_values_has_copies_within_their_uncertainty() -
     assert np.all(np.abs(np.log(factors)) <= 2 * np.array([0.01, 0.3, 0.01, 0.1]) + 1e-12)
     assert np.all(np.abs(np.log(factors)).max(axis=0) > [0.01, 0.3, 0.01, 0.1])
     assert TWIN["stage"]["axes"]["x"]["mass"] == 5.0  # the twin itself is left alone
+    unknown = {**FOUND["std"], "x": {**FOUND["std"]["x"], "fc": float("nan")}}  # no Jacobian
+    drawn = [c["stage"]["axes"]["x"]["friction"]["fc"] / 2.0 for c in tuning_copies(
+        TWIN, FOUND["values"], unknown, FOUND["undetermined"], 20)]
+    assert np.all(np.abs(np.log(drawn)) <= 0.6 + 1e-12) and np.ptp(drawn) > 0.0
     protocol = get_protocol("pid").on_plant(TWIN, "twin", copies[:2])
     assert protocol.scenarios == ("paper", "random-101", "random-102", "paper#1",
                                   "random-101#1", "random-102#1", "paper#2", "random-101#2",

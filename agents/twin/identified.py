@@ -59,8 +59,8 @@ class Identified:
         starts that fit as well or their :attr:`bias` reaches past it (:meth:`reasons` says
         which): they trade off against others (a friction law's low-speed parameters on a
         circle test, say), and a recording that excites them (slow moves, reversals) would
-        pin them. Not a proof of the others: a
-        valley the starts did not find is not seen, nor what the twin's structure lacks.
+        pin them. Not a proof of the others: a valley the starts did not find is not seen,
+        nor what the twin's structure lacks.
         """
         return {axis: list(why) for axis, why in self.reasons().items()}
 
@@ -84,7 +84,6 @@ class Identified:
         return out
 
 
-
 def tuning_copies(plant: Mapping[str, Any], values: Mapping[str, Mapping[str, float]],
                   std: Mapping[str, Mapping[str, float]], undetermined: Mapping[str, Any],
                   count: int = COPIES, seed: int = 0) -> list[dict[str, Any]]:
@@ -95,7 +94,8 @@ def tuning_copies(plant: Mapping[str, Any], values: Mapping[str, Mapping[str, fl
     tuned on the twin and these copies at once (the protocol's
     :meth:`~agents.tune.protocols.Protocol.on_plant`), they hold whichever the machine is.
     Each identified value is multiplied by ``exp(N(0, s))``, ``s`` its relative standard
-    deviation capped at :data:`SPREAD_CAP`, the draw clipped to two ``s``.
+    deviation capped at :data:`SPREAD_CAP` (and taken as it where not finite), the draw
+    clipped to two ``s``.
 
     Args:
         plant: The twin's plant dict (:attr:`Identified.plant`, a machine file's).
@@ -113,7 +113,8 @@ def tuning_copies(plant: Mapping[str, Any], values: Mapping[str, Mapping[str, fl
         twin = copy.deepcopy(dict(plant))
         for axis, found in values.items():
             for name, value in found.items():
-                s = min(abs(std[axis][name] / value), SPREAD_CAP) if value else 0.0
+                rel = abs(std[axis][name] / value) if value else 0.0
+                s = min(rel, SPREAD_CAP) if math.isfinite(rel) else SPREAD_CAP
                 factor = math.exp(float(np.clip(rng.normal(0.0, s), -2.0 * s, 2.0 * s)))
                 _scale_value(twin["stage"]["axes"][axis], name, factor)
         out.append(twin)
