@@ -562,7 +562,6 @@ def _train_one(args: argparse.Namespace) -> int:
     return 0
 
 
-
 def tune_command(args: argparse.Namespace) -> int:
     """Run ``contour-gym tune``: writes the run folder and prints the best parameters."""
     from agents.optim import OPTIMIZERS

@@ -54,8 +54,7 @@ def test_replaying_a_log_on_its_own_machine_gives_back_its_feedback(
         bound = 1e-9 if ideal else 0.5 * step + 1e-12  # exact, or the encoder's rounding
         if preset == "xyy_gantry":  # its 2PID reads the command's velocity: the replay's is
             # the polyline's through the logged commands, not the interpolator's exact one
-            # (0.05 % of the following error on a recording its planner bounds; 2 % where it
-            # took a random path's bends at 500 m/s^2)
+            # (0.05 % of the following error on a recording its planner bounds)
             bound = 1e-3 * np.abs(axis.cmd - axis.fb).max()
         assert np.abs(x[:, :, a] - axis.fb).max() <= bound
         assert np.array_equal(x[0], x[1])  # a member's replay does not depend on the others

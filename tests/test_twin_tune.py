@@ -132,6 +132,8 @@ def test_tune_on_a_twin_runs_its_copies_too(tmp_path: Path, capsys) -> None:
     kwargs = result["settings"]["scenario_kwargs"]
     assert len(kwargs) == 9 and kwargs["paper#2"]["plant"] == copies_of(path, 2)[1]
     assert "--copies 2" in result["settings"]["command"]
+    with pytest.raises(ValueError, match="--copies must be 0 or more, got -1"):
+        copies_of(path, -1)
 
 
 def test_train_on_a_machine_file_records_it(tmp_path: Path, capsys) -> None:

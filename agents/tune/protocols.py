@@ -207,7 +207,7 @@ class Protocol:
             name: The machine's name, for the returned protocol's (``"000@my_mill"``).
             copies: More machines every scenario also runs on (``"paper#1"``, ...), the
                 fitness their mean: a twin's copies within its values' uncertainty
-                (:func:`agents.twin.identified.uncertain_copies`), so that what is tuned
+                (:func:`agents.twin.identified.tuning_copies`), so that what is tuned
                 holds on the machine whichever of them it is.
 
         Returns:

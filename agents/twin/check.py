@@ -166,9 +166,14 @@ def copies_of(plant: Any, count: int) -> list[dict[str, Any]]:
 
     :func:`~agents.twin.identified.tuning_copies` of its ``identified`` record: ``count``
     of them when its logs left values undetermined.
+
+    Raises:
+        ValueError: for a negative ``count``.
     """
+    if count < 0:
+        raise ValueError(f"--copies must be 0 or more, got {count}")
     record = identified_of(plant)
-    if not record or count <= 0:
+    if not record or count == 0:
         return []
     twin, _ = plant_of(plant)
     assert isinstance(twin, dict)  # a machine file's content

@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from agents.twin.generate import encoder_reading
-from agents.twin.identified import DETERMINED, VISCOUS, Identified
+from agents.twin.identified import DETERMINED, VISCOUS, Identified, static_over_coulomb
 from agents.twin.replay import replay_loop
 from agents.twin.stats import correlation_time, deviations
 from contour_gym.logs import STILL_BELOW, ServoLog, encoder_step
@@ -649,8 +649,7 @@ def _axis_changes(axis: Any, values: dict[str, float], level: float) -> dict[str
     if axis.friction is not None:
         fields = {**dataclasses.asdict(axis.friction),
                   **{k: v for k, v in values.items() if k not in ("mass", "damping", "ripple")}}
-        if "fs" in fields and fields.get("fc") is not None and fields["fs"] is not None:
-            fields["fs"] = max(fields["fs"], fields["fc"])
+        static_over_coulomb(fields)
         out["friction"] = {"law": law_for(axis.friction).name, **fields}
     return out
 

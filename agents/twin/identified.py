@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from contour_gym.plant.params import Ripple
 from contour_gym.presets import resolve_preset
 
 DETERMINED = 0.05  # a value is determined by the logs within this (relative std, spread, bias)
@@ -126,14 +127,19 @@ def _scale_value(changes: dict[str, Any], name: str, factor: float) -> None:
     if name in ("mass", "damping"):
         changes[name] *= factor
     elif name == "ripple":
-        changes["ripple"] = {**changes["ripple"],
-                             **{k: [a * factor for a in changes["ripple"][k]]
-                                for k in ("sin_amp", "cos_amp")}}
+        changes["ripple"] = Ripple(**changes["ripple"]).scaled(factor)
     else:
-        friction = changes["friction"]
-        friction[name] *= factor
-        if friction.get("fs") is not None and friction.get("fc") is not None:
-            friction["fs"] = max(friction["fs"], friction["fc"])
+        changes["friction"][name] *= factor
+        static_over_coulomb(changes["friction"])
+
+
+def static_over_coulomb(fields: dict[str, Any]) -> None:
+    """Raise a friction model's static force ``fs`` to its Coulomb force ``fc`` where below.
+
+    A fitted or drawn ``fs`` under ``fc`` is no Stribeck hump (the law asks ``fs >= fc``).
+    """
+    if fields.get("fs") is not None and fields.get("fc") is not None:
+        fields["fs"] = max(fields["fs"], fields["fc"])
 
 
 def ratio_errors(values: dict[str, dict[str, float]], plant: Any, like: Any
@@ -173,4 +179,4 @@ def _value(axis: Any, name: str) -> float:
 
 
 __all__ = ["COPIES", "DETERMINED", "VISCOUS", "Z95", "Identified", "ratio_errors",
-           "tuning_copies"]
+           "static_over_coulomb", "tuning_copies"]
